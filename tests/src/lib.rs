@@ -1,0 +1,1 @@
+//! Shared helpers for ecatd's end-to-end tests (network namespaces, external tools).
