@@ -293,21 +293,8 @@ impl<'a> DatagramRepr<'a> {
     /// ([`WireError::ReservedBits`]), or a data length above [`MAX_DATA_LEN`].
     pub fn parse<T: AsRef<[u8]> + ?Sized>(datagram: &Datagram<&'a T>) -> Result<Self> {
         datagram.check_len()?;
-        let raw_flags = datagram.len_flags() & fields::RESERVED_MASK;
-        if raw_flags != 0 {
-            return Err(WireError::ReservedBits {
-                what: "datagram flags",
-                value: u32::from(raw_flags),
-            });
-        }
+        check_flags_and_limit(datagram)?;
         let declared = usize::from(datagram.length());
-        if declared > MAX_DATA_LEN {
-            return Err(WireError::BadLength {
-                what: "datagram length",
-                declared,
-                available: MAX_DATA_LEN,
-            });
-        }
         // Borrow the data for 'a (from the buffer), not for the lifetime of `datagram`.
         let buf: &'a [u8] = T::as_ref(datagram.buffer);
         let data = buf
@@ -443,6 +430,97 @@ impl<'a> Iterator for Datagrams<'a> {
     }
 }
 
+/// Checks what [`DatagramRepr::parse`] checks beyond the view's lengths, so that the shared
+/// and the mutable chain walks accept exactly the same chains.
+fn check_flags_and_limit<T: AsRef<[u8]>>(datagram: &Datagram<T>) -> Result<()> {
+    let reserved = datagram.len_flags() & fields::RESERVED_MASK;
+    if reserved != 0 {
+        return Err(WireError::ReservedBits {
+            what: "datagram flags",
+            value: u32::from(reserved),
+        });
+    }
+    let declared = usize::from(datagram.length());
+    if declared > MAX_DATA_LEN {
+        return Err(WireError::BadLength {
+            what: "datagram length",
+            declared,
+            available: MAX_DATA_LEN,
+        });
+    }
+    Ok(())
+}
+
+/// Mutable iterator over a datagram chain, for whoever processes datagrams in place (an
+/// emulated slave incrementing ADP and WKC, the master copying process data).
+///
+/// Same walk and same errors as [`Datagrams`]; each item is a view of exactly one datagram
+/// (`len + 12` bytes).
+#[derive(Debug)]
+pub struct DatagramsMut<'a> {
+    rest: &'a mut [u8],
+    offset: usize,
+    started: bool,
+    done: bool,
+}
+
+impl<'a> DatagramsMut<'a> {
+    /// Iterates the datagrams of `payload` (the bytes after the EtherCAT header).
+    pub fn new(payload: &'a mut [u8]) -> Self {
+        DatagramsMut {
+            rest: payload,
+            offset: 0,
+            started: false,
+            done: false,
+        }
+    }
+
+    /// Offset in the payload of the next datagram.
+    pub const fn offset(&self) -> usize {
+        self.offset
+    }
+}
+
+impl<'a> Iterator for DatagramsMut<'a> {
+    type Item = Result<Datagram<&'a mut [u8]>>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        // Any error ends the walk; set it now and clear it on success.
+        self.done = true;
+        let rest = core::mem::take(&mut self.rest);
+        if rest.is_empty() && self.started {
+            return Some(Err(WireError::Truncated {
+                what: "datagram chain (M bit set)",
+                need: OVERHEAD,
+                have: 0,
+            }));
+        }
+        self.started = true;
+        let (total, more) = match Datagram::new_checked(&*rest)
+            .and_then(|d| check_flags_and_limit(&d).map(|()| (d.total_len(), d.more())))
+        {
+            Ok(walk) => walk,
+            Err(error) => return Some(Err(error)),
+        };
+        if total > rest.len() {
+            // Unreachable after check_len; kept so that no input can panic split_at_mut.
+            return Some(Err(WireError::BadLength {
+                what: "datagram length",
+                declared: total,
+                available: rest.len(),
+            }));
+        }
+        let (head, tail) = rest.split_at_mut(total);
+        self.rest = tail;
+        self.offset += total;
+        self.done = !more;
+        Some(Ok(Datagram::new_unchecked(head)))
+    }
+}
+
 /// Zeros for [`FrameBuilder::push_zeroed`], so read requests need no buffer of their own.
 static ZEROS: [u8; MAX_DATA_LEN] = [0; MAX_DATA_LEN];
 
@@ -487,9 +565,16 @@ impl<'b> FrameBuilder<'b> {
     /// Errors: data above [`MAX_DATA_LEN`] ([`WireError::BadLength`]); not enough room left in
     /// the buffer or the MTU ([`WireError::BufferTooSmall`]). Nothing is written on error.
     pub fn push(&mut self, datagram: &DatagramRepr<'_>) -> Result<usize> {
+        if datagram.data.len() > MAX_DATA_LEN {
+            return Err(WireError::BadLength {
+                what: "datagram length",
+                declared: datagram.data.len(),
+                available: MAX_DATA_LEN,
+            });
+        }
         let start = self.end;
         let end = start + datagram.buffer_len();
-        if datagram.data.len() <= MAX_DATA_LEN && end > self.capacity {
+        if end > self.capacity {
             return Err(WireError::BufferTooSmall {
                 what: "EtherCAT frame",
                 need: end,
@@ -937,6 +1022,55 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn mutable_walk_processes_in_place() {
+        // The seed cyclic frame's chain as an emulated slave would see it: bump every WKC
+        // and fill the 1-byte mailbox status read with bit 3 (SM1 full).
+        let mut payload = SEED_CYCLIC[16..].to_vec();
+        payload.extend_from_slice(&[0u8; 5]); // padding is ignored
+        let mut walk = DatagramsMut::new(&mut payload);
+        for item in walk.by_ref() {
+            let mut datagram = item.unwrap();
+            if datagram.typed_address() == Some(DatagramAddress::Logical(0x40000)) {
+                datagram.data_mut()[0] = 0x08;
+            }
+            let wkc = datagram.wkc();
+            datagram.set_wkc(wkc + 1);
+        }
+        assert_eq!(walk.offset(), 61);
+        let wkcs: Vec<_> = Datagrams::new(&payload).map(|d| d.unwrap().wkc).collect();
+        assert_eq!(wkcs, [1, 1, 1, 1]);
+        assert_eq!(
+            payload[38], 0x08,
+            "data byte of the third datagram (offset 28 + 10)"
+        );
+
+        // Same errors as the shared walk.
+        let mut dangling = C1_BRD;
+        dangling[7] = 0x80;
+        let results: Vec<_> = DatagramsMut::new(&mut dangling)
+            .map(|r| r.map(|_| ()))
+            .collect();
+        assert_eq!(
+            results,
+            [
+                Ok(()),
+                Err(WireError::Truncated {
+                    what: "datagram chain (M bit set)",
+                    need: 12,
+                    have: 0
+                })
+            ]
+        );
+        let mut reserved = C1_BRD;
+        reserved[7] = 0x08;
+        assert!(matches!(
+            DatagramsMut::new(&mut reserved).next(),
+            Some(Err(WireError::ReservedBits { .. }))
+        ));
+        assert!(DatagramsMut::new(&mut []).next().unwrap().is_err());
+    }
+
+    #[test]
     fn length_beyond_bytes_is_bad_length() {
         // BRD declaring 3 data bytes: 10 + 3 + 2 = 15 needed, 14 present.
         let mut bytes = C1_BRD;
@@ -1219,6 +1353,19 @@ pub(crate) mod tests {
             }
             // Each datagram takes at least 12 bytes, plus one final error at most.
             prop_assert!(count <= bytes.len() / OVERHEAD + 1);
+        }
+
+        #[test]
+        fn mutable_chain_agrees_with_shared_chain(
+            mut bytes in proptest::collection::vec(any::<u8>(), 0..128),
+        ) {
+            let shared: Vec<_> = Datagrams::new(&bytes)
+                .map(|r| r.map(|d| d.buffer_len()))
+                .collect();
+            let mutable: Vec<_> = DatagramsMut::new(&mut bytes)
+                .map(|r| r.map(|d| d.total_len()))
+                .collect();
+            prop_assert_eq!(shared, mutable);
         }
 
         #[test]
