@@ -560,7 +560,11 @@ mod tests {
     fn errors() {
         assert!(matches!(
             FoePacket::new_checked(&[0x04u8, 0, 0, 0, 0][..]),
-            Err(WireError::Truncated { need: 6, have: 5, .. })
+            Err(WireError::Truncated {
+                need: 6,
+                have: 5,
+                ..
+            })
         ));
         let unknown = [0x07u8, 0, 0, 0, 0, 0];
         assert_eq!(
@@ -577,7 +581,11 @@ mod tests {
         let mut out = [0u8; 8];
         assert!(matches!(
             repr.emit(&mut FoePacket::new_unchecked(&mut out[..])),
-            Err(WireError::BufferTooSmall { need: 9, have: 8, .. })
+            Err(WireError::BufferTooSmall {
+                need: 9,
+                have: 8,
+                ..
+            })
         ));
         assert_eq!(out, [0u8; 8]);
     }

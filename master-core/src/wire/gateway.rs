@@ -157,8 +157,8 @@ impl<T: AsRef<[u8]> + AsMut<[u8]>> GatewayMessage<T> {
     /// Sets the EtherCAT header to type 5 with the given length (masked to 11 bits; emit
     /// checks the range first).
     pub fn set_ecat_header(&mut self, length: u16) {
-        let value = (u16::from(ECAT_TYPE_MAILBOX) << fields::TYPE_SHIFT)
-            | (length & fields::LENGTH_MASK);
+        let value =
+            (u16::from(ECAT_TYPE_MAILBOX) << fields::TYPE_SHIFT) | (length & fields::LENGTH_MASK);
         field::set_u16_le(self.buffer.as_mut(), fields::ECAT_HEADER.start, value)
     }
 
@@ -199,8 +199,15 @@ impl<'a> GatewayRepr<'a> {
     ///
     /// Refuses (writing nothing) a header whose length differs from `data.len()` and a
     /// mailbox too long for the 11-bit EtherCAT length (more than 2047 − 6 data bytes).
-    pub fn emit<T: AsRef<[u8]> + AsMut<[u8]>>(&self, message: &mut GatewayMessage<T>) -> Result<()> {
-        room("ETG.8200 message", message.buffer.as_ref(), self.buffer_len())?;
+    pub fn emit<T: AsRef<[u8]> + AsMut<[u8]>>(
+        &self,
+        message: &mut GatewayMessage<T>,
+    ) -> Result<()> {
+        room(
+            "ETG.8200 message",
+            message.buffer.as_ref(),
+            self.buffer_len(),
+        )?;
         if usize::from(self.header.length) != self.data.len() {
             return Err(WireError::Invalid {
                 what: "ETG.8200 message",
@@ -341,7 +348,11 @@ mod tests {
     fn truncated() {
         assert!(matches!(
             GatewayMessage::new_checked(&REQUEST[..7]),
-            Err(WireError::Truncated { need: 8, have: 7, .. })
+            Err(WireError::Truncated {
+                need: 8,
+                have: 7,
+                ..
+            })
         ));
     }
 
@@ -393,10 +404,15 @@ mod tests {
             counter: 0,
         };
         let mut out = [0u8; 11];
-        let mismatch = GatewayRepr { header, data: &data };
-        assert!(mismatch
-            .emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
-            .is_err());
+        let mismatch = GatewayRepr {
+            header,
+            data: &data,
+        };
+        assert!(
+            mismatch
+                .emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
+                .is_err()
+        );
         let bad_counter = GatewayRepr {
             header: MailboxHeader {
                 length: 3,
@@ -405,9 +421,11 @@ mod tests {
             },
             data: &data,
         };
-        assert!(bad_counter
-            .emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
-            .is_err());
+        assert!(
+            bad_counter
+                .emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
+                .is_err()
+        );
         assert_eq!(out, [0u8; 11], "a refused emit writes nothing");
         let big = [0u8; 2042];
         let too_long = GatewayRepr {
@@ -420,7 +438,11 @@ mod tests {
         let mut out = vec![0u8; too_long.buffer_len()];
         assert!(matches!(
             too_long.emit(&mut GatewayMessage::new_unchecked(&mut out[..])),
-            Err(WireError::BadLength { declared: 2048, available: 2047, .. })
+            Err(WireError::BadLength {
+                declared: 2048,
+                available: 2047,
+                ..
+            })
         ));
     }
 

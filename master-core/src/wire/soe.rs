@@ -187,9 +187,9 @@ impl Idn {
             });
         }
         let product = if product { Self::PRODUCT } else { 0 };
-        Ok(Idn(
-            product | (u16::from(parameter_set) << Self::SET_SHIFT) | block,
-        ))
+        Ok(Idn(product
+            | (u16::from(parameter_set) << Self::SET_SHIFT)
+            | block))
     }
 
     /// The IDN with the given raw u16 (every value is a valid IDN).
@@ -781,7 +781,13 @@ impl<'a> SoeRepr<'a> {
 
     /// Bytes needed on the wire.
     pub fn buffer_len(&self) -> usize {
-        HEADER_LEN + self.data.len() + if self.error.is_some() { ERROR_CODE_LEN } else { 0 }
+        HEADER_LEN
+            + self.data.len()
+            + if self.error.is_some() {
+                ERROR_CODE_LEN
+            } else {
+                0
+            }
     }
 
     /// Writes the message into the start of `packet`'s buffer; refuses a drive above 7 or an
@@ -831,12 +837,7 @@ impl fmt::Display for SoeRepr<'_> {
         }
         write!(f, " drive {} elements={}", self.drive, self.elements)?;
         if let Some(code) = self.error {
-            write!(
-                f,
-                " error {:#06x} {}",
-                u16::from(code),
-                code.description()
-            )?;
+            write!(f, " error {:#06x} {}", u16::from(code), code.description())?;
         }
         if !self.data.is_empty() {
             write!(f, " ({} bytes)", self.data.len())?;
@@ -864,7 +865,9 @@ mod tests {
         let repr = SoeRepr::parse(&SoePacket::new_checked(mbx.data()).unwrap()).unwrap();
         assert_eq!(repr, expected);
         let mut out = vec![0xa5u8; bytes.len()];
-        header.emit(&mut Mailbox::new_unchecked(&mut out[..])).unwrap();
+        header
+            .emit(&mut Mailbox::new_unchecked(&mut out[..]))
+            .unwrap();
         repr.emit(&mut SoePacket::new_unchecked(&mut out[6..]))
             .unwrap();
         assert_eq!(out, bytes);
@@ -921,11 +924,19 @@ mod tests {
         // Error bit without the code.
         assert!(matches!(
             SoePacket::new_checked(&[0x14u8, 0x40, 0x18, 0x00, 0x01][..]),
-            Err(WireError::Truncated { need: 6, have: 5, .. })
+            Err(WireError::Truncated {
+                need: 6,
+                have: 5,
+                ..
+            })
         ));
         assert!(matches!(
             SoePacket::new_checked(&[0x01u8, 0x40, 0x18][..]),
-            Err(WireError::Truncated { need: 4, have: 3, .. })
+            Err(WireError::Truncated {
+                need: 4,
+                have: 3,
+                ..
+            })
         ));
     }
 
@@ -937,7 +948,9 @@ mod tests {
         assert_eq!("P-0-0001".parse::<Idn>().unwrap().raw(), 0x8001);
         assert_eq!("S-0-16".parse::<Idn>().unwrap().raw(), 0x0010);
         assert_eq!("S-7-4095".parse::<Idn>().unwrap().raw(), 0x7FFF);
-        for bad in ["", "S-0", "X-0-1", "S-8-1", "S-0-4096", "S-0-1-2", "S--1", "S-0-+1"] {
+        for bad in [
+            "", "S-0", "X-0-1", "S-8-1", "S-0-4096", "S-0-1-2", "S--1", "S-0-+1",
+        ] {
             assert!(bad.parse::<Idn>().is_err(), "{bad}");
         }
     }
@@ -996,10 +1009,22 @@ mod tests {
         assert_eq!(
             frags,
             vec![
-                SoeFragment { range: 0..22, fragments_left: Some(3) },
-                SoeFragment { range: 22..44, fragments_left: Some(2) },
-                SoeFragment { range: 44..66, fragments_left: Some(1) },
-                SoeFragment { range: 66..71, fragments_left: None },
+                SoeFragment {
+                    range: 0..22,
+                    fragments_left: Some(3)
+                },
+                SoeFragment {
+                    range: 22..44,
+                    fragments_left: Some(2)
+                },
+                SoeFragment {
+                    range: 44..66,
+                    fragments_left: Some(1)
+                },
+                SoeFragment {
+                    range: 66..71,
+                    fragments_left: None
+                },
             ]
         );
         // Build the four write requests and check the headers byte by byte.
@@ -1025,7 +1050,8 @@ mod tests {
             };
             let mut buf = vec![0xa5u8; repr.buffer_len()];
             assert!(buf.len() <= cap + HEADER_LEN);
-            repr.emit(&mut SoePacket::new_unchecked(&mut buf[..])).unwrap();
+            repr.emit(&mut SoePacket::new_unchecked(&mut buf[..]))
+                .unwrap();
             assert_eq!(buf[..4], header);
             let parsed = SoeRepr::parse(&SoePacket::new_checked(&buf[..]).unwrap()).unwrap();
             reassembled.extend_from_slice(parsed.data);
@@ -1036,10 +1062,19 @@ mod tests {
     #[test]
     fn fragment_edge_cases() {
         // Exact multiple: IgH gives ceil(44/22) − 1 = 1 for the first.
-        let f: Vec<_> = fragments(44, 22).unwrap().map(|f| f.fragments_left).collect();
+        let f: Vec<_> = fragments(44, 22)
+            .unwrap()
+            .map(|f| f.fragments_left)
+            .collect();
         assert_eq!(f, vec![Some(1), None]);
         let f: Vec<_> = fragments(0, 22).unwrap().collect();
-        assert_eq!(f, vec![SoeFragment { range: 0..0, fragments_left: None }]);
+        assert_eq!(
+            f,
+            vec![SoeFragment {
+                range: 0..0,
+                fragments_left: None
+            }]
+        );
         assert!(fragments(1, 0).is_err());
         assert!(fragments(70_000, 1).is_err());
         assert_eq!(fragments(65_536, 1).unwrap().count(), 65_536);
@@ -1056,7 +1091,10 @@ mod tests {
             data: &[],
         };
         let mut buf = [0u8; 4];
-        assert!(repr.emit(&mut SoePacket::new_unchecked(&mut buf[..])).is_err());
+        assert!(
+            repr.emit(&mut SoePacket::new_unchecked(&mut buf[..]))
+                .is_err()
+        );
         assert_eq!(buf, [0u8; 4]);
         let mut small = [0u8; 3];
         assert!(matches!(

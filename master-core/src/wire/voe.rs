@@ -158,14 +158,21 @@ mod tests {
         repr.emit(&mut VoePacket::new_unchecked(&mut out[..]))
             .unwrap();
         assert_eq!(out, BYTES);
-        assert_eq!(repr.to_string(), "VoE vendor=0x00001164 type=0x0001 (2 bytes)");
+        assert_eq!(
+            repr.to_string(),
+            "VoE vendor=0x00001164 type=0x0001 (2 bytes)"
+        );
     }
 
     #[test]
     fn truncated_and_small_buffer() {
         assert!(matches!(
             VoePacket::new_checked(&BYTES[..5]),
-            Err(WireError::Truncated { need: 6, have: 5, .. })
+            Err(WireError::Truncated {
+                need: 6,
+                have: 5,
+                ..
+            })
         ));
         let repr = VoeRepr {
             vendor_id: 1,
