@@ -142,7 +142,8 @@ impl<T: AsRef<[u8]>> GatewayMessage<T> {
         &self.buffer.as_ref()[start..start + self.mailbox_len()]
     }
 
-    /// The mailbox message as a checked-size mailbox view.
+    /// A mailbox view over exactly the mailbox message (its length was validated by
+    /// [`Self::check_len`], so the view's accessors cannot panic).
     pub fn mailbox(&self) -> Mailbox<&[u8]> {
         Mailbox::new_unchecked(self.mailbox_bytes())
     }
@@ -298,6 +299,19 @@ mod tests {
     #[test]
     fn c16_reply() {
         case(&REPLY, 2);
+    }
+
+    #[test]
+    fn twinsafe_trace() {
+        // §11.2: TwinSAFE Loader → IgH, slave "1001" = 0x03E9, CoE, Cnt 2.
+        let bytes = [
+            0x10, 0x50, 0x0a, 0x00, 0xe9, 0x03, 0x00, 0x23, 0x00, 0x20, 0x41, 0x80, 0xf9, 0x02,
+            0x00, 0x00, 0x00, 0x00,
+        ];
+        let repr = GatewayRepr::parse(&GatewayMessage::new_checked(&bytes[..]).unwrap()).unwrap();
+        assert_eq!(repr.header.address, 0x03e9);
+        assert_eq!(repr.header.counter, 2);
+        assert_eq!(repr.to_string(), "ETG.8200 CoE addr=0x03e9 len=10");
     }
 
     #[test]

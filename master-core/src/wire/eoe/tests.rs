@@ -96,7 +96,13 @@ fn c14_set_ip_packed() {
         repr.to_string(),
         "EoE set-IP ip=192.168.1.10 mask=255.255.255.0"
     );
-    assert_eq!(emit(&repr), &SET_IP[6..]);
+    let mut out = [0xa5u8; SET_IP.len()];
+    header
+        .emit(&mut Mailbox::new_unchecked(&mut out[..]))
+        .unwrap();
+    repr.emit(&mut EoePacket::new_unchecked(&mut out[6..]))
+        .unwrap();
+    assert_eq!(out, SET_IP);
 }
 
 /// Set IP with all six flags, worked out by hand from §9.3 (58-byte body).
