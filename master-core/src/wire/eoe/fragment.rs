@@ -191,9 +191,10 @@ impl<'a> Fragmenter<'a> {
         })
     }
 
-    /// Uses `port` (0..=15; masked) for every fragment.
+    /// Uses `port` for every fragment. Not masked: a port above 15 is kept, so that emitting
+    /// the fragments refuses it rather than silently sending another port.
     pub fn with_port(mut self, port: u8) -> Self {
-        self.port = port & MAX_PORT;
+        self.port = port;
         self
     }
 }

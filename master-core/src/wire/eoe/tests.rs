@@ -438,6 +438,23 @@ fn fragmenter_refusals() {
     // 41-byte mailbox: 31 bytes per fragment, no room for a 32-byte non-last fragment.
     assert!(Fragmenter::new(&frame, 41, 0).is_err());
     assert!(Fragmenter::new(&frame[..31], 41, 0).is_ok());
+    let port3: Vec<_> = Fragmenter::new(&frame, 64, 0)
+        .unwrap()
+        .with_port(3)
+        .collect();
+    assert_eq!(port3.len(), 3);
+    assert!(port3.iter().all(|f| f.port == 3));
+    let bad_port = Fragmenter::new(&frame, 128, 0)
+        .unwrap()
+        .with_port(16)
+        .next()
+        .unwrap();
+    let mut out = vec![0u8; bad_port.buffer_len()];
+    assert!(
+        bad_port
+            .emit(&mut EoePacket::new_unchecked(&mut out[..]))
+            .is_err()
+    );
     assert!(matches!(
         Fragmenter::new(&vec![0u8; 2017], 1024, 0),
         Err(WireError::BadLength {
