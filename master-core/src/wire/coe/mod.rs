@@ -1,1 +1,7 @@
-//! (in progress)
+//! CANopen over EtherCAT (mailbox type 3, digest §6).
+
+pub mod abort;
+pub mod data_type;
+pub mod header;
+pub mod sdo;
+pub mod sdo_request;
