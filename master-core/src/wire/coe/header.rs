@@ -134,6 +134,18 @@ impl<T: AsRef<[u8]> + AsMut<[u8]>> CoeFrame<T> {
     pub fn payload_mut(&mut self) -> &mut [u8] {
         &mut self.buffer.as_mut()[fields::PAYLOAD]
     }
+
+    /// The whole mutable buffer (service emitters write the CoE header through it).
+    pub fn buffer_mut(&mut self) -> &mut [u8] {
+        self.buffer.as_mut()
+    }
+}
+
+impl<'a> CoeFrame<&'a [u8]> {
+    /// The whole frame with the lifetime of the underlying buffer (for borrowing parses).
+    pub fn bytes(&self) -> &'a [u8] {
+        self.buffer
+    }
 }
 
 /// The parsed CoE header.

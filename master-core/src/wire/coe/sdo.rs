@@ -73,13 +73,13 @@ pub(crate) mod cmd {
 /// Most data bytes an initiate (normal) frame carries in a mailbox of `mailbox_size` bytes
 /// (the SyncManager length): M − 16 = 6 mailbox + 2 CoE + 8 SDO header (§6.4).
 pub const fn max_initiate_data(mailbox_size: usize) -> usize {
-    mailbox_size.saturating_sub(super::super::mailbox::HEADER_LEN + SDO_INITIATE_LEN)
+    mailbox_size.saturating_sub(crate::wire::mailbox::HEADER_LEN + SDO_INITIATE_LEN)
 }
 
 /// Most data bytes a segment frame carries in a mailbox of `mailbox_size` bytes:
 /// M − 9 = 6 mailbox + 2 CoE + 1 command byte (§6.4).
 pub const fn max_segment_data(mailbox_size: usize) -> usize {
-    mailbox_size.saturating_sub(super::super::mailbox::HEADER_LEN + SEGMENT_HEADER_LEN)
+    mailbox_size.saturating_sub(crate::wire::mailbox::HEADER_LEN + SEGMENT_HEADER_LEN)
 }
 
 /// A view of an SDO request or response (mailbox data starting with the CoE header).
@@ -308,7 +308,7 @@ impl<'a> SdoPayload<'a> {
                 what,
                 reason: "more data than the complete size",
             }),
-            SdoPayload::SizeUnspecified { data } if data.is_empty() => Err(WireError::Invalid {
+            SdoPayload::SizeUnspecified { data: [] } => Err(WireError::Invalid {
                 what,
                 reason: "a transfer without size indication needs data",
             }),
