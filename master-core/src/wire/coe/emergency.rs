@@ -10,8 +10,8 @@
 
 use core::fmt;
 
+use super::display::Hex;
 use super::header::{CoeFrame, CoeService, put_header};
-use super::sdo::Hex;
 use crate::wire::error::{Result, WireError, need, room};
 use crate::wire::field::{self, Field};
 

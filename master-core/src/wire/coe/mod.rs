@@ -6,16 +6,18 @@
 //! byte depends on it (service 2 request vs 3 response).
 //!
 //! - [`header`]: the CoE header and [`CoeService`];
-//! - [`sdo`], [`sdo_request`], [`sdo_response`]: SDO transfers;
+//! - [`sdo`], [`sdo_payload`], [`sdo_request`], [`sdo_response`]: SDO transfers;
 //! - [`abort`]: abort codes; [`emergency`]: emergencies; [`info`]: SDO Information;
 //! - [`data_type`]: data types, object codes and access flags for object dictionaries.
 
 pub mod abort;
 pub mod data_type;
+mod display;
 pub mod emergency;
 pub mod header;
 pub mod info;
 pub mod sdo;
+pub mod sdo_payload;
 pub mod sdo_request;
 pub mod sdo_response;
 
@@ -26,12 +28,13 @@ pub use data_type::{DataType, ObjectAccess, ObjectCode};
 pub use emergency::{Emergency, EmergencyRepr};
 pub use header::{COE_HEADER_LEN, CoeFrame, CoeHeaderRepr, CoeService};
 pub use info::{SdoInfoFrame, SdoInfoRepr, SdoInfoService};
-pub use sdo::{SdoFrame, SdoPayload, max_initiate_data, max_segment_data};
+pub use sdo::{SdoFrame, max_initiate_data, max_segment_data};
+pub use sdo_payload::SdoPayload;
 pub use sdo_request::SdoRequest;
 pub use sdo_response::SdoResponse;
 
 use crate::wire::error::{Result, WireError, room};
-use sdo::Hex;
+use display::Hex;
 
 /// Any CoE message, by service.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -22,8 +22,6 @@
 //! - a download (or upload response) with command bits 0-1 clear (0x20) and 1-4 data bytes
 //!   in a frame of at most 10 bytes: expedited, size taken from the bytes present.
 
-use core::fmt;
-
 use crate::wire::coe::header::CoeService;
 use crate::wire::error::{Result, WireError, need};
 use crate::wire::field::{self, Field, Rest};
@@ -39,6 +37,8 @@ mod fields {
     pub const SEGMENT: Rest = 3..;
 }
 
+/// Offset of the 4-byte data field in the mailbox data.
+pub const SDO_DATA_FIELD_OFFSET: usize = fields::DATA_FIELD.start;
 /// Smallest SDO frame this view accepts: CoE header, command, index, subindex.
 pub const SDO_MIN_LEN: usize = fields::SUBINDEX + 1;
 /// Mailbox length of an initiate, abort, or padded segment frame (CoE header + 8 bytes).
@@ -209,173 +209,23 @@ fn segment_data_of(buf: &[u8]) -> &[u8] {
     }
 }
 
-/// The data of an initiate download request or initiate upload response.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum SdoPayload<'a> {
-    /// Expedited: 1 to 4 bytes in the data field (emitted with size indicated).
-    Expedited(&'a [u8]),
-    /// Normal transfer with size indicated: the complete size of the object and the part of
-    /// the data carried in this frame (the rest follows in segments).
-    Normal {
-        /// Size of the whole transfer in bytes.
-        complete_size: u32,
-        /// Data in this frame (at most `complete_size` bytes).
-        data: &'a [u8],
-    },
-    /// Normal transfer without size indication (command bits 0-1 clear): data only.
-    SizeUnspecified {
-        /// Data in this frame (never empty: an empty one reads as a tolerated expedited).
-        data: &'a [u8],
-    },
-}
-
-impl<'a> SdoPayload<'a> {
-    /// Decodes the payload of a checked initiate frame (command bits 0-3 and the data).
-    pub(crate) fn decode(what: &'static str, frame: &SdoFrame<&'a [u8]>) -> Result<Self> {
-        let bytes = frame.bytes();
-        let command = frame.command();
-        let field_end = bytes.len().min(fields::DATA_FIELD.end);
-        let data_field = bytes
-            .get(fields::DATA_FIELD.start..field_end)
-            .unwrap_or(&[]);
-        let expedited = command & cmd::EXPEDITED != 0;
-        let sized = command & cmd::SIZE_INDICATED != 0;
-        match (expedited, sized) {
-            (true, true) => {
-                let unused = usize::from((command >> cmd::EXPEDITED_UNUSED_SHIFT) & 0x03);
-                let n = 4 - unused;
-                need(what, bytes, fields::DATA_FIELD.start + n)?;
-                Ok(SdoPayload::Expedited(data_field.get(..n).unwrap_or(&[])))
-            }
-            // Expedited without size: the whole 4-byte field (§6.4).
-            (true, false) => {
-                need(what, bytes, SDO_INITIATE_LEN)?;
-                Ok(SdoPayload::Expedited(data_field))
-            }
-            (false, true) => {
-                need(what, bytes, SDO_INITIATE_LEN)?;
-                let complete_size = frame.data_field_u32().unwrap_or(0);
-                let data = frame.extra_ref();
-                if data.len() as u64 > u64::from(complete_size) {
-                    return Err(WireError::Invalid {
-                        what,
-                        reason: "more data than the complete size",
-                    });
-                }
-                Ok(SdoPayload::Normal {
-                    complete_size,
-                    data,
-                })
-            }
-            (false, false) => {
-                if bytes.len() <= SDO_INITIATE_LEN {
-                    // Sample-client style 0x20 with the value in the data field: expedited,
-                    // size from the bytes present.
-                    need(what, bytes, fields::DATA_FIELD.start + 1)?;
-                    Ok(SdoPayload::Expedited(data_field))
-                } else {
-                    Ok(SdoPayload::SizeUnspecified {
-                        data: frame.extra_ref(),
-                    })
-                }
-            }
-        }
-    }
-
-    /// Frame length (mailbox length) of an initiate frame carrying this payload.
-    pub fn frame_len(&self) -> usize {
-        match self {
-            SdoPayload::Expedited(_) => SDO_INITIATE_LEN,
-            SdoPayload::Normal { data, .. } | SdoPayload::SizeUnspecified { data } => {
-                SDO_INITIATE_LEN + data.len()
-            }
-        }
-    }
-
-    /// Checks the values emit would write.
-    pub(crate) fn validate(&self, what: &'static str) -> Result<()> {
-        match self {
-            SdoPayload::Expedited(value) if value.is_empty() || value.len() > 4 => {
-                Err(WireError::Invalid {
-                    what,
-                    reason: "expedited value must have 1 to 4 bytes",
-                })
-            }
-            SdoPayload::Normal {
-                complete_size,
-                data,
-            } if data.len() as u64 > u64::from(*complete_size) => Err(WireError::Invalid {
-                what,
-                reason: "more data than the complete size",
-            }),
-            SdoPayload::SizeUnspecified { data: [] } => Err(WireError::Invalid {
-                what,
-                reason: "a transfer without size indication needs data",
-            }),
-            _ => Ok(()),
-        }
-    }
-
-    /// Command bits 0-3 for this payload.
-    pub(crate) fn command_bits(&self) -> u8 {
-        match self {
-            SdoPayload::Expedited(value) => {
-                let unused = 4u8.saturating_sub(value.len() as u8);
-                cmd::EXPEDITED | cmd::SIZE_INDICATED | (unused << cmd::EXPEDITED_UNUSED_SHIFT)
-            }
-            SdoPayload::Normal { .. } => cmd::SIZE_INDICATED,
-            SdoPayload::SizeUnspecified { .. } => 0,
-        }
-    }
-
-    /// The 4-byte data field and the further data.
-    pub(crate) fn field_and_data(&self) -> ([u8; 4], &'a [u8]) {
-        match *self {
-            SdoPayload::Expedited(value) => {
-                let mut f = [0u8; 4];
-                let n = value.len().min(4);
-                f[..n].copy_from_slice(&value[..n]);
-                (f, &[])
-            }
-            SdoPayload::Normal {
-                complete_size,
-                data,
-            } => (complete_size.to_le_bytes(), data),
-            SdoPayload::SizeUnspecified { data } => ([0; 4], data),
-        }
-    }
-}
-
 impl<'a> SdoFrame<&'a [u8]> {
-    fn extra_ref(&self) -> &'a [u8] {
+    /// The data field (possibly short) with the lifetime of the underlying buffer.
+    pub fn data_field_ref(&self) -> &'a [u8] {
+        let end = self.buffer.len().min(fields::DATA_FIELD.end);
+        self.buffer
+            .get(fields::DATA_FIELD.start..end)
+            .unwrap_or(&[])
+    }
+
+    /// Further data (after the 8-byte SDO header) with the lifetime of the buffer.
+    pub fn extra_ref(&self) -> &'a [u8] {
         self.buffer.get(fields::EXTRA).unwrap_or(&[])
     }
 
     /// Segment data with the lifetime of the underlying buffer.
     pub fn segment_data_ref(&self) -> &'a [u8] {
         segment_data_of(self.buffer)
-    }
-}
-
-impl fmt::Display for SdoPayload<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            SdoPayload::Expedited(value) => {
-                write!(f, "expedited {} bytes {}", value.len(), Hex(value))
-            }
-            SdoPayload::Normal {
-                complete_size,
-                data,
-            } => write!(
-                f,
-                "normal size {complete_size}, {} bytes {}",
-                data.len(),
-                Hex(data)
-            ),
-            SdoPayload::SizeUnspecified { data } => {
-                write!(f, "size unspecified, {} bytes {}", data.len(), Hex(data))
-            }
-        }
     }
 }
 
@@ -443,38 +293,10 @@ pub(crate) fn expect_service(
     Ok(())
 }
 
-/// `0xIIII:SS`, the usual object address notation.
-pub(crate) struct ObjAddr(pub u16, pub u8);
-
-impl fmt::Display for ObjAddr {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "0x{:04X}:{:02X}", self.0, self.1)
-    }
-}
-
-/// Space-separated hex bytes in brackets, cut after 16 bytes.
-pub(crate) struct Hex<'a>(pub &'a [u8]);
-
-impl fmt::Display for Hex<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        const SHOWN: usize = 16;
-        f.write_str("[")?;
-        for (i, b) in self.0.iter().take(SHOWN).enumerate() {
-            if i > 0 {
-                f.write_str(" ")?;
-            }
-            write!(f, "{b:02x}")?;
-        }
-        if self.0.len() > SHOWN {
-            f.write_str(" …")?;
-        }
-        f.write_str("]")
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::coe::sdo_payload::SdoPayload;
     use proptest::prelude::*;
 
     #[test]
@@ -510,13 +332,6 @@ mod tests {
                 .segment_data()
                 .is_empty()
         );
-    }
-
-    #[test]
-    fn hex_display_is_cut() {
-        assert_eq!(Hex(&[0x02, 0, 0, 0]).to_string(), "[02 00 00 00]");
-        assert_eq!(Hex(&[0u8; 17]).to_string().matches("00").count(), 16);
-        assert_eq!(ObjAddr(0x1c12, 1).to_string(), "0x1C12:01");
     }
 
     #[test]

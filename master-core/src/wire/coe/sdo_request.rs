@@ -3,11 +3,13 @@
 use core::fmt;
 
 use super::abort::AbortCode;
+use super::display::{Hex, ObjAddr};
 use super::header::CoeService;
 use super::sdo::{
-    Hex, ObjAddr, SDO_INITIATE_LEN, SdoFrame, SdoPayload, cmd, expect_service, segment_len,
-    write_bare, write_initiate, write_segment,
+    SDO_INITIATE_LEN, SdoFrame, cmd, expect_service, segment_len, write_bare, write_initiate,
+    write_segment,
 };
+use super::sdo_payload::SdoPayload;
 use crate::wire::error::{Result, WireError, need, room};
 
 const WHAT: &str = "SDO request";

@@ -207,7 +207,7 @@ impl fmt::Display for EntryDescription<'_> {
             self.data_type,
             self.bit_length,
             self.access,
-            super::Ascii(self.description)
+            crate::wire::coe::display::Ascii(self.description)
         )
     }
 }

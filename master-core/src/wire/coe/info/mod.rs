@@ -11,19 +11,20 @@
 //! data. Each message parses on its own here.
 
 pub mod entry;
+pub mod object;
 pub mod od_list;
 
 use core::fmt;
 
 use super::abort::AbortCode;
-use super::data_type::{DataType, ObjectCode};
+use super::display::Hex;
 use super::header::{CoeFrame, CoeService, put_header};
-use super::sdo::Hex;
 use crate::wire::error::{Result, WireError, need, room};
 use crate::wire::field::{self, Field, Rest};
 use crate::wire::macros::enum_with_unknown;
 
 pub use entry::{EntryDescription, UNIT_TYPE_LEN, ValueInfo};
+pub use object::ObjectDescription;
 pub use od_list::{OdList, OdListType};
 
 mod fields {
@@ -156,24 +157,6 @@ impl<'a> SdoInfoFrame<&'a [u8]> {
     }
 }
 
-/// A Get Object Description response.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct ObjectDescription<'a> {
-    /// Object index.
-    pub index: u16,
-    /// Data type of the object (of its entries for ARRAY).
-    pub data_type: DataType,
-    /// Highest subindex.
-    pub max_subindex: u8,
-    /// VAR / ARRAY / RECORD ...
-    pub object_code: ObjectCode,
-    /// Object name (ASCII, not NUL-terminated; the rest of the message).
-    pub name: &'a [u8],
-}
-
-/// Fixed part of an object description: index, data type, max subindex, object code.
-const OBJECT_DESCRIPTION_FIXED_LEN: usize = 6;
-
 /// The service data of an SDO Information message, by opcode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum SdoInfoService<'a> {
@@ -277,14 +260,7 @@ impl<'a> SdoInfoRepr<'a> {
                 SdoInfoService::ObjectDescriptionRequest { index: u16_at(0) }
             }
             SdoInfoOpcode::ObjectDescriptionResponse => {
-                need(WHAT, data, OBJECT_DESCRIPTION_FIXED_LEN)?;
-                SdoInfoService::ObjectDescriptionResponse(ObjectDescription {
-                    index: u16_at(0),
-                    data_type: DataType::from(u16_at(2)),
-                    max_subindex: data[4],
-                    object_code: ObjectCode::from(data[5]),
-                    name: data.get(OBJECT_DESCRIPTION_FIXED_LEN..).unwrap_or(&[]),
-                })
+                SdoInfoService::ObjectDescriptionResponse(ObjectDescription::parse(data)?)
             }
             SdoInfoOpcode::EntryDescriptionRequest => {
                 need(WHAT, data, entry::ENTRY_REQUEST_LEN)?;
@@ -317,9 +293,7 @@ impl<'a> SdoInfoRepr<'a> {
             SdoInfoService::OdListRequest { .. }
             | SdoInfoService::ObjectDescriptionRequest { .. } => 2,
             SdoInfoService::OdListResponse(list) => list.raw().len(),
-            SdoInfoService::ObjectDescriptionResponse(o) => {
-                OBJECT_DESCRIPTION_FIXED_LEN + o.name.len()
-            }
+            SdoInfoService::ObjectDescriptionResponse(o) => o.buffer_len(),
             SdoInfoService::EntryDescriptionRequest { .. } => entry::ENTRY_REQUEST_LEN,
             SdoInfoService::EntryDescriptionResponse(e) => e.buffer_len(),
             SdoInfoService::Error { .. } => 4,
@@ -360,13 +334,7 @@ impl<'a> SdoInfoRepr<'a> {
             }
             SdoInfoService::OdListResponse(list) => out.copy_from_slice(list.raw()),
             SdoInfoService::ObjectDescriptionRequest { index } => field::set_u16_le(out, 0, *index),
-            SdoInfoService::ObjectDescriptionResponse(o) => {
-                field::set_u16_le(out, 0, o.index);
-                field::set_u16_le(out, 2, o.data_type.into());
-                out[4] = o.max_subindex;
-                out[5] = o.object_code.into();
-                out[OBJECT_DESCRIPTION_FIXED_LEN..].copy_from_slice(o.name);
-            }
+            SdoInfoService::ObjectDescriptionResponse(o) => o.write(out),
             SdoInfoService::EntryDescriptionRequest {
                 index,
                 subindex,
@@ -384,23 +352,6 @@ impl<'a> SdoInfoRepr<'a> {
     }
 }
 
-/// ASCII text with non-printable bytes shown as '.', for names in Display.
-pub(crate) struct Ascii<'a>(pub &'a [u8]);
-
-impl fmt::Display for Ascii<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        use fmt::Write;
-        for &b in self.0 {
-            f.write_char(if b.is_ascii_graphic() || b == b' ' {
-                char::from(b)
-            } else {
-                '.'
-            })?;
-        }
-        Ok(())
-    }
-}
-
 impl fmt::Display for SdoInfoRepr<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "CoE SDO-Info {}", self.service.opcode().name())?;
@@ -413,15 +364,7 @@ impl fmt::Display for SdoInfoRepr<'_> {
             SdoInfoService::OdListRequest { list_type } => write!(f, " {list_type}"),
             SdoInfoService::OdListResponse(list) => write!(f, " {list}"),
             SdoInfoService::ObjectDescriptionRequest { index } => write!(f, " 0x{index:04X}"),
-            SdoInfoService::ObjectDescriptionResponse(o) => write!(
-                f,
-                " 0x{:04X} {} {} max sub {} \"{}\"",
-                o.index,
-                o.object_code,
-                o.data_type,
-                o.max_subindex,
-                Ascii(o.name)
-            ),
+            SdoInfoService::ObjectDescriptionResponse(o) => write!(f, " {o}"),
             SdoInfoService::EntryDescriptionRequest {
                 index,
                 subindex,
@@ -444,6 +387,7 @@ impl fmt::Display for SdoInfoRepr<'_> {
 mod tests {
     use super::entry::tests::{arb_entry_parts, entry_from};
     use super::*;
+    use crate::wire::coe::data_type::{DataType, ObjectAccess, ObjectCode};
     use crate::wire::mailbox::{HEADER_LEN, Mailbox};
     use proptest::prelude::*;
 
@@ -586,8 +530,6 @@ mod tests {
             "CoE SDO-Info entry description rsp 0x1018:01 UNSIGNED32 32 bits RO (0x0007) \"Vendor ID\""
         );
     }
-
-    use crate::wire::coe::data_type::ObjectAccess;
 
     #[test]
     fn info_error() {
