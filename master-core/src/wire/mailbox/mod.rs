@@ -1,5 +1,7 @@
 //! The mailbox layer (digest §5): header, error reply, and dispatch by protocol type.
 
+pub mod error_reply;
 pub mod header;
 
+pub use error_reply::{ERROR_REPLY_LEN, ErrorReply, ErrorReplyRepr, MailboxErrorCode};
 pub use header::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
