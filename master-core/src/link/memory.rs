@@ -216,3 +216,28 @@ impl Ring {
         Some(len)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ring_keeps_order_across_wrap_around_and_refuses_when_full() {
+        let queue = Queue::new(3);
+        let mut ring = queue.lock();
+        let mut buf = [0u8; 8];
+        for round in 0u8..5 {
+            assert!(ring.push(&[round, 1]));
+            assert!(ring.push(&[round, 2, 2]));
+            assert!(ring.push(&[round]));
+            assert!(!ring.push(&[0xff]), "a fourth frame fits in three slots");
+            assert_eq!(ring.pop_into(&mut buf), Some(2));
+            assert_eq!(&buf[..2], &[round, 1]);
+            assert_eq!(ring.pop_into(&mut buf), Some(3));
+            assert_eq!(&buf[..3], &[round, 2, 2]);
+            assert_eq!(ring.pop_into(&mut buf), Some(1));
+            assert_eq!(&buf[..1], &[round]);
+            assert_eq!(ring.pop_into(&mut buf), None);
+        }
+    }
+}

@@ -110,3 +110,26 @@ impl<L: Link + ?Sized> Link for &mut L {
         (**self).recv(buf, wait)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+
+    #[test]
+    fn wait_expires_at_its_deadline_and_no_wait_at_once() {
+        let now = Instant::now();
+        let later = now + Duration::from_millis(5);
+        assert!(Wait::NoWait.expired_at(now));
+        assert!(!Wait::Until(later).expired_at(now));
+        assert!(Wait::Until(later).expired_at(later));
+        assert_eq!(Wait::Until(later).deadline(), Some(later));
+        assert_eq!(Wait::NoWait.deadline(), None);
+    }
+
+    #[test]
+    fn the_largest_frame_holds_a_vlan_tagged_full_payload() {
+        assert_eq!(MAX_FRAME_LEN, 1518);
+    }
+}

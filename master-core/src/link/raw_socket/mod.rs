@@ -2,9 +2,14 @@
 //!
 //! The socket is bound to one interface and to EtherType 0x88A4, so the kernel hands it
 //! EtherCAT frames only, whatever their MAC addresses (slaves may rewrite the source MAC of
-//! returning frames). Frames this socket transmitted are not read back: the kernel is asked
-//! to drop them (`PACKET_IGNORE_OUTGOING`, Linux 4.20+), and each received frame's packet
-//! type is checked as well, which also covers older kernels.
+//! returning frames).
+//!
+//! Frames we transmit must never be mistaken for replies. Linux copies outgoing frames only
+//! to sockets listening to every EtherType (`ETH_P_ALL`), and never to the socket that sent
+//! them, so with this binding they do not come back at all. Two guards keep it that way if
+//! the binding ever widens (say to `ETH_P_ALL` to see VLAN-tagged frames): the socket asks
+//! the kernel to drop outgoing copies (`PACKET_IGNORE_OUTGOING`, Linux 4.20+), and `recv`
+//! skips any frame whose packet type is `PACKET_OUTGOING`, which also covers older kernels.
 
 mod sys;
 
@@ -115,7 +120,7 @@ impl RawSocket {
         let mtu = sys::mtu(fd_ref, request)
             .map_err(|err| context(err, format_args!("reading the MTU of {interface}")))?;
 
-        // Our own transmissions would otherwise come back to us as if a slave had answered.
+        // A guard against reading our own transmissions as replies (see the module docs).
         // Older kernels refuse the option; `recv` checks the packet type of every frame anyway.
         let _ = sys::set_int_option(fd_ref, libc::SOL_PACKET, libc::PACKET_IGNORE_OUTGOING, 1);
         if options.qdisc_bypass {
@@ -303,4 +308,35 @@ fn set_buffer_size(fd: BorrowedFd<'_>, size: usize) -> io::Result<()> {
 /// Adds what we were doing to an OS error, keeping its kind and its text.
 fn context(err: io::Error, what: fmt::Arguments<'_>) -> io::Error {
     io::Error::new(err.kind(), format!("{what}: {err}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interface_names_the_kernel_cannot_hold_are_refused_before_any_system_call() {
+        for bad in ["", "sixteen-bytes-xx", "a/b", "a b", "tab\t", "nul\0"] {
+            let err = check_interface_name(bad).unwrap_err();
+            assert_eq!(err.kind(), io::ErrorKind::InvalidInput, "{bad:?}");
+        }
+        for good in ["eth0", "enp3s0f1", "veth-ecat.100", "fifteen-bytes-x"] {
+            check_interface_name(good).unwrap();
+        }
+    }
+
+    #[test]
+    fn default_options_are_the_conservative_ones() {
+        let options = RawSocketOptions::default();
+        assert!(!options.qdisc_bypass && !options.busy_poll && !options.promiscuous);
+        assert_eq!(options.buffer_size, 1 << 20);
+    }
+
+    #[test]
+    fn ethertype_goes_into_socket_addresses_big_endian() {
+        assert_eq!(
+            sys::network_order(ETHERTYPE_ETHERCAT).to_ne_bytes(),
+            [0x88, 0xa4]
+        );
+    }
 }
