@@ -216,3 +216,20 @@ fn link_raw_socket_netns_guard_deletes_its_namespace_even_after_a_panic() {
     assert!(outcome.is_err());
     assert!(!path.exists(), "{} survived", path.display());
 }
+
+#[test]
+fn link_raw_socket_open_without_cap_net_raw_says_what_is_missing() {
+    let outcome = std::thread::spawn(|| {
+        const NOBODY: libc::uid_t = 65534;
+        // SAFETY: the raw system call (unlike glibc's wrapper, which changes every thread)
+        // gives up root and with it all capabilities on this thread only; the thread does
+        // nothing else that needs them and ends right after.
+        let result = unsafe { libc::syscall(libc::SYS_setresuid, NOBODY, NOBODY, NOBODY) };
+        assert_eq!(result, 0, "setresuid: {}", io::Error::last_os_error());
+        RawSocket::open("lo", RawSocketOptions::default()).unwrap_err()
+    })
+    .join()
+    .unwrap();
+    assert_eq!(outcome.kind(), io::ErrorKind::PermissionDenied);
+    assert!(outcome.to_string().contains("CAP_NET_RAW"), "{outcome}");
+}

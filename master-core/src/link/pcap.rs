@@ -25,6 +25,10 @@ use super::{Link, Wait};
 ///
 /// Writes go through a [`BufWriter`]; the capture is complete on disk after
 /// [`PcapTap::flush`] or when the tap is dropped.
+///
+/// Where the tap sits decides what it sees: outside a [`FaultInjector`](super::FaultInjector)
+/// it records what the master believes it sent and received, inside one it records what the
+/// (faulty) wire carried.
 #[derive(Debug)]
 pub struct PcapTap<L: Link, W: Write + Send = File> {
     inner: L,
