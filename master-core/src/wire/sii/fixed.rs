@@ -587,7 +587,7 @@ mod tests {
     proptest! {
         #[test]
         fn round_trip(repr in arb_fixed()) {
-            let mut buf = vec![0u8; FIXED_LEN];
+            let mut buf = [0u8; FIXED_LEN];
             repr.emit(&mut SiiFixed::new_unchecked(&mut buf[..])).unwrap();
             let view = SiiFixed::new_checked(&buf[..]).unwrap();
             prop_assert!(view.checksum_ok());

@@ -238,7 +238,7 @@ impl fmt::Display for GeneralRepr {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use proptest::prelude::*;
 

@@ -56,12 +56,6 @@ impl SyncmType {
     }
 }
 
-impl Default for SyncmType {
-    fn default() -> Self {
-        SyncmType::Unspecified
-    }
-}
-
 /// Enable flags, byte 6.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct SyncmEnable(pub u8);
@@ -86,7 +80,7 @@ impl SyncmEnable {
 }
 
 /// One SYNCM entry. The control byte is kept raw so that an image round-trips exactly.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct SyncmEntry {
     /// Physical start address.
     pub start: u16,
@@ -100,6 +94,20 @@ pub struct SyncmEntry {
     pub enable: SyncmEnable,
     /// SM type as stored (may be `Unspecified`).
     pub sm_type: SyncmType,
+}
+
+impl Default for SyncmEntry {
+    /// An all-zero entry (type unspecified).
+    fn default() -> Self {
+        SyncmEntry {
+            start: 0,
+            length: 0,
+            control: 0,
+            status: 0,
+            enable: SyncmEnable(0),
+            sm_type: SyncmType::Unspecified,
+        }
+    }
 }
 
 impl SyncmEntry {
@@ -209,7 +217,7 @@ impl SyncmCategoryRepr {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use proptest::prelude::*;
 
