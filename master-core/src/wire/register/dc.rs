@@ -12,6 +12,9 @@ mod fields {
     use super::Field;
     /// Receive times of ports 0-3, u32 each (one 16-byte FPRD of 0x0900).
     pub const PORT_TIMES: Field = 0..16;
+    /// System time offset (i64) + system time delay (u32): IgH's 12-byte write at 0x0920.
+    pub const OFFSET: Field = 0..8;
+    pub const DELAY: Field = 8..12;
     /// SYNC0 / SYNC1 cycle times (8 bytes at 0x09A0).
     pub const SYNC0_CYCLE: Field = 0..4;
     pub const SYNC1_CYCLE: Field = 4..8;
@@ -21,6 +24,52 @@ mod fields {
 pub const SPEED_COUNTER_START_DEFAULT: u16 = 0x1000;
 /// Value SOEM writes to 0x0934 as a u16: time filter depth 0, speed filter depth 12.
 pub const FILTER_DEPTHS_SOEM: u16 = 0x0C00;
+
+/// Seconds from the Unix epoch to the EtherCAT epoch 2000-01-01 00:00:00 (§13.1).
+pub const ECAT_EPOCH_UNIX_SECS: u64 = 946_684_800;
+
+/// Reads a DC time register that is 64 bits wide on 64-bit DC and 32 bits wide otherwise
+/// (0x0910, 0x0918, 0x0920, 0x0990; §13.1): 8 bytes if present, else 4 zero-extended.
+pub fn read_time(buf: &[u8]) -> Result<u64> {
+    if buf.len() >= 8 {
+        Ok(field::u64_le(buf, 0))
+    } else {
+        need("DC time", buf, 4)?;
+        Ok(u64::from(field::u32_le(buf, 0)))
+    }
+}
+
+/// System time offset 0x0920 (treated as signed, as ethercrab does) and system time delay
+/// 0x0928, written together as 12 bytes from 0x0920 (§13.2 step 5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct OffsetDelay {
+    /// 0x0920: local time + offset = system time (ns).
+    pub offset: i64,
+    /// 0x0928: propagation delay from the reference clock (ns).
+    pub delay: u32,
+}
+
+impl OffsetDelay {
+    /// Size of the block.
+    pub const LEN: usize = fields::DELAY.end;
+
+    /// Parses the 12 bytes.
+    pub fn parse(buf: &[u8]) -> Result<Self> {
+        need("DC offset/delay", buf, Self::LEN)?;
+        Ok(OffsetDelay {
+            offset: field::u64_le(buf, fields::OFFSET.start) as i64,
+            delay: field::u32_le(buf, fields::DELAY.start),
+        })
+    }
+
+    /// Writes the 12 bytes.
+    pub fn emit(&self, buf: &mut [u8]) -> Result<()> {
+        room("DC offset/delay", buf, Self::LEN)?;
+        field::set_u64_le(buf, fields::OFFSET.start, self.offset as u64);
+        field::set_u32_le(buf, fields::DELAY.start, self.delay);
+        Ok(())
+    }
+}
 
 /// Bit 31 of 0x092C: the sign of the system time difference.
 const DIFF_SIGN: u32 = 1 << 31;
@@ -282,6 +331,32 @@ mod tests {
     }
 
     #[test]
+    fn offset_delay_and_times() {
+        // Offset −1 ns, delay 0x1234 ns, laid out by hand.
+        let bytes = [
+            0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x34, 0x12, 0x00, 0x00,
+        ];
+        let od = OffsetDelay::parse(&bytes).unwrap();
+        assert_eq!(
+            od,
+            OffsetDelay {
+                offset: -1,
+                delay: 0x1234
+            }
+        );
+        let mut out = [0xa5u8; 12];
+        od.emit(&mut out).unwrap();
+        assert_eq!(out, bytes);
+        assert!(OffsetDelay::parse(&bytes[..11]).is_err());
+        assert_eq!(read_time(&[1, 0, 0, 0]), Ok(1));
+        assert_eq!(
+            read_time(&[1, 0, 0, 0, 0, 0, 0, 1]),
+            Ok(0x0100_0000_0000_0001)
+        );
+        assert!(read_time(&[1, 0, 0]).is_err());
+    }
+
+    #[test]
     fn assign_activate_igh_values() {
         // 0x0300 = cyclic + SYNC0; 0x0700 = + SYNC1.
         let a = AssignActivate::decode(0x0300);
@@ -314,6 +389,9 @@ mod tests {
             prop_assert_eq!(SyncCycleTimes::parse(&buf).unwrap(), s);
             prop_assert_eq!(DcActivation::decode(c).encode(), c);
             prop_assert_eq!(AssignActivate::decode(aa).encode(), aa & 0xFF31);
+            let od = OffsetDelay { offset: i64::from(raw as i32) * 3, delay: t[2] };
+            od.emit(&mut buf).unwrap();
+            prop_assert_eq!(OffsetDelay::parse(&buf).unwrap(), od);
         }
 
         #[test]
@@ -321,6 +399,8 @@ mod tests {
             let _ = SystemTimeDifference::parse(&bytes).map(|d| d.to_string());
             let _ = PortReceiveTimes::parse(&bytes).map(|t| t.span(3, 0));
             let _ = SyncCycleTimes::parse(&bytes);
+            let _ = OffsetDelay::parse(&bytes);
+            let _ = read_time(&bytes);
         }
     }
 }

@@ -319,6 +319,13 @@ impl fmt::Display for EepromRequestRepr {
     }
 }
 
+/// The little-endian words of an EEPROM data read at 0x0508 (4 or 8 bytes → 2 or 4 words,
+/// starting at the requested word address); a trailing odd byte is ignored.
+pub fn data_words(data: &[u8]) -> impl Iterator<Item = u16> + '_ {
+    data.chunks_exact(2)
+        .map(|w| u16::from_le_bytes([w[0], w[1]]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -338,6 +345,14 @@ mod tests {
             EepromRequestRepr::parse(&EepromRequest::new_checked(&C3_READ[..]).unwrap()).unwrap();
         assert_eq!(parsed, EepromRequestRepr::read(8));
         assert_eq!(parsed.control.command, EepromCommand::Read);
+    }
+
+    #[test]
+    fn c3_data_read() {
+        // Appendix C.3: 8 bytes from word 8 of an EL2004 = vendor 2, product 0x07D43052.
+        let data = [0x02, 0x00, 0x00, 0x00, 0x52, 0x30, 0xd4, 0x07];
+        let words: Vec<u16> = data_words(&data).collect();
+        assert_eq!(words, [0x0002, 0x0000, 0x3052, 0x07D4]);
     }
 
     #[test]

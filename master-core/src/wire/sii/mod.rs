@@ -1,1 +1,23 @@
-//! (in progress)
+//! The SII / EEPROM image (digest §4).
+//!
+//! [`checksum`] computes word 7; [`fixed`] is words 0x00–0x3F; [`category`] walks the
+//! category list from word 0x40; [`strings`], [`general`], [`fmmu`], [`syncm`], [`pdo`] and
+//! [`dc`] decode one category type each; [`image`] parses a whole image into typed parts and
+//! [`builder`] emits one.
+
+pub mod builder;
+pub mod category;
+pub mod checksum;
+pub mod dc;
+pub mod fixed;
+pub mod fmmu;
+pub mod general;
+pub mod image;
+pub mod pdo;
+pub mod strings;
+pub mod syncm;
+
+pub use builder::SiiBuilder;
+pub use category::{Category, CategoryIter, CategoryRepr, CategoryType};
+pub use fixed::{MailboxArea, MailboxProtocols, SiiFixed, SiiFixedRepr, set_alias};
+pub use image::{SiiCategory, SiiImage};
