@@ -33,6 +33,8 @@ mod fields {
 pub const HEADER_LEN: usize = fields::PAYLOAD.start;
 /// Largest value of the 11-bit length field.
 pub const MAX_LENGTH: u16 = fields::LENGTH_MASK;
+/// The reserved bit 11 of the EtherCAT header (must be 0).
+pub const RESERVED_BIT: u16 = fields::RESERVED_MASK;
 /// Largest EtherCAT payload that fits a standard 1500-byte Ethernet MTU (digest §1.3).
 pub const MAX_PAYLOAD_LEN: usize = 1500 - HEADER_LEN;
 

@@ -15,20 +15,16 @@
 use core::fmt;
 
 use crate::wire::error::{Result, WireError, need, room};
-use crate::wire::field::{self, Field, Rest};
+use crate::wire::field::{self, Rest};
+use crate::wire::frame::{self, Frame, FrameType};
 use crate::wire::mailbox::{self, Mailbox, MailboxHeader};
 
 mod fields {
-    use super::{Field, Rest};
-    pub const ECAT_HEADER: Field = 0..2;
-    pub const MAILBOX: Rest = 2..;
-
-    pub const LENGTH_MASK: u16 = 0x07FF;
-    pub const RESERVED_BIT: u16 = 0x0800;
-    pub const TYPE_SHIFT: u32 = 12;
+    use super::Rest;
+    pub const MAILBOX: Rest = super::frame::HEADER_LEN..;
 }
 
-/// Size of the EtherCAT header in bytes.
+/// Size of the EtherCAT header in bytes (the same header as a frame's, [`frame::HEADER_LEN`]).
 pub const ECAT_HEADER_LEN: usize = fields::MAILBOX.start;
 
 /// The smallest gateway message: EtherCAT header + mailbox header.
@@ -38,7 +34,7 @@ pub const MIN_LEN: usize = ECAT_HEADER_LEN + mailbox::HEADER_LEN;
 pub const ECAT_TYPE_MAILBOX: u8 = 5;
 
 /// The largest mailbox message (header + data) whose size fits the 11-bit EtherCAT length.
-pub const MAX_MAILBOX_LEN: usize = fields::LENGTH_MASK as usize;
+pub const MAX_MAILBOX_LEN: usize = frame::MAX_LENGTH as usize;
 
 /// A read/write view of a gateway message.
 #[derive(Debug, Clone)]
@@ -83,7 +79,7 @@ impl<T: AsRef<[u8]>> GatewayMessage<T> {
         if self.ecat_reserved() {
             return Err(WireError::ReservedBits {
                 what: "ETG.8200 EtherCAT header",
-                value: u32::from(fields::RESERVED_BIT),
+                value: u32::from(self.header_view().header() & frame::RESERVED_BIT),
             });
         }
         let mailbox_len = self.mailbox_len();
@@ -110,23 +106,24 @@ impl<T: AsRef<[u8]>> GatewayMessage<T> {
         self.buffer
     }
 
-    fn ecat_header(&self) -> u16 {
-        field::u16_le(self.buffer.as_ref(), fields::ECAT_HEADER.start)
+    /// The EtherCAT header, read through the frame codec that owns its layout.
+    fn header_view(&self) -> Frame<&[u8]> {
+        Frame::new_unchecked(self.buffer.as_ref())
     }
 
     /// EtherCAT header length (bits 0-10): 6 + mailbox data length.
     pub fn ecat_length(&self) -> u16 {
-        self.ecat_header() & fields::LENGTH_MASK
+        self.header_view().length()
     }
 
     /// EtherCAT header reserved bit 11.
     pub fn ecat_reserved(&self) -> bool {
-        self.ecat_header() & fields::RESERVED_BIT != 0
+        self.header_view().reserved_bit()
     }
 
     /// EtherCAT header type (bits 12-15); 5 for a gateway message.
     pub fn ecat_type(&self) -> u8 {
-        (self.ecat_header() >> fields::TYPE_SHIFT) as u8
+        u8::from(self.header_view().frame_type())
     }
 
     /// Size of the mailbox message (6 + the mailbox header's length field).
@@ -158,9 +155,7 @@ impl<T: AsRef<[u8]> + AsMut<[u8]>> GatewayMessage<T> {
     /// Sets the EtherCAT header to type 5 with the given length (masked to 11 bits; emit
     /// checks the range first).
     pub fn set_ecat_header(&mut self, length: u16) {
-        let value =
-            (u16::from(ECAT_TYPE_MAILBOX) << fields::TYPE_SHIFT) | (length & fields::LENGTH_MASK);
-        field::set_u16_le(self.buffer.as_mut(), fields::ECAT_HEADER.start, value)
+        Frame::new_unchecked(self.buffer.as_mut()).set_length_type(length, FrameType::Mailbox)
     }
 
     /// Everything after the EtherCAT header, mutable (where the mailbox goes).

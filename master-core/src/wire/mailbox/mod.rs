@@ -1,7 +1,9 @@
-//! The mailbox layer (digest §5): header, error reply, and dispatch by protocol type.
+//! The mailbox layer (digest §5): header, error reply, and messages decoded by protocol type.
 
 pub mod error_reply;
 pub mod header;
+pub mod message;
 
 pub use error_reply::{ERROR_REPLY_LEN, ErrorReply, ErrorReplyRepr, MailboxErrorCode};
 pub use header::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
+pub use message::{MailboxMessage, MailboxPayload};
