@@ -1,23 +1,7 @@
-//! Any byte string as an EtherCAT payload: walk it as a datagram chain, read-only and in place.
+//! Fuzz target `datagrams`: see `entry_points::datagrams`.
 #![no_main]
 
-use libfuzzer_sys::fuzz_target;
-use master_core::wire::datagram::{Datagrams, DatagramsMut};
+#[path = "../entry_points.rs"]
+mod entry_points;
 
-fuzz_target!(|data: &[u8]| {
-    for datagram in Datagrams::new(data) {
-        if datagram.is_err() {
-            break;
-        }
-    }
-    let mut copy = data.to_vec();
-    for datagram in DatagramsMut::new(&mut copy) {
-        match datagram {
-            Ok(mut d) => {
-                let wkc = d.wkc().wrapping_add(1);
-                d.set_wkc(wkc);
-            }
-            Err(_) => break,
-        }
-    }
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| entry_points::datagrams(data));

@@ -1,16 +1,7 @@
-//! Any byte string as a whole Ethernet frame: parse, walk the datagrams, print them.
+//! Fuzz target `frame`: see `entry_points::frame`.
 #![no_main]
 
-use libfuzzer_sys::fuzz_target;
-use master_core::wire::frame::EthercatFrame;
+#[path = "../entry_points.rs"]
+mod entry_points;
 
-fuzz_target!(|data: &[u8]| {
-    if let Ok(frame) = EthercatFrame::parse(data) {
-        if let Ok(datagrams) = frame.datagrams() {
-            for datagram in datagrams.flatten() {
-                let _ = datagram.to_string();
-            }
-        }
-        let _ = frame.to_string();
-    }
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| entry_points::frame(data));
