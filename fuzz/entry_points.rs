@@ -24,8 +24,11 @@ use master_core::wire::register::{
 use master_core::wire::sii::image::SiiImage;
 use master_core::wire::soe::Idn;
 
+/// An entry point: takes any bytes, must not panic.
+pub type EntryPoint = fn(&[u8]);
+
 /// The names of the entry points, as used for corpus folders and fuzz target names.
-pub const ALL: &[(&str, fn(&[u8]))] = &[
+pub const ALL: &[(&str, EntryPoint)] = &[
     ("frame", frame),
     ("datagrams", datagrams),
     ("mailbox", mailbox),
