@@ -84,7 +84,7 @@ fn fewer_bytes_than_a_header_is_too_short() {
 fn wrong_channel_and_types() {
     let mut bench = voe_bench();
     let data = voe_request(0x1164, 1, &[1]);
-    let message = build_message(MailboxType::Voe, 0, 5, 1, &data);
+    let message = build_message(MailboxType::Voe, 0, 5, 0, &data);
     assert_eq!(
         only_error(bench.send_padded(&message)),
         MailboxErrorCode::InvalidChannel
