@@ -25,6 +25,15 @@
 //!
 //! Every reply a master can cause is built with the `master_core::wire` codecs; nothing a
 //! master sends can make the layer panic (checked by a property test).
+//!
+//! # Services
+//!
+//! EoE, FoE, SoE and VoE are in this folder's siblings (`device::{eoe, foe, soe, voe}`).
+//! CoE has its slot but no service here yet: the CoE server (shared with the master's object
+//! dictionary) implements [`MailboxService`] with [`MailboxType::Coe`] and is added with
+//! [`MailboxStack::register`]; until then a CoE request is answered with 0x0002 like any
+//! protocol the slave lacks, and SII word 0x1C ([`MailboxStack::supported_protocols`]) does
+//! not claim CoE.
 
 mod service;
 mod stats;
