@@ -329,3 +329,75 @@ proptest! {
         }
     }
 }
+
+/// A request shaped like one of the protocols: a plausible first header byte (opcode or frame
+/// type), a small IDN / packet number, then random bytes — to reach the services' state
+/// machines rather than only their parsers.
+fn shaped_request() -> impl Strategy<Value = (MailboxType, Vec<u8>)> {
+    let tail = proptest::collection::vec(any::<u8>(), 0..120);
+    prop_oneof![
+        // FoE: opcodes 0..=7, packet numbers 0..4, file names "a"/"fw.bin" or data.
+        (0u8..8, 0u32..4, any::<bool>(), tail.clone()).prop_map(|(op, n, named, tail)| {
+            let mut data = vec![op, 0];
+            data.extend_from_slice(&n.to_le_bytes());
+            if named {
+                data.extend_from_slice(if n % 2 == 0 { b"a" } else { b"fw.bin" });
+            } else {
+                data.extend_from_slice(&tail);
+            }
+            (MailboxType::Foe, data)
+        }),
+        // SoE: any flags byte, any elements, an IDN of the default set or a fragment count.
+        (
+            any::<u8>(),
+            any::<u8>(),
+            prop::sample::select(vec![1u16, 2, 16, 17, 30, 32, 36, 999]),
+            tail.clone()
+        )
+            .prop_map(|(flags, elements, idn, tail)| {
+                let mut data = vec![flags, elements];
+                data.extend_from_slice(&idn.to_le_bytes());
+                data.extend_from_slice(&tail);
+                (MailboxType::Soe, data)
+            }),
+        // EoE: frame types 0..=10, any flags, any fragment info.
+        (0u8..11, any::<u8>(), any::<u16>(), tail.clone()).prop_map(|(ty, flags, info, tail)| {
+            let mut data = vec![ty, flags];
+            data.extend_from_slice(&info.to_le_bytes());
+            data.extend_from_slice(&tail);
+            (MailboxType::Eoe, data)
+        }),
+        // VoE for the served vendor or another one.
+        (any::<bool>(), tail).prop_map(|(ours, tail)| {
+            let vendor: u32 = if ours { 0x1164 } else { 2 };
+            let mut data = vendor.to_le_bytes().to_vec();
+            data.extend_from_slice(&[1, 0]);
+            data.extend_from_slice(&tail);
+            (MailboxType::Voe, data)
+        }),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// Sequences of protocol-shaped requests never panic and every reply parses and fits SM1.
+    #[test]
+    fn protocol_shaped_sequences_never_panic(
+        requests in proptest::collection::vec(shaped_request(), 1..24),
+        sm in prop::sample::select(vec![16u16, 32, 64, 128, 256]),
+    ) {
+        let mut bench = Bench::new(full_stack(), sm, sm);
+        for (mailbox_type, data) in requests {
+            if data.len() + 6 > usize::from(sm) {
+                continue;
+            }
+            for reply in bench.request(mailbox_type, &data) {
+                prop_assert!(reply.data.len() + 6 <= usize::from(sm));
+                if reply.header.mailbox_type == MailboxType::Error {
+                    prop_assert!(reply.error_code().is_some());
+                }
+            }
+        }
+    }
+}
