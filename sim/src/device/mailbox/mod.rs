@@ -231,27 +231,24 @@ impl MailboxStack {
             code,
             address: header.address,
         };
-        let refusal = if header.channel != 0 {
-            refuse(MailboxErrorCode::InvalidChannel)
-        } else if header.mailbox_type == MailboxType::Error {
-            refuse(MailboxErrorCode::InvalidHeader)
-        } else {
-            let room = self.room();
-            let max_data = max_data_len(ctx);
-            let Some(service) = self
-                .services
-                .iter_mut()
-                .find(|s| s.mailbox_type() == header.mailbox_type)
-            else {
-                self.post_refusal(refuse(MailboxErrorCode::UnsupportedProtocol), ctx);
-                return;
-            };
-            let mut sink = ReplySink::new(header.mailbox_type, header.address, max_data, room);
-            service.handle(header, data, ctx, &mut sink);
-            self.absorb(sink, ctx);
-            return;
+        if header.channel != 0 {
+            return self.post_refusal(refuse(MailboxErrorCode::InvalidChannel), ctx);
+        }
+        if header.mailbox_type == MailboxType::Error {
+            // A master never sends type 0 (SOES: invalid header).
+            return self.post_refusal(refuse(MailboxErrorCode::InvalidHeader), ctx);
+        }
+        let room = self.room();
+        let Some(service) = self
+            .services
+            .iter_mut()
+            .find(|s| s.mailbox_type() == header.mailbox_type)
+        else {
+            return self.post_refusal(refuse(MailboxErrorCode::UnsupportedProtocol), ctx);
         };
-        self.post_refusal(refusal, ctx);
+        let mut sink = ReplySink::new(header.mailbox_type, header.address, max_data_len(ctx), room);
+        service.handle(header, data, ctx, &mut sink);
+        self.absorb(sink, ctx);
     }
 
     fn room(&self) -> usize {
