@@ -1,6 +1,7 @@
 //! The FoE server of a simulated slave (mailbox type 4, digest §8, slave rules §8.5).
 //!
 //! - [`store`]: the files ([`FileStore`], a shared handle);
+//! - [`busy`]: the configurable BUSY phases of a write ([`BusyPhase`]);
 //! - here: [`FoeService`], one transfer at a time.
 //!
 //! **Read (RRQ)**: file not found 0x8001, wrong password 0x800A, not readable 0x8002;
@@ -27,6 +28,7 @@
 //! other opcode the current state does not expect → ERROR 0x8004 and back to idle. Every
 //! ERROR carries the code's text. BOOT-only rules (0x8008/0x8009) are not modelled.
 
+pub mod busy;
 pub mod store;
 
 use std::any::Any;
@@ -38,57 +40,10 @@ use master_core::wire::mailbox::{MailboxHeader, MailboxType};
 use crate::device::DeviceContext;
 use crate::device::mailbox::{MailboxService, ReplySink};
 
+pub use busy::BusyPhase;
 pub use store::{FileStore, FoeFile};
 
-/// When and how long the slave answers BUSY during a write.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct BusyPhase {
-    /// BUSY answers before the ACK 0 of a WRQ (e.g. erasing).
-    pub after_write_request: u16,
-    /// BUSY answers before the ACK of the last DATA packet (e.g. programming).
-    pub after_last_packet: u16,
-    /// Only files whose names end with this get the phases (`None`: every file).
-    pub file_suffix: Option<String>,
-    /// The text sent with each BUSY.
-    pub text: String,
-}
-
-impl Default for BusyPhase {
-    /// No BUSY at all; when counts are set, only `*.bin` files, with the text "flashing".
-    fn default() -> Self {
-        BusyPhase {
-            after_write_request: 0,
-            after_last_packet: 0,
-            file_suffix: Some(".bin".to_owned()),
-            text: "flashing".to_owned(),
-        }
-    }
-}
-
-impl BusyPhase {
-    fn applies(&self, name: &[u8]) -> bool {
-        self.file_suffix
-            .as_ref()
-            .is_none_or(|suffix| name.ends_with(suffix.as_bytes()))
-    }
-}
-
-/// A BUSY phase in progress: `sent` of `total` BUSY answers given.
-#[derive(Debug, Clone, Copy)]
-struct Busy {
-    sent: u16,
-    total: u16,
-}
-
-impl Busy {
-    fn new(total: u16) -> Self {
-        Busy { sent: 0, total }
-    }
-
-    fn over(&self) -> bool {
-        self.sent >= self.total
-    }
-}
+use busy::Busy;
 
 #[derive(Debug, Clone)]
 enum State {
