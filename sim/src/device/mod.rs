@@ -128,3 +128,12 @@ pub trait Device: Send {
         Ok(())
     }
 }
+
+pub mod dio;
+pub mod eoe;
+pub mod foe;
+pub mod mailbox;
+pub mod soe;
+pub mod voe;
+
+pub use mailbox::{MailboxService, MailboxStack, ReplySink};

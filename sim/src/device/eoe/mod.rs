@@ -1,0 +1,298 @@
+//! The EoE side of a simulated slave (mailbox type 2, digest §9).
+//!
+//! - [`ip_config`]: what Set IP parameter stored;
+//! - [`endpoint`]: the slave's own IPv4 host (ARP and ICMP echo, built with etherparse);
+//! - here: [`EoeService`].
+//!
+//! Frames from the master arrive as fragments and are put together by the codec's
+//! [`Reassembler`]; a fragment that does not continue the frame in progress drops it
+//! (counted in [`EoeCounters::reassembly_errors`]). Every complete frame is offered to the
+//! endpoint, and kept (bounded, oldest dropped) for a test to [`EoeService::take_received`].
+//! Frames to the master — the endpoint's answers and frames a test queues with
+//! [`EoeService::queue_frame`] — are cut by the codec's [`Fragmenter`] for the SM1 size, with
+//! a frame number counting mod 16, and posted all fragments at once or not at all.
+//!
+//! Set IP parameter stores the fields present and answers result 0; Get IP parameter answers
+//! the stored fields. Address filters are not implemented: Set answers 0x0401 ("no filter
+//! support"), Get answers type 9 with 0x0401. Timestamps (time request / appended) are not
+//! produced. Frame types a master does not send (responses, unknown types) → mailbox error
+//! 0x0004.
+
+pub mod endpoint;
+pub mod ip_config;
+
+use std::any::Any;
+use std::collections::VecDeque;
+
+use master_core::wire::WireError;
+use master_core::wire::eoe::{
+    EoeFrameType, EoePacket, EoeRepr, EoeResult, Fragmenter, Reassembler,
+};
+use master_core::wire::mailbox::{self, MailboxErrorCode, MailboxHeader, MailboxType};
+
+use crate::device::mailbox::{MailboxService, ReplySink};
+use crate::device::{DeviceContext, OutboxFull};
+
+pub use endpoint::Answer;
+pub use ip_config::IpConfig;
+
+/// Frames kept for [`EoeService::take_received`] before the oldest are dropped.
+pub const RECEIVED_CAPACITY: usize = 64;
+
+/// Frames waiting to go to the master before [`EoeService::queue_frame`] refuses.
+pub const TX_CAPACITY: usize = 32;
+
+/// Frame counters of one EoE service.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct EoeCounters {
+    /// Complete frames received from the master.
+    pub frames_in: u64,
+    /// Frames sent to the master (all fragments posted).
+    pub frames_out: u64,
+    /// Frames that could not be sent (too large, or the queue was full).
+    pub frames_dropped: u64,
+    /// Partial frames dropped because a fragment did not fit the sequence.
+    pub reassembly_errors: u64,
+    /// ARP replies the endpoint built.
+    pub arp_replies: u64,
+    /// ICMP echo replies the endpoint built.
+    pub icmp_replies: u64,
+}
+
+/// The EoE service.
+#[derive(Debug, Clone)]
+pub struct EoeService {
+    reassembler: Reassembler,
+    config: IpConfig,
+    endpoint: bool,
+    tx_queue: VecDeque<Vec<u8>>,
+    received: VecDeque<Vec<u8>>,
+    next_frame_number: u8,
+    counters: EoeCounters,
+}
+
+impl Default for EoeService {
+    fn default() -> Self {
+        Self::new(IpConfig::default())
+    }
+}
+
+/// Builds an EoE message with the codec.
+fn build(repr: &EoeRepr<'_>) -> Result<Vec<u8>, WireError> {
+    let mut out = vec![0u8; repr.buffer_len()];
+    repr.emit(&mut EoePacket::new_unchecked(&mut out[..]))?;
+    Ok(out)
+}
+
+impl EoeService {
+    /// A service that starts with `config` (e.g. a MAC address set at the factory) and
+    /// answers ARP and ICMP echo once it has a MAC and an IP address.
+    pub fn new(config: IpConfig) -> Self {
+        EoeService {
+            reassembler: Reassembler::default(),
+            config,
+            endpoint: true,
+            tx_queue: VecDeque::new(),
+            received: VecDeque::new(),
+            next_frame_number: 0,
+            counters: EoeCounters::default(),
+        }
+    }
+
+    /// Whether the slave answers ARP and ICMP echo itself (default: yes).
+    pub fn with_endpoint(mut self, enabled: bool) -> Self {
+        self.endpoint = enabled;
+        self
+    }
+
+    /// The current IP settings.
+    pub fn config(&self) -> &IpConfig {
+        &self.config
+    }
+
+    /// Replaces the IP settings.
+    pub fn set_config(&mut self, config: IpConfig) {
+        self.config = config;
+    }
+
+    /// The frame counters.
+    pub fn counters(&self) -> EoeCounters {
+        self.counters
+    }
+
+    /// Takes the frames received from the master so far, oldest first.
+    pub fn take_received(&mut self) -> Vec<Vec<u8>> {
+        self.received.drain(..).collect()
+    }
+
+    /// Queues an Ethernet frame (without FCS) to send to the master; it goes out from
+    /// [`MailboxService::poll`] when the mailbox has room.
+    pub fn queue_frame(&mut self, frame: Vec<u8>) -> Result<(), OutboxFull> {
+        if self.tx_queue.len() >= TX_CAPACITY {
+            return Err(OutboxFull);
+        }
+        self.tx_queue.push_back(frame);
+        Ok(())
+    }
+
+    /// A frame from the master is complete.
+    fn frame_received(&mut self, frame: Vec<u8>, replies: &mut ReplySink) {
+        self.counters.frames_in += 1;
+        if self.endpoint {
+            match endpoint::answer(&frame, &self.config) {
+                Some(Answer::Arp(reply)) => {
+                    self.counters.arp_replies += 1;
+                    self.send_or_queue(reply, replies);
+                }
+                Some(Answer::IcmpEcho(reply)) => {
+                    self.counters.icmp_replies += 1;
+                    self.send_or_queue(reply, replies);
+                }
+                None => {}
+            }
+        }
+        if self.received.len() >= RECEIVED_CAPACITY {
+            self.received.pop_front();
+        }
+        self.received.push_back(frame);
+    }
+
+    fn send_or_queue(&mut self, frame: Vec<u8>, replies: &mut ReplySink) {
+        if !self.tx_queue.is_empty() {
+            // Keep the order: older frames go first.
+            if self.queue_frame(frame).is_err() {
+                self.counters.frames_dropped += 1;
+            }
+            return;
+        }
+        match self.transmit(&frame, replies) {
+            Ok(true) => {}
+            Ok(false) => {
+                if self.queue_frame(frame).is_err() {
+                    self.counters.frames_dropped += 1;
+                }
+            }
+            Err(()) => self.counters.frames_dropped += 1,
+        }
+    }
+
+    /// Posts all fragments of `frame`: `Ok(false)` when the mailbox has no room for all of
+    /// them (nothing posted), `Err` when the frame can never be sent.
+    fn transmit(&mut self, frame: &[u8], replies: &mut ReplySink) -> Result<bool, ()> {
+        let mailbox_size = replies.max_data_len() + mailbox::HEADER_LEN;
+        let fragmenter =
+            Fragmenter::new(frame, mailbox_size, self.next_frame_number).map_err(|_| ())?;
+        let messages: Result<Vec<_>, _> =
+            fragmenter.map(|f| build(&EoeRepr::Fragment(f))).collect();
+        let messages = messages.map_err(|_| ())?;
+        if messages.len() > replies.room() {
+            return Ok(false);
+        }
+        for message in messages {
+            let _ = replies.send(message);
+        }
+        self.next_frame_number = (self.next_frame_number + 1) % 16;
+        self.counters.frames_out += 1;
+        Ok(true)
+    }
+
+    fn respond(replies: &mut ReplySink, repr: &EoeRepr<'_>) {
+        let _ = replies.send_emitted(build(repr));
+    }
+}
+
+impl MailboxService for EoeService {
+    fn mailbox_type(&self) -> MailboxType {
+        MailboxType::Eoe
+    }
+
+    fn handle(
+        &mut self,
+        _request: &MailboxHeader,
+        data: &[u8],
+        _ctx: &DeviceContext,
+        replies: &mut ReplySink,
+    ) {
+        let parsed = EoePacket::new_checked(data).and_then(|p| EoeRepr::parse(&p));
+        let request = match parsed {
+            Ok(request) => request,
+            Err(e) => {
+                let _ = replies.reject(&e);
+                return;
+            }
+        };
+        match request {
+            EoeRepr::Fragment(fragment) => match self.reassembler.push(&fragment) {
+                Ok(Some(frame)) => {
+                    let frame = frame.frame.to_vec();
+                    self.frame_received(frame, replies);
+                }
+                Ok(None) => {}
+                Err(_) => self.counters.reassembly_errors += 1,
+            },
+            EoeRepr::SetIpRequest { port, params } => {
+                self.config.apply(&params);
+                let result = EoeResult::Success;
+                Self::respond(replies, &EoeRepr::SetIpResponse { port, result });
+            }
+            EoeRepr::GetIpRequest { port } => {
+                let params = self.config.as_params();
+                let result = EoeResult::Success;
+                Self::respond(
+                    replies,
+                    &EoeRepr::GetIpResponse {
+                        port,
+                        result,
+                        params,
+                    },
+                );
+            }
+            EoeRepr::SetAddressFilterRequest { port, .. } => {
+                let result = EoeResult::NoFilterSupport;
+                Self::respond(replies, &EoeRepr::SetAddressFilterResponse { port, result });
+            }
+            EoeRepr::Other {
+                frame_type: EoeFrameType::GetAddressFilterRequest,
+                port,
+                ..
+            } => Self::respond(
+                replies,
+                &EoeRepr::Other {
+                    frame_type: EoeFrameType::GetAddressFilterResponse,
+                    port,
+                    info: u16::from(EoeResult::NoFilterSupport),
+                    body: &[],
+                },
+            ),
+            _ => {
+                let _ = replies.mailbox_error(MailboxErrorCode::ServiceNotSupported);
+            }
+        }
+    }
+
+    fn poll(&mut self, _ctx: &DeviceContext, replies: &mut ReplySink) {
+        while let Some(frame) = self.tx_queue.pop_front() {
+            match self.transmit(&frame, replies) {
+                Ok(true) => {}
+                Ok(false) => {
+                    self.tx_queue.push_front(frame);
+                    return;
+                }
+                Err(()) => self.counters.frames_dropped += 1,
+            }
+        }
+    }
+
+    fn reset(&mut self) {
+        self.reassembler.reset();
+        self.tx_queue.clear();
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}
