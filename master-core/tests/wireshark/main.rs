@@ -21,7 +21,9 @@ use master_core::wire::datagram::{DatagramRepr, FrameBuilder};
 use master_core::wire::eoe::{EoeRepr, FragmentRepr, IpParameters};
 use master_core::wire::foe::{FoeError, FoeRepr};
 use master_core::wire::gateway::GatewayRepr;
-use master_core::wire::mailbox::{MailboxHeader, MailboxMessage, MailboxPayload};
+use master_core::wire::mailbox::{
+    ErrorReplyRepr, MailboxErrorCode, MailboxHeader, MailboxMessage, MailboxPayload,
+};
 use master_core::wire::soe::{ElementFlags, Idn, IdnOrFragments, SoeOpcode, SoeRepr};
 use master_core::wire::voe::VoeRepr;
 
@@ -583,7 +585,7 @@ fn eoe_cases() -> Vec<Case> {
 }
 
 fn voe_cases() -> Vec<Case> {
-    let mut cases = mailbox_case(
+    decoded_only_through_gateway(mailbox_case(
         "VoE",
         MailboxPayload::Voe(VoeRepr {
             vendor_id: 0x0000_1164,
@@ -592,11 +594,18 @@ fn voe_cases() -> Vec<Case> {
         }),
         true,
         vec![],
-    );
-    // Wireshark 4.0 decodes VoE only through the gateway; inside a datagram it shows the
-    // bytes as data (still not malformed, which the capture-wide check asserts).
-    cases[0].expect.clear();
-    cases
+    ))
+}
+
+fn error_reply_cases() -> Vec<Case> {
+    mailbox_case(
+        "mailbox error reply",
+        MailboxPayload::Error(ErrorReplyRepr {
+            detail: MailboxErrorCode::from(0x0002),
+        }),
+        false,
+        vec![],
+    )
 }
 
 fn all_cases() -> Vec<Case> {
@@ -607,6 +616,7 @@ fn all_cases() -> Vec<Case> {
     cases.extend(foe_cases());
     cases.extend(eoe_cases());
     cases.extend(voe_cases());
+    cases.extend(error_reply_cases());
     cases
 }
 
