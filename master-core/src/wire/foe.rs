@@ -620,11 +620,10 @@ mod tests {
 
         #[test]
         fn never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..32)) {
-            if let Ok(packet) = FoePacket::new_checked(&bytes[..]) {
-                if let Ok(repr) = FoeRepr::parse(&packet) {
+            if let Ok(packet) = FoePacket::new_checked(&bytes[..])
+                && let Ok(repr) = FoeRepr::parse(&packet) {
                     let _ = repr.to_string();
                 }
-            }
         }
     }
 }

@@ -1168,11 +1168,10 @@ mod tests {
 
         #[test]
         fn never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..32)) {
-            if let Ok(packet) = SoePacket::new_checked(&bytes[..]) {
-                if let Ok(repr) = SoeRepr::parse(&packet) {
+            if let Ok(packet) = SoePacket::new_checked(&bytes[..])
+                && let Ok(repr) = SoeRepr::parse(&packet) {
                     let _ = repr.to_string();
                 }
-            }
             if let Ok(s) = core::str::from_utf8(&bytes) {
                 let _ = s.parse::<Idn>();
             }

@@ -597,15 +597,23 @@ fn voe_cases() -> Vec<Case> {
     ))
 }
 
+/// Wireshark 4.0 decodes VoE and mailbox error replies only through the gateway; inside a
+/// datagram it shows their bytes as plain data (still never malformed, which the
+/// capture-wide check asserts), so only the gateway copy has fields to compare.
+fn decoded_only_through_gateway(mut cases: Vec<Case>) -> Vec<Case> {
+    cases[0].expect.clear();
+    cases
+}
+
 fn error_reply_cases() -> Vec<Case> {
-    mailbox_case(
+    decoded_only_through_gateway(mailbox_case(
         "mailbox error reply",
         MailboxPayload::Error(ErrorReplyRepr {
             detail: MailboxErrorCode::from(0x0002),
         }),
         false,
         vec![],
-    )
+    ))
 }
 
 fn all_cases() -> Vec<Case> {

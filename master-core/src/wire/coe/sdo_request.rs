@@ -688,11 +688,10 @@ pub(crate) mod tests {
 
         #[test]
         fn never_panics(bytes in arb_bytes(0, 40)) {
-            if let Ok(frame) = SdoFrame::new_checked(&bytes[..]) {
-                if let Ok(req) = SdoRequest::parse(&frame) {
+            if let Ok(frame) = SdoFrame::new_checked(&bytes[..])
+                && let Ok(req) = SdoRequest::parse(&frame) {
                     let _ = req.to_string();
                 }
-            }
         }
     }
 }

@@ -492,11 +492,10 @@ mod tests {
 
         #[test]
         fn never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..40)) {
-            if let Ok(frame) = SdoFrame::new_checked(&bytes[..]) {
-                if let Ok(rsp) = SdoResponse::parse(&frame) {
+            if let Ok(frame) = SdoFrame::new_checked(&bytes[..])
+                && let Ok(rsp) = SdoResponse::parse(&frame) {
                     let _ = rsp.to_string();
                 }
-            }
         }
     }
 }

@@ -711,14 +711,13 @@ proptest! {
 
     #[test]
     fn never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..160)) {
-        if let Ok(packet) = EoePacket::new_checked(&bytes[..]) {
-            if let Ok(repr) = EoeRepr::parse(&packet) {
+        if let Ok(packet) = EoePacket::new_checked(&bytes[..])
+            && let Ok(repr) = EoeRepr::parse(&packet) {
                 let _ = repr.to_string();
                 if let EoeRepr::Fragment(f) = repr {
                     let _ = Reassembler::new(64).push(&f);
                 }
             }
-        }
         let _ = IpParameters::parse_body(&bytes);
         let _ = AddressFilter::parse_body(&bytes);
     }

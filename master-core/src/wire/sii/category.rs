@@ -200,7 +200,7 @@ impl<'a> CategoryRepr<'a> {
 
     /// Writes header and data; refuses an odd data length or one beyond 0xFFFF words.
     pub fn emit<T: AsRef<[u8]> + AsMut<[u8]>>(&self, view: &mut Category<T>) -> Result<()> {
-        if self.data.len() % 2 != 0 {
+        if !self.data.len().is_multiple_of(2) {
             return Err(WireError::Invalid {
                 what: "SII category",
                 reason: "data is not a whole number of words",

@@ -114,7 +114,7 @@ pub struct DcCategoryRepr {
 impl DcCategoryRepr {
     /// Parses the category data; its length must be a multiple of 24 (`BadLength`).
     pub fn parse(data: &[u8]) -> Result<Self> {
-        if data.len() % DC_ENTRY_LEN != 0 {
+        if !data.len().is_multiple_of(DC_ENTRY_LEN) {
             return Err(WireError::BadLength {
                 what: "SII DC",
                 declared: data.len(),

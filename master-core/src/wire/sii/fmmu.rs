@@ -74,7 +74,7 @@ impl FmmuCategoryRepr {
         for (out, usage) in buf.iter_mut().zip(&self.usages) {
             *out = u8::from(*usage);
         }
-        if self.usages.len() % 2 != 0 {
+        if !self.usages.len().is_multiple_of(2) {
             buf[len - 1] = u8::from(FmmuUsage::Unused);
         }
         Ok(())

@@ -183,7 +183,7 @@ pub struct SyncmCategoryRepr {
 impl SyncmCategoryRepr {
     /// Parses the category data; its length must be a multiple of 8 (`BadLength`).
     pub fn parse(data: &[u8]) -> Result<Self> {
-        if data.len() % SYNCM_ENTRY_LEN != 0 {
+        if !data.len().is_multiple_of(SYNCM_ENTRY_LEN) {
             return Err(WireError::BadLength {
                 what: "SII SYNCM",
                 declared: data.len(),
