@@ -2,10 +2,11 @@
 //! Info error for anything the server cannot answer.
 
 use crate::wire::coe::AbortCode;
-use crate::wire::coe::info::entry::value_len;
+use crate::wire::coe::info::entry::{ENTRY_RESPONSE_FIXED_LEN, value_len};
+use crate::wire::coe::info::object::OBJECT_DESCRIPTION_FIXED_LEN;
 use crate::wire::coe::info::{
-    EntryDescription, ObjectDescription, OdList, OdListType, SdoInfoFrame, SdoInfoRepr,
-    SdoInfoService, ValueInfo,
+    EntryDescription, ObjectDescription, OdList, OdListType, SDO_INFO_HEADER_LEN, SdoInfoFrame,
+    SdoInfoRepr, SdoInfoService, UNIT_TYPE_LEN, ValueInfo,
 };
 use crate::wire::error::WireError;
 
@@ -45,8 +46,9 @@ fn words_to_bytes(words: &[u16]) -> Vec<u8> {
     words.iter().flat_map(|w| w.to_le_bytes()).collect()
 }
 
-/// Get OD List: the list type, then the indices (or, for type 0, the five counts). The
-/// list type heads only the first fragment because fragments split the service data.
+/// Get OD List: the list type, then the indices (or, for type 0, the five counts),
+/// fragmented when longer than SM1 holds; the list type heads only the first fragment
+/// because fragments split the service data.
 fn od_list(dict: &dyn Dictionary, list_type: OdListType, out: &mut Replies<'_>) {
     let mut words = vec![u16::from(list_type)];
     match list_type {
@@ -63,27 +65,43 @@ fn od_list(dict: &dyn Dictionary, list_type: OdListType, out: &mut Replies<'_>) 
     out.info(SdoInfoService::OdListResponse(OdList(&bytes)));
 }
 
-/// Get Object Description.
+/// The longest prefix of `name` that leaves `room` bytes, cut on a character boundary.
+fn cut(name: &str, room: usize) -> &[u8] {
+    let mut end = name.len().min(room);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    &name.as_bytes()[..end]
+}
+
+/// Get Object Description, in one message: the name is cut to what SM1 holds.
+///
+/// Descriptions are never fragmented: clients such as SOEM and IgH read them from a single
+/// message, and a continuation fragment of a description is not a description by itself
+/// (the codec could not parse it). Only OD lists are fragmented.
 fn object(dict: &dyn Dictionary, index: u16, out: &mut Replies<'_>) {
     let Some(info) = dict.object(index) else {
         return out.info_error(AbortCode::ObjectDoesNotExist);
     };
-    out.info(SdoInfoService::ObjectDescriptionResponse(
-        ObjectDescription {
-            index,
-            data_type: info.data_type,
-            max_subindex: info.max_subindex,
-            object_code: info.object_code,
-            name: info.name.as_bytes(),
-        },
-    ));
+    let fixed = SDO_INFO_HEADER_LEN + OBJECT_DESCRIPTION_FIXED_LEN;
+    let Some(room) = out.capacity().checked_sub(fixed) else {
+        return out.info_error(AbortCode::ObjectTooLong);
+    };
+    out.info(SdoInfoService::ObjectDescriptionResponse(ObjectDescription {
+        index,
+        data_type: info.data_type,
+        max_subindex: info.max_subindex,
+        object_code: info.object_code,
+        name: cut(&info.name, room),
+    }));
 }
 
-/// Get Entry Description. The value-info byte of the answer keeps the requested bits 0-2
-/// and those of bits 3-6 whose value the entry declares: a client reads the optional
-/// fields by the answer's bits, so absent values are left out rather than invented.
-/// Default/minimum/maximum are padded with zeros to ⌈bit length / 8⌉ bytes (strings
-/// shorter than their maximum).
+/// Get Entry Description, in one message like the object description. The value-info
+/// byte of the answer keeps the requested bits 0-2 and those of bits 3-6 whose value the
+/// entry declares: a client reads the optional fields by the answer's bits, so absent
+/// values are left out rather than invented (likewise all of them when they would not fit
+/// SM1). Default/minimum/maximum are padded with zeros to ⌈bit length / 8⌉ bytes (strings
+/// shorter than their maximum). The name is cut to what is left.
 fn entry(
     dict: &dyn Dictionary,
     index: u16,
@@ -102,12 +120,25 @@ fn entry(
         v.resize(n, 0);
         Some(v)
     };
-    let default = padded(ValueInfo::DEFAULT, info.default.as_deref());
-    let minimum = padded(ValueInfo::MINIMUM, info.minimum.as_deref());
-    let maximum = padded(ValueInfo::MAXIMUM, info.maximum.as_deref());
-    let unit_type = info
-        .unit
-        .filter(|_| requested.contains(ValueInfo::UNIT_TYPE));
+    let mut default = padded(ValueInfo::DEFAULT, info.default.as_deref());
+    let mut minimum = padded(ValueInfo::MINIMUM, info.minimum.as_deref());
+    let mut maximum = padded(ValueInfo::MAXIMUM, info.maximum.as_deref());
+    let mut unit_type = info.unit.filter(|_| requested.contains(ValueInfo::UNIT_TYPE));
+    let fixed = SDO_INFO_HEADER_LEN + ENTRY_RESPONSE_FIXED_LEN;
+    let optional_len = |unit: Option<u32>, values: [&Option<Vec<u8>>; 3]| {
+        unit.map_or(0, |_| UNIT_TYPE_LEN)
+            + values
+                .iter()
+                .map(|v| v.as_ref().map_or(0, Vec::len))
+                .sum::<usize>()
+    };
+    if fixed + optional_len(unit_type, [&default, &minimum, &maximum]) > out.capacity() {
+        (default, minimum, maximum, unit_type) = (None, None, None, None);
+    }
+    let Some(room) = out.capacity().checked_sub(fixed) else {
+        return out.info_error(AbortCode::ObjectTooLong);
+    };
+    let optional = optional_len(unit_type, [&default, &minimum, &maximum]);
     let mut bits = requested.0 & (ValueInfo::ACCESS | ValueInfo::CATEGORY | ValueInfo::MAPPABLE);
     for (present, bit) in [
         (unit_type.is_some(), ValueInfo::UNIT_TYPE),
@@ -130,6 +161,6 @@ fn entry(
         default: default.as_deref(),
         minimum: minimum.as_deref(),
         maximum: maximum.as_deref(),
-        description: info.name.as_bytes(),
+        description: cut(&info.name, room - optional),
     }));
 }
