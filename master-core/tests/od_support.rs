@@ -2,7 +2,7 @@
 //! client that builds requests and reads replies only through the wire codecs.
 #![allow(dead_code)]
 
-use master_core::od::access::presets::{RW_PREOP, RW_RX, RO_TX, WO};
+use master_core::od::access::presets::{RO_TX, RW_PREOP, RW_RX, WO};
 use master_core::od::{
     Identity, Outcome, PdoEntry, SdoServer, ServerContext, SmType, StaticDictionary,
 };
@@ -16,9 +16,13 @@ use master_core::wire::coe::{
 };
 use master_core::wire::register::AlState;
 
+/// Identity values of the test dictionary.
 pub const VENDOR: u32 = 0x0000_0002;
+/// Product code of the test dictionary.
 pub const PRODUCT: u32 = 0x07D4_3052;
+/// Revision of the test dictionary.
 pub const REVISION: u32 = 0x0011_0000;
+/// Serial number of the test dictionary.
 pub const SERIAL: u32 = 0x1234_5678;
 
 /// Index of the 4 KiB DOMAIN.
@@ -39,24 +43,92 @@ pub fn test_dictionary() -> StaticDictionary {
             revision: REVISION,
             serial: SERIAL,
         })
-        .var(0x2001, "u8 value", DataType::Unsigned8, ObjectAccess::RW, 0x11u8)
-        .var(0x2002, "u16 value", DataType::Unsigned16, ObjectAccess::RW, 0x2222u16)
-        .var(0x2003, "u24 value", DataType::Unsigned24, ObjectAccess::RW, 0x33_3333u32)
-        .var(0x2004, "u32 value", DataType::Unsigned32, ObjectAccess::RW, 0x4444_4444u32)
-        .var(0x2005, "Limited", DataType::Integer16, ObjectAccess::RW, 5i16)
+        .var(
+            0x2001,
+            "u8 value",
+            DataType::Unsigned8,
+            ObjectAccess::RW,
+            0x11u8,
+        )
+        .var(
+            0x2002,
+            "u16 value",
+            DataType::Unsigned16,
+            ObjectAccess::RW,
+            0x2222u16,
+        )
+        .var(
+            0x2003,
+            "u24 value",
+            DataType::Unsigned24,
+            ObjectAccess::RW,
+            0x33_3333u32,
+        )
+        .var(
+            0x2004,
+            "u32 value",
+            DataType::Unsigned32,
+            ObjectAccess::RW,
+            0x4444_4444u32,
+        )
+        .var(
+            0x2005,
+            "Limited",
+            DataType::Integer16,
+            ObjectAccess::RW,
+            5i16,
+        )
         .range(-100i16, 100i16)
         .default_value(5i16)
         .unit(0x00_01_00_00)
-        .bytes(OCTETS, "Octets", DataType::OctetString, ObjectAccess::RW, vec![0; 100], 100)
-        .bytes(BLOB, "Blob", DataType::Domain, ObjectAccess::RW, vec![0xEE; 4096], 4096)
-        .var(0x2030, "Read only", DataType::Unsigned32, ObjectAccess::RO, 7u32)
+        .bytes(
+            OCTETS,
+            "Octets",
+            DataType::OctetString,
+            ObjectAccess::RW,
+            vec![0; 100],
+            100,
+        )
+        .bytes(
+            BLOB,
+            "Blob",
+            DataType::Domain,
+            ObjectAccess::RW,
+            vec![0xEE; 4096],
+            4096,
+        )
+        .var(
+            0x2030,
+            "Read only",
+            DataType::Unsigned32,
+            ObjectAccess::RO,
+            7u32,
+        )
         .var(0x2031, "Write only", DataType::Unsigned32, WO, 0u32)
         .var(0x2032, "PREOP only", DataType::Unsigned16, RW_PREOP, 0u16)
-        .var(0x2033, "u64 value", DataType::Unsigned64, ObjectAccess::RW, 1u64)
+        .var(
+            0x2033,
+            "u64 value",
+            DataType::Unsigned64,
+            ObjectAccess::RW,
+            1u64,
+        )
         .record(0x2040, "With gap", |r| {
-            r.entry(1, "First", DataType::Unsigned16, ObjectAccess::RW, 0x0101u16)
-                .entry(2, "Second", DataType::Unsigned32, ObjectAccess::RW, 0x0202_0202u32)
-                .entry(4, "Fourth", DataType::Unsigned8, ObjectAccess::RW, 4u8)
+            r.entry(
+                1,
+                "First",
+                DataType::Unsigned16,
+                ObjectAccess::RW,
+                0x0101u16,
+            )
+            .entry(
+                2,
+                "Second",
+                DataType::Unsigned32,
+                ObjectAccess::RW,
+                0x0202_0202u32,
+            )
+            .entry(4, "Fourth", DataType::Unsigned8, ObjectAccess::RW, 4u8)
         })
         .record(0x2050, "Bits", |r| {
             r.entry(1, "Flag A", DataType::Boolean, ObjectAccess::RW, true)
@@ -75,7 +147,12 @@ pub fn test_dictionary() -> StaticDictionary {
         .pdo_mapping(0x1A00, "TxPDO 1", &[PdoEntry::new(0x6000, 0, 16)], 8)
         .rx_pdo_assign(&[0x1600], 4)
         .tx_pdo_assign(&[0x1A00], 4)
-        .sm_types(&[SmType::MailboxOut, SmType::MailboxIn, SmType::Outputs, SmType::Inputs])
+        .sm_types(&[
+            SmType::MailboxOut,
+            SmType::MailboxIn,
+            SmType::Outputs,
+            SmType::Inputs,
+        ])
         .build()
         .expect("test dictionary")
 }
@@ -113,16 +190,21 @@ pub fn info_reply(bytes: &[u8]) -> SdoInfoRepr<'_> {
 
 /// A server, its dictionary and a mailbox configuration, driven like a master would.
 pub struct Client {
+    /// The server under test.
     pub server: SdoServer,
+    /// Its dictionary.
     pub dict: StaticDictionary,
+    /// Mailbox sizes and AL state passed with every request.
     pub ctx: ServerContext,
 }
 
 impl Client {
+    /// The test dictionary behind mailboxes of `mailbox_size` bytes, in PREOP.
     pub fn new(mailbox_size: usize) -> Self {
         Self::with(test_dictionary(), mailbox_size)
     }
 
+    /// `dict` behind mailboxes of `mailbox_size` bytes, in PREOP.
     pub fn with(dict: StaticDictionary, mailbox_size: usize) -> Self {
         Client {
             server: SdoServer::new(),
@@ -131,6 +213,7 @@ impl Client {
         }
     }
 
+    /// The same client in another AL state.
     pub fn state(mut self, state: AlState) -> Self {
         self.ctx.state = state;
         self
@@ -140,9 +223,11 @@ impl Client {
     /// parses with the CoE codec, and that the outcome counts them.
     pub fn raw(&mut self, request: &[u8]) -> Vec<Vec<u8>> {
         let mut replies = Vec::new();
-        let outcome = self.server.handle(&mut self.dict, request, self.ctx, &mut |r: &[u8]| {
-            replies.push(r.to_vec())
-        });
+        let outcome = self
+            .server
+            .handle(&mut self.dict, request, self.ctx, &mut |r: &[u8]| {
+                replies.push(r.to_vec())
+            });
         for r in &replies {
             assert!(r.len() + 6 <= self.ctx.mailbox_size, "reply exceeds SM1");
             CoeRepr::parse(&CoeFrame::new_checked(&r[..]).unwrap()).expect("reply parses");

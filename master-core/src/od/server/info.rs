@@ -87,13 +87,15 @@ fn object(dict: &dyn Dictionary, index: u16, out: &mut Replies<'_>) {
     let Some(room) = out.capacity().checked_sub(fixed) else {
         return out.info_error(AbortCode::ObjectTooLong);
     };
-    out.info(SdoInfoService::ObjectDescriptionResponse(ObjectDescription {
-        index,
-        data_type: info.data_type,
-        max_subindex: info.max_subindex,
-        object_code: info.object_code,
-        name: cut(&info.name, room),
-    }));
+    out.info(SdoInfoService::ObjectDescriptionResponse(
+        ObjectDescription {
+            index,
+            data_type: info.data_type,
+            max_subindex: info.max_subindex,
+            object_code: info.object_code,
+            name: cut(&info.name, room),
+        },
+    ));
 }
 
 /// Get Entry Description, in one message like the object description. The value-info
@@ -123,7 +125,9 @@ fn entry(
     let mut default = padded(ValueInfo::DEFAULT, info.default.as_deref());
     let mut minimum = padded(ValueInfo::MINIMUM, info.minimum.as_deref());
     let mut maximum = padded(ValueInfo::MAXIMUM, info.maximum.as_deref());
-    let mut unit_type = info.unit.filter(|_| requested.contains(ValueInfo::UNIT_TYPE));
+    let mut unit_type = info
+        .unit
+        .filter(|_| requested.contains(ValueInfo::UNIT_TYPE));
     let fixed = SDO_INFO_HEADER_LEN + ENTRY_RESPONSE_FIXED_LEN;
     let optional_len = |unit: Option<u32>, values: [&Option<Vec<u8>>; 3]| {
         unit.map_or(0, |_| UNIT_TYPE_LEN)
