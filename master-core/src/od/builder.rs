@@ -467,3 +467,90 @@ impl ObjectBuilder {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::od::access::presets::RW_PREOP;
+
+    #[test]
+    fn mistakes_are_reported_not_panicked() {
+        let err = DictionaryBuilder::new()
+            .var(0x2000, "x", DataType::Unsigned8, ObjectAccess::RW, 300u16)
+            .build()
+            .unwrap_err();
+        assert_eq!((err.index, err.subindex), (0x2000, Some(0)));
+        assert!(matches!(
+            err.kind,
+            BuildErrorKind::Value(ValueError::OutOfRange { .. })
+        ));
+        assert_eq!(
+            err.to_string(),
+            "object 0x2000:00: UNSIGNED8: value 300 out of range"
+        );
+
+        let twice = DictionaryBuilder::new()
+            .var(0x2000, "x", DataType::Unsigned8, ObjectAccess::RW, 1u8)
+            .var(0x2000, "y", DataType::Unsigned8, ObjectAccess::RW, 1u8)
+            .build()
+            .unwrap_err();
+        assert_eq!(twice.kind, BuildErrorKind::DuplicateIndex);
+
+        let sub0 = DictionaryBuilder::new()
+            .record(0x2001, "r", |r| {
+                r.entry(0, "no", DataType::Unsigned8, ObjectAccess::RW, 1u8)
+            })
+            .build()
+            .unwrap_err();
+        assert_eq!(sub0.kind, BuildErrorKind::DuplicateSubindex);
+
+        let count = DictionaryBuilder::new()
+            .array_with(0x2002, "a", DataType::Unsigned8, |a| {
+                a.entry(1, "e", DataType::Unsigned8, RW_PREOP, 0u8).count(2)
+            })
+            .build()
+            .unwrap_err();
+        assert_eq!(count.kind, BuildErrorKind::CountTooHigh);
+
+        let early = DictionaryBuilder::new().unit(1).build().unwrap_err();
+        assert_eq!(early.kind, BuildErrorKind::NoEntry);
+    }
+
+    #[test]
+    fn declared_objects_have_their_shape() {
+        let dict = DictionaryBuilder::new()
+            .array(
+                0x1C00,
+                "SM types",
+                DataType::Unsigned8,
+                ObjectAccess::RO,
+                [1u8, 2, 3, 4],
+            )
+            .string(0x1008, "Name", ObjectAccess::RO, "abc", 8)
+            .record(0x2000, "R", |r| {
+                r.entry(1, "a", DataType::Integer32, ObjectAccess::RW, -1i32)
+                    .range(-5i32, 5i32)
+                    .default_value(0i32)
+                    .unit(7)
+            })
+            .build()
+            .unwrap();
+        let sm = dict.get_object(0x1C00).unwrap();
+        assert_eq!(
+            (sm.object_code, sm.max_subindex(), sm.count()),
+            (ObjectCode::Array, 4, Some(4))
+        );
+        assert_eq!(sm.entries[0].access, ObjectAccess::RO);
+        assert_eq!(dict.get::<u8>(0x1C00, 3).unwrap(), 3);
+        let name = &dict.get_object(0x1008).unwrap().entries[0];
+        assert_eq!(
+            (name.bit_length, name.max_len, name.value.as_slice()),
+            (64, 8, &b"abc"[..])
+        );
+        let e = &dict.get_object(0x2000).unwrap().entries[1];
+        assert_eq!(e.minimum.as_deref(), Some(&(-5i32).to_le_bytes()[..]));
+        assert_eq!(e.default.as_deref(), Some(&[0u8; 4][..]));
+        assert_eq!(e.unit, Some(7));
+        assert_eq!(dict.get::<i64>(0x2000, 1).unwrap(), -1);
+    }
+}

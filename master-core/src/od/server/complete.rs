@@ -129,8 +129,8 @@ pub(super) fn write(
         return dict.write_entries(index, &[EntryWrite { subindex: 0, data }], state);
     }
     let si0_access = dict.entry(index, 0)?.access;
-    let write_count = subindex == 0 && si0_access.writable();
-    let count = if write_count {
+    let takes_count = subindex == 0 && si0_access.writable();
+    let count = if takes_count {
         *data.first().ok_or(AbortCode::LengthMismatch)?
     } else {
         current_count(dict, index, state)?
@@ -146,7 +146,7 @@ pub(super) fn write(
     let mut slots = layout.slots().iter();
     if subindex == 0 {
         slots.next();
-        if write_count {
+        if takes_count {
             check_write(si0_access, state)?;
             values.push((0, vec![count]));
         }

@@ -23,7 +23,7 @@ const COUNTED_LISTS: [OdListType; 5] = [
 ];
 
 /// Serves an SDO Information request; `false` if it is too short for its header.
-pub(super) fn serve(dict: &mut dyn Dictionary, request: &[u8], out: &mut Replies<'_>) -> bool {
+pub(super) fn serve(dict: &dyn Dictionary, request: &[u8], out: &mut Replies<'_>) -> bool {
     let Ok(frame) = SdoInfoFrame::new_checked(request) else {
         return false;
     };
@@ -65,7 +65,7 @@ fn od_list(dict: &dyn Dictionary, list_type: OdListType, out: &mut Replies<'_>) 
     out.info(SdoInfoService::OdListResponse(OdList(&bytes)));
 }
 
-/// The longest prefix of `name` that leaves `room` bytes, cut on a character boundary.
+/// The longest prefix of `name` that fits in `room` bytes, cut on a character boundary.
 fn cut(name: &str, room: usize) -> &[u8] {
     let mut end = name.len().min(room);
     while !name.is_char_boundary(end) {

@@ -16,6 +16,13 @@
 //!   and the new request served (the client has evidently given up on the old one);
 //! - an abort from the client: transfer dropped, no reply;
 //! - segmented download whose data do not add up to the announced size: 0x06070010.
+//!
+//! SDO Information: OD lists longer than SM1 holds are fragmented (Incomplete set on all
+//! but the last, Fragments-left counting down, the list type only in the first). Object
+//! and entry descriptions are always one message: names are cut and optional values left
+//! out to fit, because common clients (SOEM, IgH) read them from one message and a
+//! continuation fragment of a description does not parse as one; below the fixed part
+//! the answer is an SDO Info error 0x06010005.
 
 mod complete;
 mod download;
@@ -143,7 +150,7 @@ impl SdoServer {
                 }
             }
             CoeService::SdoInfo => {
-                if !info::serve(dict, request, &mut out) {
+                if !info::serve(&*dict, request, &mut out) {
                     return Outcome::Malformed;
                 }
             }
