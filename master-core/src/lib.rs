@@ -5,8 +5,11 @@
 //!   frames, datagrams, ESC registers, the SII and every mailbox protocol. No I/O.
 //! - [`link`]: sending and receiving raw Ethernet frames — raw socket, in-process pair, pcap
 //!   tap, fault injector.
+//! - [`od`]: the CoE object dictionary and the SDO server answering mailbox requests against
+//!   it — shared by the simulator's slaves and the master's own ETG.1510 dictionary.
 //!
-//! The link, bus, slave, mailbox, gateway and object-dictionary layers build on `wire`.
+//! The bus, slave, mailbox and gateway layers build on these.
 
 pub mod link;
+pub mod od;
 pub mod wire;
