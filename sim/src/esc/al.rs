@@ -250,3 +250,237 @@ impl Esc {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_support::*;
+    use super::*;
+    use master_core::wire::command::Command;
+
+    #[test]
+    fn init_to_preop_checks_the_mailbox_sync_managers() {
+        let (mut esc, mut dev) = slave();
+        assert_eq!(request(&mut esc, &mut dev, 0x0002), (0x0011, 0x0016), "C.5");
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0002),
+            (0x0011, 0x0016),
+            "held"
+        );
+        configure_mailbox(&mut esc, &mut dev);
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0002),
+            (0x0011, 0x0016),
+            "no ack: ignored"
+        );
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0012),
+            (0x0002, 0),
+            "ack + PREOP"
+        );
+        assert_eq!(dev.transitions, vec![(AlState::Init, AlState::PreOp)]);
+        assert_eq!(esc.read_u8(0x0807) & 1, 0, "SM0 enabled by the PDI");
+        assert_eq!(esc.read_u16(0x0120), 0x0012, "AL control reads back");
+    }
+
+    #[test]
+    fn wrong_mailbox_settings_are_refused() {
+        let (mut esc, mut dev) = slave();
+        let mut sms = MAILBOX_SMS;
+        sms[2] = 0x40; // SM0 length 64 instead of 128
+        exec(&mut esc, &mut dev, Command::Apwr, 0, 0x0800, &sms);
+        assert_eq!(request(&mut esc, &mut dev, 0x0002), (0x0011, 0x0016));
+        let mut sms = MAILBOX_SMS;
+        sms[4] = 0x22; // SM0 in the wrong direction
+        exec(&mut esc, &mut dev, Command::Apwr, 0, 0x0800, &sms);
+        assert_eq!(request(&mut esc, &mut dev, 0x0012), (0x0011, 0x0016));
+        let mut sms = MAILBOX_SMS;
+        sms[14] = 0; // SM1 not enabled
+        exec(&mut esc, &mut dev, Command::Apwr, 0, 0x0800, &sms);
+        assert_eq!(request(&mut esc, &mut dev, 0x0012), (0x0011, 0x0016));
+    }
+
+    #[test]
+    fn invalid_and_unknown_requests() {
+        let (mut esc, mut dev) = slave();
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0004),
+            (0x0011, 0x0011),
+            "INIT → SAFEOP"
+        );
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0018),
+            (0x0011, 0x0011),
+            "INIT → OP"
+        );
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0015),
+            (0x0011, 0x0012),
+            "state 5"
+        );
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0010),
+            (0x0011, 0x0012),
+            "state 0"
+        );
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0013),
+            (0x0011, 0x0013),
+            "no BOOT"
+        );
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0001),
+            (0x0001, 0),
+            "INIT acks"
+        );
+        to_preop(&mut esc, &mut dev);
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0008),
+            (0x0012, 0x0011),
+            "PREOP → OP"
+        );
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0013),
+            (0x0012, 0x0011),
+            "PREOP → BOOT"
+        );
+    }
+
+    fn boot_image() -> Vec<u8> {
+        let mut b = master_core::wire::sii::SiiBuilder::new(SiiFixedRepr {
+            boot_rx_mailbox: MailboxArea {
+                offset: 0x1000,
+                size: 244,
+            },
+            boot_tx_mailbox: MailboxArea {
+                offset: 0x1100,
+                size: 244,
+            },
+            ..fixed()
+        });
+        b.syncm = syncm();
+        b.build().unwrap()
+    }
+
+    use master_core::wire::sii::fixed::SiiFixedRepr;
+
+    #[test]
+    fn bootstrap() {
+        let (mut esc, mut dev) = slave_with_image(boot_image());
+        configure_mailbox(&mut esc, &mut dev);
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0003),
+            (0x0011, 0x0015),
+            "standard SMs"
+        );
+        let sms = [
+            0x00, 0x10, 0xF4, 0x00, 0x26, 0x00, 0x01, 0x00, 0x00, 0x11, 0xF4, 0x00, 0x22, 0x00,
+            0x01, 0x00,
+        ];
+        exec(&mut esc, &mut dev, Command::Apwr, 0, 0x0800, &sms);
+        assert_eq!(request(&mut esc, &mut dev, 0x0013), (0x0003, 0));
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0002),
+            (0x0013, 0x0011),
+            "BOOT → PREOP"
+        );
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0004),
+            (0x0013, 0x0011),
+            "held, no ack"
+        );
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0001),
+            (0x0001, 0),
+            "BOOT → INIT"
+        );
+    }
+
+    #[test]
+    fn preop_to_safeop_checks_process_data() {
+        let (mut esc, mut dev) = slave();
+        dev.sizes = ProcessDataSizes {
+            outputs: 2,
+            inputs: 1,
+        };
+        to_preop(&mut esc, &mut dev);
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0004),
+            (0x0012, 0x001D),
+            "no SM2"
+        );
+        configure_process_data(&mut esc, &mut dev, 2, 0);
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0014),
+            (0x0012, 0x001E),
+            "no SM3"
+        );
+        configure_process_data(&mut esc, &mut dev, 3, 1);
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0014),
+            (0x0012, 0x001D),
+            "wrong length"
+        );
+        configure_process_data(&mut esc, &mut dev, 2, 1);
+        assert_eq!(request(&mut esc, &mut dev, 0x0014), (0x0004, 0));
+        assert_eq!(esc.read_u8(0x0817) & 1, 0, "SM2 enabled by the PDI");
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0008),
+            (0x0014, 0x0019),
+            "no outputs yet"
+        );
+        assert_eq!(
+            exec(&mut esc, &mut dev, Command::Apwr, 0, 0x1100, &[1, 2]).wkc,
+            1
+        );
+        assert_eq!(dev.outputs, vec![vec![1, 2]]);
+        assert_eq!(request(&mut esc, &mut dev, 0x0018), (0x0008, 0));
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0004),
+            (0x0004, 0),
+            "OP → SAFEOP"
+        );
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0002),
+            (0x0002, 0),
+            "SAFEOP → PREOP"
+        );
+        assert_eq!(esc.read_u8(0x0817) & 1, 1, "SM2 disabled again");
+        assert_eq!(
+            exec(&mut esc, &mut dev, Command::Apwr, 0, 0x1100, &[1, 2]).wkc,
+            0
+        );
+    }
+
+    #[test]
+    fn device_without_process_data_accepts_empty_sms() {
+        let (mut esc, mut dev) = slave();
+        to_preop(&mut esc, &mut dev);
+        assert_eq!(request(&mut esc, &mut dev, 0x0004), (0x0004, 0));
+        assert_eq!(request(&mut esc, &mut dev, 0x0008), (0x0008, 0));
+        assert_eq!(
+            request(&mut esc, &mut dev, 0x0001),
+            (0x0001, 0),
+            "OP → INIT"
+        );
+        assert_eq!(esc.read_u8(0x0807) & 1, 1, "mailbox SMs disabled");
+    }
+
+    #[test]
+    fn device_refusal_keeps_the_state() {
+        let (mut esc, mut dev) = slave();
+        dev.refuse = Some((AlState::SafeOp, AlStatusCode::InconsistentSettings));
+        to_preop(&mut esc, &mut dev);
+        assert_eq!(request(&mut esc, &mut dev, 0x0004), (0x0012, 0x0026));
+        dev.refuse = None;
+        assert_eq!(request(&mut esc, &mut dev, 0x0014), (0x0004, 0));
+    }
+
+    #[test]
+    fn without_eeprom_nobody_answers() {
+        let mut image = sii_image();
+        image[14] ^= 0xFF;
+        let (mut esc, mut dev) = slave_with_image(image);
+        configure_mailbox(&mut esc, &mut dev);
+        assert_eq!(request(&mut esc, &mut dev, 0x0002), (0x0001, 0));
+    }
+}

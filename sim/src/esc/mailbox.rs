@@ -85,9 +85,15 @@ impl Esc {
             return;
         }
         self.note_sm1_read();
+        // Posting first frees a place in the outbox for the reply to what SM0 may hold.
+        self.post_next();
+        // The firmware reads SM0 only when it has room for a reply, so a master that does
+        // not read SM1 meets a full SM0 (WKC 0) instead of losing replies.
+        let room = self.mailbox.outbox.len() < OUTBOX_CAPACITY;
         let taken = self
             .sms
             .get_mut(usize::from(MAILBOX_OUT_SM))
+            .filter(|_| room)
             .and_then(|sm| sm.pdi_take(&mut self.mem));
         if let Some(buffer) = taken {
             let ctx = self.device_context();
@@ -195,7 +201,180 @@ impl Esc {
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_support::*;
     use super::*;
+    use master_core::wire::command::Command;
+
+    /// A CoE-looking message of `len` data bytes with `marker` as first data byte, padded
+    /// to the 128-byte SM0.
+    fn request_bytes(len: u16, marker: u8) -> Vec<u8> {
+        let mut m = vec![0u8; 128];
+        m[..2].copy_from_slice(&len.to_le_bytes());
+        m[5] = 0x13;
+        m[6] = marker;
+        m
+    }
+
+    fn sm1_full(esc: &Esc) -> bool {
+        esc.read_u8(0x080D) & 0x08 != 0
+    }
+
+    #[test]
+    fn sm0_commit_delivers_and_the_reply_lands_in_sm1() {
+        let (mut esc, mut dev) = slave();
+        to_preop(&mut esc, &mut dev);
+        let r = exec(
+            &mut esc,
+            &mut dev,
+            Command::Fpwr,
+            0,
+            0x1000,
+            &request_bytes(4, 0xA1),
+        );
+        assert_eq!(r.wkc, 1);
+        assert_eq!(dev.received, vec![request_bytes(4, 0xA1)[..10].to_vec()]);
+        assert!(sm1_full(&esc));
+        assert_eq!(esc.read_u8(0x0805) & 0x08, 0, "SM0 empty again");
+        let r = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert_eq!(r.wkc, 1);
+        assert_eq!(r.data[..10], request_bytes(4, 0xA1)[..10]);
+        assert!(r.data[10..].iter().all(|&b| b == 0));
+        assert!(!sm1_full(&esc));
+        let r = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert_eq!(r.wkc, 0, "empty mailbox");
+    }
+
+    #[test]
+    fn bad_length_delivers_the_whole_sm() {
+        let (mut esc, mut dev) = slave();
+        to_preop(&mut esc, &mut dev);
+        exec(
+            &mut esc,
+            &mut dev,
+            Command::Fpwr,
+            0,
+            0x1000,
+            &request_bytes(200, 1),
+        );
+        assert_eq!(dev.received[0].len(), 128);
+    }
+
+    #[test]
+    fn partial_write_does_not_commit() {
+        let (mut esc, mut dev) = slave();
+        to_preop(&mut esc, &mut dev);
+        let m = request_bytes(4, 2);
+        assert_eq!(
+            exec(&mut esc, &mut dev, Command::Fpwr, 0, 0x1000, &m[..64]).wkc,
+            1
+        );
+        assert!(dev.received.is_empty());
+        assert_eq!(
+            exec(&mut esc, &mut dev, Command::Fpwr, 0, 0x1040, &m[64..]).wkc,
+            0,
+            "not at SM start"
+        );
+    }
+
+    #[test]
+    fn full_outbox_keeps_sm0_full() {
+        let (mut esc, mut dev) = slave();
+        to_preop(&mut esc, &mut dev);
+        let mut accepted = 0;
+        for i in 0..100u8 {
+            accepted += exec(
+                &mut esc,
+                &mut dev,
+                Command::Fpwr,
+                0,
+                0x1000,
+                &request_bytes(4, i),
+            )
+            .wkc;
+        }
+        // One in SM1, 64 queued, one waiting in SM0.
+        assert_eq!(accepted, 66);
+        assert_eq!(esc.pending_mailbox_messages(), 64);
+        assert_eq!(esc.read_u8(0x0805) & 0x08, 0x08, "SM0 full");
+        exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert_eq!(esc.read_u8(0x0805) & 0x08, 0, "room again: SM0 taken");
+        assert_eq!(dev.received.len(), 66);
+    }
+
+    #[test]
+    fn repeat_request_reposts_the_lost_message() {
+        let (mut esc, mut dev) = slave();
+        to_preop(&mut esc, &mut dev);
+        exec(
+            &mut esc,
+            &mut dev,
+            Command::Fpwr,
+            0,
+            0x1000,
+            &request_bytes(4, 0xA),
+        );
+        exec(
+            &mut esc,
+            &mut dev,
+            Command::Fpwr,
+            0,
+            0x1000,
+            &request_bytes(4, 0xB),
+        );
+        // The master reads A, but the frame is lost on its way back; B moves into SM1.
+        exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert!(sm1_full(&esc));
+        // Repeat request: toggle 0x080E bit 1 (SOEM writes 0x080D-0x080E).
+        let s = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x080D, &[0; 2]).data;
+        let r = exec(
+            &mut esc,
+            &mut dev,
+            Command::Fpwr,
+            0,
+            0x080D,
+            &[s[0], s[1] ^ 0x02],
+        );
+        assert_eq!(r.wkc, 1);
+        assert_eq!(esc.read_u8(0x080F) & 0x02, 0x02, "acknowledged");
+        let r = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert_eq!((r.wkc, r.data[6]), (1, 0xA), "A again");
+        let r = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert_eq!((r.wkc, r.data[6]), (1, 0xB), "then B");
+        // Toggle back: A was not lost this time, but the backup (B) is posted again.
+        exec(&mut esc, &mut dev, Command::Fpwr, 0, 0x080E, &[0x01]);
+        assert_eq!(esc.read_u8(0x080F) & 0x02, 0);
+        let r = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert_eq!((r.wkc, r.data[6]), (1, 0xB));
+    }
+
+    #[test]
+    fn going_to_init_drops_the_mailbox() {
+        let (mut esc, mut dev) = slave();
+        to_preop(&mut esc, &mut dev);
+        exec(
+            &mut esc,
+            &mut dev,
+            Command::Fpwr,
+            0,
+            0x1000,
+            &request_bytes(4, 1),
+        );
+        exec(
+            &mut esc,
+            &mut dev,
+            Command::Fpwr,
+            0,
+            0x1000,
+            &request_bytes(4, 2),
+        );
+        assert_eq!(esc.pending_mailbox_messages(), 1);
+        assert_eq!(request(&mut esc, &mut dev, 0x0001), (0x0001, 0));
+        assert_eq!(esc.pending_mailbox_messages(), 0);
+        assert!(!sm1_full(&esc));
+        assert_eq!(request(&mut esc, &mut dev, 0x0002), (0x0002, 0));
+        let r = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert_eq!(r.wkc, 0, "nothing left over");
+    }
 
     #[test]
     fn message_is_clipped_to_the_declared_length() {

@@ -201,3 +201,57 @@ pub fn exec_logical(
 ) -> Reply {
     run(esc, dev, command, address, data)
 }
+
+/// Digest C.4: SM0 at 0x1000 and SM1 at 0x1080, 128 bytes each, enabled.
+pub const MAILBOX_SMS: [u8; 16] = [
+    0x00, 0x10, 0x80, 0x00, 0x26, 0x00, 0x01, 0x00, 0x80, 0x10, 0x80, 0x00, 0x22, 0x00, 0x01, 0x00,
+];
+
+/// Writes the mailbox SyncManagers.
+pub fn configure_mailbox(esc: &mut Esc, dev: &mut TestDevice) {
+    assert_eq!(
+        exec(esc, dev, Command::Apwr, 0, 0x0800, &MAILBOX_SMS).wkc,
+        1
+    );
+}
+
+/// Writes AL control and returns (AL status, AL status code).
+pub fn request(esc: &mut Esc, dev: &mut TestDevice, control: u16) -> (u16, u16) {
+    exec(esc, dev, Command::Apwr, 0, 0x0120, &control.to_le_bytes());
+    let r = exec(esc, dev, Command::Aprd, 0, 0x0130, &[0; 6]);
+    (
+        u16::from_le_bytes([r.data[0], r.data[1]]),
+        u16::from_le_bytes([r.data[4], r.data[5]]),
+    )
+}
+
+/// Configures the mailbox and goes to PREOP.
+pub fn to_preop(esc: &mut Esc, dev: &mut TestDevice) {
+    configure_mailbox(esc, dev);
+    assert_eq!(request(esc, dev, 0x0002), (0x0002, 0));
+}
+
+/// Writes SM2 (outputs at 0x1100) and SM3 (inputs at 0x1180) with the given lengths.
+pub fn configure_process_data(esc: &mut Esc, dev: &mut TestDevice, outputs: u16, inputs: u16) {
+    let o = outputs.to_le_bytes();
+    let i = inputs.to_le_bytes();
+    let sms = [
+        0x00,
+        0x11,
+        o[0],
+        o[1],
+        0x64,
+        0x00,
+        u8::from(outputs > 0),
+        0x00,
+        0x80,
+        0x11,
+        i[0],
+        i[1],
+        0x20,
+        0x00,
+        u8::from(inputs > 0),
+        0x00,
+    ];
+    assert_eq!(exec(esc, dev, Command::Apwr, 0, 0x0810, &sms).wkc, 1);
+}
