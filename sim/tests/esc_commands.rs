@@ -93,7 +93,7 @@ fn process_data_slave(bench: &mut Bench, p: usize, logical: u32) {
         d.inputs = vec![0x5A];
     }
     let s = station(p);
-    bench.to_preop(s);
+    bench.bring_to_preop(s);
     bench.configure_process_data(s, 2, 1);
     let fmmus = [
         FmmuRepr::outputs(logical, 2, 0x1100),
@@ -230,7 +230,7 @@ proptest! {
     ) {
         let mut bench = Bench::new(2);
         bench.assign_addresses();
-        bench.to_preop(0x1001);
+        bench.bring_to_preop(0x1001);
         let d = Dg { command: Command::from(command), address, data };
         let _ = bench.send(&[d.clone(), d]);
     }

@@ -22,7 +22,7 @@ fn message(len: u16, marker: u8) -> Vec<u8> {
 fn bench() -> Bench {
     let mut bench = Bench::new(1);
     bench.assign_addresses();
-    bench.to_preop(S);
+    bench.bring_to_preop(S);
     bench
 }
 

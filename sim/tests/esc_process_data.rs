@@ -26,7 +26,7 @@ fn bench() -> Bench {
         d.inputs = vec![0x11, 0x22];
     }
     bench.assign_addresses();
-    bench.to_preop(S);
+    bench.bring_to_preop(S);
     bench.configure_process_data(S, 4, 2);
     let mut fmmus = fmmu(FmmuRepr::outputs(0x100, 4, 0x1100));
     fmmus.extend(fmmu(FmmuRepr::inputs(0x104, 2, 0x1180)));
@@ -112,7 +112,7 @@ fn bit_oriented_slave_shares_a_logical_byte() {
     for p in 0..2 {
         bench.dev(p).sizes.outputs = 1;
         let s = station(p);
-        bench.to_preop(s);
+        bench.bring_to_preop(s);
         bench.configure_process_data(s, 1, 0);
         let f = FmmuRepr {
             logical_start_bit: 4 * p as u8,

@@ -332,7 +332,7 @@ mod tests {
             (0x0001, 0),
             "INIT acks"
         );
-        to_preop(&mut esc, &mut dev);
+        bring_to_preop(&mut esc, &mut dev);
         assert_eq!(
             request(&mut esc, &mut dev, 0x0008),
             (0x0012, 0x0011),
@@ -402,7 +402,7 @@ mod tests {
             outputs: 2,
             inputs: 1,
         };
-        to_preop(&mut esc, &mut dev);
+        bring_to_preop(&mut esc, &mut dev);
         assert_eq!(
             request(&mut esc, &mut dev, 0x0004),
             (0x0012, 0x001D),
@@ -454,7 +454,7 @@ mod tests {
     #[test]
     fn device_without_process_data_accepts_empty_sms() {
         let (mut esc, mut dev) = slave();
-        to_preop(&mut esc, &mut dev);
+        bring_to_preop(&mut esc, &mut dev);
         assert_eq!(request(&mut esc, &mut dev, 0x0004), (0x0004, 0));
         assert_eq!(request(&mut esc, &mut dev, 0x0008), (0x0008, 0));
         assert_eq!(
@@ -469,7 +469,7 @@ mod tests {
     fn device_refusal_keeps_the_state() {
         let (mut esc, mut dev) = slave();
         dev.refuse = Some((AlState::SafeOp, AlStatusCode::InconsistentSettings));
-        to_preop(&mut esc, &mut dev);
+        bring_to_preop(&mut esc, &mut dev);
         assert_eq!(request(&mut esc, &mut dev, 0x0004), (0x0012, 0x0026));
         dev.refuse = None;
         assert_eq!(request(&mut esc, &mut dev, 0x0014), (0x0004, 0));

@@ -222,7 +222,7 @@ mod tests {
     #[test]
     fn sm0_commit_delivers_and_the_reply_lands_in_sm1() {
         let (mut esc, mut dev) = slave();
-        to_preop(&mut esc, &mut dev);
+        bring_to_preop(&mut esc, &mut dev);
         let r = exec(
             &mut esc,
             &mut dev,
@@ -247,7 +247,7 @@ mod tests {
     #[test]
     fn bad_length_delivers_the_whole_sm() {
         let (mut esc, mut dev) = slave();
-        to_preop(&mut esc, &mut dev);
+        bring_to_preop(&mut esc, &mut dev);
         exec(
             &mut esc,
             &mut dev,
@@ -262,7 +262,7 @@ mod tests {
     #[test]
     fn partial_write_does_not_commit() {
         let (mut esc, mut dev) = slave();
-        to_preop(&mut esc, &mut dev);
+        bring_to_preop(&mut esc, &mut dev);
         let m = request_bytes(4, 2);
         assert_eq!(
             exec(&mut esc, &mut dev, Command::Fpwr, 0, 0x1000, &m[..64]).wkc,
@@ -279,7 +279,7 @@ mod tests {
     #[test]
     fn full_outbox_keeps_sm0_full() {
         let (mut esc, mut dev) = slave();
-        to_preop(&mut esc, &mut dev);
+        bring_to_preop(&mut esc, &mut dev);
         let mut accepted = 0;
         for i in 0..100u8 {
             accepted += exec(
@@ -304,7 +304,7 @@ mod tests {
     #[test]
     fn repeat_request_reposts_the_lost_message() {
         let (mut esc, mut dev) = slave();
-        to_preop(&mut esc, &mut dev);
+        bring_to_preop(&mut esc, &mut dev);
         exec(
             &mut esc,
             &mut dev,
@@ -350,7 +350,7 @@ mod tests {
     #[test]
     fn going_to_init_drops_the_mailbox() {
         let (mut esc, mut dev) = slave();
-        to_preop(&mut esc, &mut dev);
+        bring_to_preop(&mut esc, &mut dev);
         exec(
             &mut esc,
             &mut dev,

@@ -226,7 +226,7 @@ pub fn request(esc: &mut Esc, dev: &mut TestDevice, control: u16) -> (u16, u16) 
 }
 
 /// Configures the mailbox and goes to PREOP.
-pub fn to_preop(esc: &mut Esc, dev: &mut TestDevice) {
+pub fn bring_to_preop(esc: &mut Esc, dev: &mut TestDevice) {
     configure_mailbox(esc, dev);
     assert_eq!(request(esc, dev, 0x0002), (0x0002, 0));
 }

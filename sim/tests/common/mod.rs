@@ -355,7 +355,7 @@ impl Bench {
     }
 
     /// Configures the mailbox of `station` and brings it to PREOP.
-    pub fn to_preop(&mut self, station: u16) {
+    pub fn bring_to_preop(&mut self, station: u16) {
         assert_eq!(
             self.one(fp(Command::Fpwr, station, 0x0800, &MAILBOX_SMS))
                 .wkc,
