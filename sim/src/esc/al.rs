@@ -64,7 +64,7 @@ impl Esc {
     }
 
     /// Writes AL status and code, raising the AL status change event when they change.
-    fn set_al_status(&mut self, state: AlState, error: bool, code: AlStatusCode) {
+    pub(crate) fn set_al_status(&mut self, state: AlState, error: bool, code: AlStatusCode) {
         let status = AlStatus {
             state,
             error,

@@ -7,10 +7,10 @@
 //! repeat procedure). The application behind the PDI is a [`Device`]: the ESC hands it
 //! mailbox messages, outputs and state changes, and asks it for inputs.
 //!
-//! One file per job: [`memory`] (the byte space), [`registers`] (write masks, reset
-//! values), [`physical`] (who may access which address), [`command`] (the 15 datagram
-//! commands and their working counters), [`sync_manager`], [`fmmu`], [`mailbox`],
-//! [`eeprom`], [`al`], [`dl`], [`dc`] and [`time`].
+//! One file per job: `memory` (the byte space), `registers` (write masks, reset values),
+//! `physical` (who may access which address), `command` (the 15 datagram commands and
+//! their working counters), `sync_manager`, `fmmu`, `mailbox`, `eeprom`, `al`, `dl`, `dc`,
+//! `watchdog` and [`time`].
 //!
 //! # Decisions on points the sources leave open
 //!
@@ -38,6 +38,7 @@ mod physical;
 mod registers;
 mod sync_manager;
 pub mod time;
+mod watchdog;
 
 use master_core::wire::datagram::DatagramsMut;
 use master_core::wire::register::address as reg;
@@ -91,6 +92,8 @@ pub struct Esc {
     frame: FrameTiming,
     /// How many bytes of the 'R' 'E' 'S' reset sequence have been written to 0x0040.
     reset_sequence: usize,
+    /// When the process-data watchdog was last restarted; `None` when it is not running.
+    watchdog_trigger: Option<u64>,
     /// Reused buffers so that datagram processing does not allocate.
     scratch: Vec<u8>,
     scratch2: Vec<u8>,
@@ -114,6 +117,7 @@ impl Esc {
             events: Events::default(),
             frame: FrameTiming::default(),
             reset_sequence: 0,
+            watchdog_trigger: None,
             scratch: Vec::new(),
             scratch2: Vec::new(),
             config,
@@ -145,6 +149,7 @@ impl Esc {
         self.dc = DcState::new(now_ns);
         self.events = Events::default();
         self.reset_sequence = 0;
+        self.watchdog_trigger = None;
         self.frame = FrameTiming {
             port0_ns: now_ns,
             port1_ns: None,
@@ -165,6 +170,7 @@ impl Esc {
         timing: FrameTiming,
     ) {
         self.frame = timing;
+        self.check_watchdog(device);
         for datagram in DatagramsMut::new(payload) {
             match datagram {
                 Ok(mut datagram) => self.process_datagram(&mut datagram, device),

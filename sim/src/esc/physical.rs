@@ -82,7 +82,11 @@ impl Esc {
         }
         if let Some(n) = self.sm_at(addr) {
             let dev = self.pdi_device(n, device);
-            return self.sms[n].ecat_write(&mut self.mem, addr, data, dev);
+            let written = self.sms[n].ecat_write(&mut self.mem, addr, data, dev);
+            if written {
+                self.watchdog_write(n);
+            }
+            return written;
         }
         let n = self.plain_ram_len(addr, data.len());
         if origin == Origin::Fmmu || self.fmmu_covers(addr, n) {
