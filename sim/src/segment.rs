@@ -67,6 +67,12 @@ impl Slave {
         self.device.as_mut()
     }
 
+    /// Puts a new device behind the ESC (e.g. a fresh one after a power cycle) and returns
+    /// the old one.
+    pub fn replace_device(&mut self, device: Box<dyn Device>) -> Box<dyn Device> {
+        std::mem::replace(&mut self.device, device)
+    }
+
     /// Whether the link into port 0 is up.
     pub fn is_plugged(&self) -> bool {
         self.plugged
@@ -158,8 +164,9 @@ impl Segment {
 
     /// Power-cycles the slave at `position`: its ESC goes back to power-on values (the SII
     /// image survives) and its neighbours see their links to it drop and come back. The
-    /// device is not reset (the [`Device`] trait has no reset); its queued mailbox messages
-    /// are dropped with the ESC's mailbox.
+    /// device is not reset (the [`Device`] trait has no reset; use
+    /// [`Slave::replace_device`] for a fresh one); its queued mailbox messages are dropped
+    /// with the ESC's mailbox.
     pub fn power_cycle(&mut self, position: usize) {
         let now = self.time.now_ns();
         let Some(slave) = self.slaves.get_mut(position) else {

@@ -35,6 +35,8 @@ fn up_and_down_through_every_state() {
     assert_eq!(bench.request(S, 0x0008), (0x0008, 0), "SAFEOP → OP");
     assert_eq!(bench.request(S, 0x0002), (0x0002, 0), "OP → PREOP");
     assert_eq!(bench.request(S, 0x0004), (0x0004, 0), "PREOP → SAFEOP");
+    assert_eq!(bench.request(S, 0x0002), (0x0002, 0), "SAFEOP → PREOP");
+    assert_eq!(bench.request(S, 0x0004), (0x0004, 0), "PREOP → SAFEOP");
     assert_eq!(bench.request(S, 0x0001), (0x0001, 0), "SAFEOP → INIT");
     bench.bring_to_preop(S);
     assert_eq!(bench.request(S, 0x0001), (0x0001, 0), "PREOP → INIT");
@@ -53,6 +55,8 @@ fn up_and_down_through_every_state() {
             (Op, SafeOp),
             (SafeOp, Op),
             (Op, PreOp),
+            (PreOp, SafeOp),
+            (SafeOp, PreOp),
             (PreOp, SafeOp),
             (SafeOp, Init),
             (Init, PreOp),

@@ -6,6 +6,9 @@ mod common;
 use common::*;
 use master_core::wire::command::Command;
 use master_core::wire::register::fmmu::{Fmmu, FmmuRepr};
+use master_core::wire::sii::SiiBuilder;
+use master_core::wire::sii::fixed::{MailboxArea, MailboxProtocols, SiiFixedRepr};
+use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 
 const S: u16 = 0x1001;
 
@@ -126,4 +129,49 @@ fn bit_oriented_slave_shares_a_logical_byte() {
     assert_eq!(r.wkc, 2);
     assert_eq!(bench.dev(0).outputs, vec![vec![0x05]]);
     assert_eq!(bench.dev(1).outputs, vec![vec![0x0A]]);
+}
+
+#[test]
+fn simple_terminal_without_mailbox() {
+    // Like an EL2004: no mailbox, 1 byte of outputs through SM0 on the digital output
+    // register 0x0F00 (control 0x44: buffered, write, watchdog).
+    let mut b = SiiBuilder::new(SiiFixedRepr {
+        pdi_control: 0x0104,
+        std_rx_mailbox: MailboxArea::default(),
+        std_tx_mailbox: MailboxArea::default(),
+        mailbox_protocols: MailboxProtocols(0),
+        ..fixed()
+    });
+    b.syncm = vec![SyncmEntry {
+        start: 0x0F00,
+        length: 1,
+        control: 0x44,
+        status: 0,
+        enable: SyncmEnable(1),
+        sm_type: SyncmType::Outputs,
+    }];
+    let mut bench = Bench::empty();
+    bench.push(Default::default(), b.build().unwrap());
+    bench.dev(0).sizes.outputs = 1;
+    bench.assign_addresses();
+    assert_eq!(bench.request(S, 0x0002), (0x0002, 0), "no mailbox to check");
+    let sm0 = [0x00, 0x0F, 0x01, 0x00, 0x44, 0x00, 0x01, 0x00];
+    bench.one(fp(Command::Fpwr, S, 0x0800, &sm0));
+    bench.one(fp(
+        Command::Fpwr,
+        S,
+        0x0600,
+        &fmmu(FmmuRepr::outputs(0, 1, 0x0F00)),
+    ));
+    assert_eq!(bench.request(S, 0x0004), (0x0004, 0));
+    let r = bench.one(l(Command::Lrw, 0, &[0x0F]));
+    assert_eq!(r.wkc, 2);
+    assert_eq!(bench.dev(0).outputs, vec![vec![0x0F]]);
+    assert_eq!(bench.request(S, 0x0008), (0x0008, 0));
+    assert_eq!(
+        bench.esc(0).read_u8(0x0140),
+        0x04,
+        "PDI: digital I/O from SII word 0"
+    );
+    assert_eq!(bench.esc(0).read_u8(0x0141), 0x01, "device emulation");
 }

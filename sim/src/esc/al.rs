@@ -18,7 +18,7 @@ use crate::device::{Device, ProcessDataSizes};
 
 use super::Esc;
 use super::mailbox::{MAILBOX_IN_SM, MAILBOX_OUT_SM};
-use super::memory::REGISTER_END;
+use super::memory::SM_AREA_START;
 use super::sync_manager::{self, SmConfig};
 
 /// Control byte bits 0-3 (mode and direction) of each SyncManager kind.
@@ -110,7 +110,11 @@ impl Esc {
             (Init, PreOp) => {
                 self.check_mailbox(info.std_rx, info.std_tx)
                     .map_err(|()| AlStatusCode::InvalidMailboxConfigPreop)?;
-                self.enable_then_ask(device, from, to, &mailbox_sms)
+                // A slave without a mailbox has no mailbox SyncManagers to enable (its SM0/SM1
+                // may carry process data, enabled on PREOP → SAFEOP).
+                let has_mailbox = info.std_rx.is_present() || info.std_tx.is_present();
+                let sms: &[u8] = if has_mailbox { &mailbox_sms } else { &[] };
+                self.enable_then_ask(device, from, to, sms)
             }
             (Init, Boot) => {
                 if !info.boot_supported() {
@@ -201,14 +205,14 @@ impl Esc {
     }
 
     /// Whether SM `n` is enabled by the master with exactly `start`/`length`, the given
-    /// mode/direction and a range inside the process RAM.
+    /// mode/direction and a range the ESC can serve (digital I/O registers or RAM).
     fn sm_matches(&self, n: u8, start: u16, length: u16, kind: u8) -> bool {
         let (c, enabled) = self.master_sm(n);
         enabled
             && c.start == start
             && c.length == length
             && c.control & 0x0F == kind
-            && u32::from(c.start) >= REGISTER_END
+            && u32::from(c.start) >= SM_AREA_START
             && c.end() <= self.mem.end()
     }
 

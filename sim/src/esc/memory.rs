@@ -9,6 +9,10 @@ use std::ops::Range;
 /// First address after the register area; process RAM starts here.
 pub const REGISTER_END: u32 = 0x1000;
 
+/// Lowest address a SyncManager may cover: the digital I/O registers from 0x0F00 (simple
+/// terminals such as the EL2004 put their process-data SyncManager there) and the RAM.
+pub const SM_AREA_START: u32 = 0x0F00;
+
 /// Registers and RAM of one ESC.
 #[derive(Debug, Clone)]
 pub(crate) struct Memory {

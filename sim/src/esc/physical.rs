@@ -1,13 +1,15 @@
 //! Physical memory accesses: which bytes a datagram may touch, and the side effects of
 //! register reads and writes.
 //!
+//! - An active SyncManager's range (RAM, or the digital I/O registers from 0x0F00): its
+//!   rules apply ([`super::sync_manager`]).
 //! - Register area (< 0x1000): always accessible; an access starting there is clipped at
 //!   0x1000. Writes go through the per-bit write masks of [`super::registers`] (read-only
 //!   bits keep their value, the access still counts), then through the hooks below.
-//! - Process RAM: inside an active SyncManager its rules apply ([`super::sync_manager`]);
-//!   outside every SyncManager the access is plain memory if it comes through an FMMU or
-//!   lies inside an enabled FMMU's physical range, and blocked otherwise (digest §2.16).
-//!   Plain accesses are clipped at the next SyncManager so they never bypass its rules.
+//! - Process RAM outside every SyncManager: the access is plain memory if it comes through
+//!   an FMMU or lies inside an enabled FMMU's physical range, and blocked otherwise (digest
+//!   §2.16). Plain accesses are clipped at the next SyncManager so they never bypass its
+//!   rules.
 //! - Beyond the RAM: blocked.
 
 use master_core::wire::register::address as reg;
@@ -43,6 +45,10 @@ impl Esc {
         out: &mut [u8],
         origin: Origin,
     ) -> bool {
+        if let Some(n) = self.sm_at(addr) {
+            let dev = self.pdi_device(n, device);
+            return self.sms[n].ecat_read(&mut self.mem, addr, out, dev);
+        }
         if addr < REGISTER_END {
             let n = out.len().min((REGISTER_END - addr) as usize);
             self.read_registers(addr, &mut out[..n]);
@@ -50,10 +56,6 @@ impl Esc {
         }
         if addr >= self.mem.end() {
             return false;
-        }
-        if let Some(n) = self.sm_at(addr) {
-            let dev = self.pdi_device(n, device);
-            return self.sms[n].ecat_read(&mut self.mem, addr, out, dev);
         }
         let n = self.plain_ram_len(addr, out.len());
         if origin == Origin::Fmmu || self.fmmu_covers(addr, n) {
@@ -72,14 +74,6 @@ impl Esc {
         data: &[u8],
         origin: Origin,
     ) -> bool {
-        if addr < REGISTER_END {
-            let n = data.len().min((REGISTER_END - addr) as usize);
-            self.write_registers(device, addr, &data[..n]);
-            return true;
-        }
-        if addr >= self.mem.end() {
-            return false;
-        }
         if let Some(n) = self.sm_at(addr) {
             let dev = self.pdi_device(n, device);
             let written = self.sms[n].ecat_write(&mut self.mem, addr, data, dev);
@@ -87,6 +81,14 @@ impl Esc {
                 self.watchdog_write(n);
             }
             return written;
+        }
+        if addr < REGISTER_END {
+            let n = data.len().min((REGISTER_END - addr) as usize);
+            self.write_registers(device, addr, &data[..n]);
+            return true;
+        }
+        if addr >= self.mem.end() {
+            return false;
         }
         let n = self.plain_ram_len(addr, data.len());
         if origin == Origin::Fmmu || self.fmmu_covers(addr, n) {

@@ -19,7 +19,7 @@ use master_core::wire::register::sync_manager::{
 
 use crate::device::Device;
 
-use super::memory::{Memory, REGISTER_END};
+use super::memory::{Memory, SM_AREA_START};
 
 /// Register offsets inside one SM register set.
 mod offset {
@@ -56,7 +56,7 @@ pub(crate) struct SmConfig {
     /// Raw control byte.
     pub control: u8,
     /// Enabled by the master (activate bit 0) and not deactivated by the PDI, with a
-    /// non-empty range inside the process RAM.
+    /// non-empty range inside the digital I/O registers or the process RAM.
     pub active: bool,
 }
 
@@ -69,7 +69,7 @@ impl SmConfig {
         let enabled = SmActivate::decode(mem.u8(b + offset::ACTIVATE)).enable;
         let pdi_off = SmPdiControl::decode(mem.u8(b + offset::PDI_CONTROL)).deactivate;
         let end = u32::from(start) + u32::from(length);
-        let in_ram = u32::from(start) >= REGISTER_END && end <= ram_end;
+        let in_ram = u32::from(start) >= SM_AREA_START && end <= ram_end;
         SmConfig {
             start,
             length,
