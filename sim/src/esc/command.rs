@@ -40,6 +40,10 @@ enum Op {
 impl Esc {
     /// Processes one datagram in place: data, ADP, IRQ and working counter. Device calls
     /// (mailbox delivery, outputs, inputs, state changes) happen before it returns.
+    ///
+    /// The view must have passed `check_len` (as [`Datagram::new_checked`] and
+    /// [`master_core::wire::datagram::DatagramsMut`] ensure); DC times refer to the frame
+    /// last passed to [`Esc::process_frame`].
     pub fn process_datagram(
         &mut self,
         datagram: &mut Datagram<&mut [u8]>,

@@ -18,9 +18,19 @@
 //!   mailbox/buffered rules) or, outside any SyncManager, inside an enabled FMMU's physical
 //!   range (KickCAT's rule, digest §2.16). Other RAM accesses are blocked (no working
 //!   counter). An access that starts in the register area is clipped at 0x1000.
+//! - **SyncManager accesses**: mailbox accesses must start at the SM start; buffered ones
+//!   may start anywhere inside (bit-granular FMMUs). Accesses against the SM's direction
+//!   are blocked, except that the master may read back its own outputs (the last complete
+//!   buffer). Changing start, length or control of an enabled SM resets it, like disabling
+//!   it. SyncManagers may also cover the digital I/O registers from 0x0F00, as simple
+//!   terminals' do.
 //! - **SyncManagers start deactivated by the PDI** (0x0807 bit 0 = 1): the slave enables
 //!   SM0/SM1 on INIT → PREOP/BOOT and the process-data SMs on PREOP → SAFEOP after checking
-//!   them, and deactivates them again when going down (as SOES does).
+//!   them, and deactivates them again when going down (as SOES does). The SM control check
+//!   compares mode and direction (bits 0-3) only, since masters differ in the IRQ bits.
+//! - **The firmware is instantaneous**: a message committed to SM0 reaches the device at
+//!   the end of that datagram and its reply is in SM1 for the next datagram. SM0 is left
+//!   full (writes get WKC 0) while the device's outbox is full, so replies are never lost.
 //! - **No EEPROM, no PDI**: with a bad SII checksum the PDI is not operational (DL status
 //!   bit 0 = 0) and nobody answers AL control writes; the slave stays in INIT.
 //! - Writes to read-only registers are ignored but counted in the working counter.
