@@ -102,6 +102,7 @@ impl Esc {
             (_, Init) => {
                 // Going down to INIT cannot be refused; the device is told anyway.
                 let _ = self.ask_device(device, from, to);
+                self.watchdog_trigger = None;
                 let all: Vec<u8> = (0..self.layout.sm_count).collect();
                 self.set_sm_pdi_enabled(&all, false);
                 self.mailbox.clear();
@@ -143,6 +144,8 @@ impl Esc {
             (SafeOp | Op, PreOp) => {
                 self.ask_device(device, from, to)?;
                 self.set_sm_pdi_enabled(&pd_sms, false);
+                // Without process data the watchdog has nothing to watch.
+                self.watchdog_trigger = None;
                 Ok(())
             }
             _ => Err(AlStatusCode::InvalidStateChange),

@@ -309,6 +309,34 @@ mod tests {
     }
 
     #[test]
+    fn igh_writes_command_address_and_data_in_one_datagram() {
+        let (mut esc, mut dev) = slave();
+        // 0x81: write enable + the (read-only) address-algorithm bit; 0x02: write.
+        let r = exec(
+            &mut esc,
+            &mut dev,
+            Command::Apwr,
+            0,
+            0x0502,
+            &[0x81, 0x02, 0x21, 0, 0, 0, 0xEF, 0xBE],
+        );
+        assert_eq!(r.wkc, 1);
+        assert_eq!(esc.sii()[0x42..0x44], [0xEF, 0xBE]);
+        // IgH's read: 4 bytes at 0x0502, then 10 bytes from 0x0502 (status, address, data).
+        exec(
+            &mut esc,
+            &mut dev,
+            Command::Apwr,
+            0,
+            0x0502,
+            &[0x80, 0x01, 0x21, 0x00],
+        );
+        let r = exec(&mut esc, &mut dev, Command::Aprd, 0, 0x0502, &[0; 10]);
+        assert_eq!(r.data[1] & 0x87, 0, "not busy, command done");
+        assert_eq!(r.data[6..8], [0xEF, 0xBE]);
+    }
+
+    #[test]
     fn alias_written_to_the_sii_applies_on_reload() {
         let (mut esc, mut dev) = slave();
         // Words 4 and 7: alias 0x0042 with a fresh checksum.
