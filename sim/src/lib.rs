@@ -1,8 +1,13 @@
 //! Emulated EtherCAT slave controllers (ESCs) and the slave applications behind them.
 //!
+//! - [`esc`]: one emulated slave controller (registers, SyncManagers, FMMUs, SII, AL state
+//!   machine, DL status, distributed clock).
+//! - [`segment`]: slaves chained in a line, processing whole frames.
 //! - [`device`]: the application behind a slave's PDI (mailbox protocols, process data).
 //!
 //! The simulator uses only `master_core::wire` (the codecs) from the master, never its logic,
 //! so a mistake in the master cannot be mirrored by the simulator.
 
 pub mod device;
+pub mod esc;
+pub mod segment;
