@@ -153,10 +153,10 @@ impl Esc {
     /// A write touched `[addr, addr + len)`: clear the counters it hit.
     pub(crate) fn clear_error_counters(&mut self, addr: u32, len: usize) {
         let (group, group_len) = RX_ERROR_GROUP;
-        if overlaps(addr, len, group.into(), group_len) {
-            if let Some(bytes) = self.mem.get_mut(group.into(), group_len) {
-                bytes.fill(0);
-            }
+        if overlaps(addr, len, group.into(), group_len)
+            && let Some(bytes) = self.mem.get_mut(group.into(), group_len)
+        {
+            bytes.fill(0);
         }
         for counter in SINGLE_COUNTERS {
             if overlaps(addr, len, counter.into(), 1) {

@@ -91,7 +91,7 @@ impl Eeprom {
     /// An EEPROM holding `image` (an odd trailing byte is padded with 0xFF, like erased
     /// memory).
     pub fn new(mut image: Vec<u8>) -> Self {
-        if image.len() % 2 != 0 {
+        if !image.len().is_multiple_of(2) {
             image.push(0xFF);
         }
         Eeprom {

@@ -48,7 +48,9 @@ impl Overlap {
 
     /// Whether frame and physical side are whole, aligned bytes.
     fn byte_aligned(&self) -> bool {
-        self.frame_bit % 8 == 0 && self.phys_bit % 8 == 0 && self.bits % 8 == 0
+        self.frame_bit.is_multiple_of(8)
+            && self.phys_bit.is_multiple_of(8)
+            && self.bits.is_multiple_of(8)
     }
 
     /// First physical byte and number of physical bytes touched.
