@@ -36,6 +36,14 @@ pub(crate) const ACYCLIC_INDEX_LIMIT: usize = INDICES - 16;
 /// How many stale frames are read off an idle link before parking, at most.
 const IDLE_DRAIN: usize = 16;
 
+/// What one receive brought.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Received {
+    Frame,
+    Nothing,
+    LinkError,
+}
+
 /// The installed cyclic task and its schedule.
 struct Cyclic {
     task: Box<dyn CyclicTask>,
@@ -339,13 +347,15 @@ impl<L: Link> Engine<L> {
         match self.config.wait_mode {
             WaitMode::Poll if self.in_flight() => {
                 let wait = wake.map_or(Wait::NoWait, Wait::Until);
-                self.receive_one(wait, wake);
+                if self.receive_one(wait) == Received::LinkError {
+                    self.back_off(wake);
+                }
             }
             WaitMode::Poll => {
                 // Idle: read off late frames (so they are counted, and do not pile up in the
                 // link), then sleep until a submission or the next cycle.
                 for _ in 0..IDLE_DRAIN {
-                    if !self.receive_one(Wait::NoWait, wake) {
+                    if self.receive_one(Wait::NoWait) != Received::Frame {
                         break;
                     }
                 }
@@ -354,28 +364,32 @@ impl<L: Link> Engine<L> {
                     self.shared.queue.park(wake, true);
                 }
             }
-            WaitMode::BusyPoll => {
-                if !self.receive_one(Wait::NoWait, wake) {
-                    std::hint::spin_loop();
-                }
-            }
+            WaitMode::BusyPoll => match self.receive_one(Wait::NoWait) {
+                Received::Frame => {}
+                Received::Nothing => std::hint::spin_loop(),
+                Received::LinkError => self.back_off(wake),
+            },
         }
     }
 
-    /// Receives at most one frame and handles it; true if one arrived.
-    fn receive_one(&mut self, wait: Wait, wake: Option<Instant>) -> bool {
+    /// After a link error: a link that keeps failing (a dead interface, a dropped peer)
+    /// must not make the loop spin, so sleep until the next deadline, waking early only
+    /// for control requests, or for a submission if nothing is due at all.
+    fn back_off(&self, wake: Option<Instant>) {
+        self.shared.queue.park(wake, wake.is_none());
+    }
+
+    /// Receives at most one frame and handles it.
+    fn receive_one(&mut self, wait: Wait) -> Received {
         match self.link.recv(&mut self.rx, wait) {
             Ok(Some(len)) => {
                 self.handle_frame(len.min(self.rx.len()));
-                true
+                Received::Frame
             }
-            Ok(None) => false,
+            Ok(None) => Received::Nothing,
             Err(_) => {
-                // A link that keeps failing (a dead interface, a dropped peer) must not
-                // make the loop spin: sleep until the next deadline, waking for shutdown.
                 self.shared.stats.link_errors.inc();
-                self.shared.queue.park(wake, false);
-                false
+                Received::LinkError
             }
         }
     }
