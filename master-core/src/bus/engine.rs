@@ -33,6 +33,13 @@ use super::stats::BusStats;
 /// that a burst of acyclic traffic cannot hold up process data.
 pub(crate) const ACYCLIC_INDEX_LIMIT: usize = INDICES - 16;
 
+/// The longest the thread sleeps in the link's `recv` before it looks at control requests
+/// and submissions again. The link cannot be woken from outside, so this bounds how late a
+/// shutdown is noticed, and how long new datagrams wait for a free frame record, while a
+/// frame is out for longer than usual (a lost frame waiting for its deadline). A returning
+/// frame ends the wait at once, so on a healthy segment this never adds latency.
+const RECV_SLICE: Duration = Duration::from_millis(1);
+
 /// How many stale frames are read off an idle link before parking, at most.
 const IDLE_DRAIN: usize = 16;
 
@@ -346,8 +353,9 @@ impl<L: Link> Engine<L> {
         let wake = self.next_wake();
         match self.config.wait_mode {
             WaitMode::Poll if self.in_flight() => {
-                let wait = wake.map_or(Wait::NoWait, Wait::Until);
-                if self.receive_one(wait) == Received::LinkError {
+                let slice_end = Instant::now() + RECV_SLICE;
+                let until = wake.map_or(slice_end, |wake| wake.min(slice_end));
+                if self.receive_one(Wait::Until(until)) == Received::LinkError {
                     self.back_off(wake);
                 }
             }
