@@ -374,7 +374,11 @@ impl<L: Link> Engine<L> {
             }
             WaitMode::BusyPoll => match self.receive_one(Wait::NoWait) {
                 Received::Frame => {}
-                Received::Nothing => std::hint::spin_loop(),
+                Received::Nothing if self.in_flight() => std::hint::spin_loop(),
+                // Idle, still spinning for the next submission, but letting any other
+                // runnable thread go first: on a machine without a core to spare, the
+                // callers just completed would otherwise wait for the scheduler's tick.
+                Received::Nothing => std::thread::yield_now(),
                 Received::LinkError => self.back_off(wake),
             },
         }
