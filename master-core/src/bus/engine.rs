@@ -169,7 +169,8 @@ impl<L: Link> Engine<L> {
                 id as u16,
             );
             let Some(len) = len else {
-                // Not even the first group fits the free indices: wait for replies.
+                // Not even the first group fits the indices acyclic traffic may use: wait
+                // for replies to free some.
                 return;
             };
             self.transmit(id, len, self.config.response_timeout);
@@ -598,7 +599,23 @@ fn pack(
     if builder.is_empty() {
         return None;
     }
-    builder.finish(config.source_mac).ok()
+    match builder.finish(config.source_mac) {
+        Ok(len) => Some(len),
+        Err(_) => {
+            // Unreachable: the frame holds at least one datagram. Should it happen, the
+            // callers hear of it and the record is left clean for the next frame.
+            for sent in &record.datagrams {
+                indices.release(sent.index);
+            }
+            for entry in record.entries.drain(..) {
+                entry.completer.complete(Err(BusError::InvalidRequest(
+                    "the frame could not be finished",
+                )));
+            }
+            record.clear();
+            None
+        }
+    }
 }
 
 /// Closes the submission queue when the bus thread ends, however it ends.

@@ -227,6 +227,9 @@ impl BusHandle {
 
     /// Installs `task` as the cyclic task (replacing and dropping any earlier one), or with
     /// `None` stops cyclic exchange. Takes effect on the bus thread's next turn.
+    ///
+    /// A task must not own a `BusHandle`: the bus owns the task, so the last handle would
+    /// never be dropped and the bus would only stop through [`BusHandle::shutdown`].
     pub fn set_cyclic(&self, task: Option<Box<dyn CyclicTask>>) {
         self.shared().queue.request_cyclic(task);
     }

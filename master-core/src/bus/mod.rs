@@ -32,10 +32,21 @@
 //!
 //! # Waiting
 //!
-//! With [`WaitMode::Poll`] the bus thread sleeps in the link's `recv` while frames are out,
-//! and on a condition variable while idle. New submissions are picked up as soon as the
-//! frames in flight are back (or immediately when idle). With [`WaitMode::BusyPoll`] it
-//! never sleeps. Configure the link to match (a raw socket's `busy_poll` option).
+//! With [`WaitMode::Poll`] the bus thread sleeps in the link's `recv` while frames are out
+//! (in slices of at most 1 ms, since nothing can wake a link from outside: a shutdown, a
+//! new cyclic task or datagrams waiting for a free frame record are seen within that), and
+//! on a condition variable while idle, where a submission wakes it at once. With
+//! [`WaitMode::BusyPoll`] it never sleeps: it spins on the link while frames are out and
+//! yields to other runnable threads between checks while idle. Configure the link to match
+//! (a raw socket's `busy_poll` option).
+//!
+//! # Priority
+//!
+//! A due cycle goes first: the cyclic frame is sent before any waiting acyclic frame, and
+//! 16 of the 256 datagram indices are kept out of reach of acyclic traffic so that a burst
+//! of it cannot hold process data up. The thread runs at the priority it was spawned with;
+//! real-time scheduling and CPU pinning are left to the caller (for example with
+//! `chrt`/`taskset` on the process).
 //!
 //! # Memory
 //!
