@@ -18,6 +18,37 @@
 //! - runs a [`CyclicTask`] at a fixed period, its frame going ahead of acyclic traffic;
 //! - keeps lock-free statistics ([`BusStatsSnapshot`]), including round-trip times.
 //!
+//! # Example
+//!
+//! ```
+//! use std::time::{Duration, Instant};
+//!
+//! use master_core::bus::{Bus, BusConfig};
+//! use master_core::link::{Link, MAX_FRAME_LEN, MemoryLink, Wait};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let (near, mut far) = MemoryLink::pair(8);
+//! // A stand-in for a segment without slaves: every frame comes straight back.
+//! let segment = std::thread::spawn(move || {
+//!     let mut buf = [0u8; MAX_FRAME_LEN];
+//!     let patience = || Wait::Until(Instant::now() + Duration::from_secs(5));
+//!     while let Ok(Some(len)) = far.recv(&mut buf, patience()) {
+//!         let _ = far.send(&buf[..len]);
+//!     }
+//! });
+//! let link: Box<dyn Link> = Box::new(near);
+//! let (bus, thread) = Bus::start(link, BusConfig::default())?;
+//! // From a blocking thread; an async task would write `bus.brd(0x0000, 2).await`.
+//! let reply = bus.brd(0x0000, 2).wait()?;
+//! assert_eq!(reply.wkc, 0, "no slave counted itself");
+//! assert_eq!(bus.stats().frames_received, 1);
+//! drop(bus); // the last handle: the bus stops
+//! drop(thread.join()); // and hands back the link, dropped here, which ends the stand-in
+//! segment.join().unwrap();
+//! # Ok(())
+//! # }
+//! ```
+//!
 //! # Retries and idempotency
 //!
 //! A frame can be lost on the way out (no slave saw it) or on the way back (every slave
