@@ -150,15 +150,18 @@ impl<L: Link> Engine<L> {
     /// Packs waiting datagrams into frames and sends them while there is a free record.
     fn send_acyclic(&mut self) {
         loop {
+            // Only take from the queue with a frame to fill, so that submissions beyond
+            // what the frames in flight carry wait in the bounded queue (and a full queue
+            // is reported to callers) rather than piling up here.
+            let Some(id) = self.free_acyclic_record() else {
+                return;
+            };
             if self.staging.is_empty() {
                 self.shared.queue.take_into(&mut self.staging);
                 if self.staging.is_empty() {
                     return;
                 }
             }
-            let Some(id) = self.free_acyclic_record() else {
-                return;
-            };
             let len = pack(
                 &mut self.tx,
                 &self.config,
