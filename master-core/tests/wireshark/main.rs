@@ -70,7 +70,10 @@ fn datagram_cases() -> Vec<Case> {
                     vec![("ecat.adp", hex16(0xfffe)), ("ecat.ado", hex16(0x0130))],
                 ),
                 Command::Fprd | Command::Fprw | Command::Fpwr | Command::Frmw => (
-                    DatagramAddress::Node { station: 0x03e9, ado: 0x0910 },
+                    DatagramAddress::Node {
+                        station: 0x03e9,
+                        ado: 0x0910,
+                    },
                     vec![("ecat.adp", hex16(0x03e9)), ("ecat.ado", hex16(0x0910))],
                 ),
                 Command::Brd | Command::Bwr | Command::Brw | Command::Nop => (
@@ -101,13 +104,31 @@ fn cyclic_frame_case() -> Case {
     let status = [0u8; 1];
     let dc = [0u8; 8];
     let frame = frame(&[
-        DatagramRepr::request(Command::Lrd, 0x10, DatagramAddress::Logical(0x11000), &inputs),
-        DatagramRepr::request(Command::Lwr, 0x11, DatagramAddress::Logical(0x12000), &outputs),
-        DatagramRepr::request(Command::Lrd, 0x12, DatagramAddress::Logical(0x40000), &status),
+        DatagramRepr::request(
+            Command::Lrd,
+            0x10,
+            DatagramAddress::Logical(0x11000),
+            &inputs,
+        ),
+        DatagramRepr::request(
+            Command::Lwr,
+            0x11,
+            DatagramAddress::Logical(0x12000),
+            &outputs,
+        ),
+        DatagramRepr::request(
+            Command::Lrd,
+            0x12,
+            DatagramAddress::Logical(0x40000),
+            &status,
+        ),
         DatagramRepr::request(
             Command::Frmw,
             0x13,
-            DatagramAddress::Node { station: 0x03e9, ado: 0x0910 },
+            DatagramAddress::Node {
+                station: 0x03e9,
+                ado: 0x0910,
+            },
             &dc,
         ),
     ]);
@@ -140,8 +161,14 @@ fn wireshark_decodes_every_frame_kind_as_encoded() {
         tshark::verbose(&capture)
     );
     let verbose = tshark::verbose(&capture);
-    assert!(!verbose.contains("Malformed"), "malformed packet in:\n{verbose}");
-    assert!(!verbose.contains("[Expert Info (Error"), "expert error in:\n{verbose}");
+    assert!(
+        !verbose.contains("Malformed"),
+        "malformed packet in:\n{verbose}"
+    );
+    assert!(
+        !verbose.contains("[Expert Info (Error"),
+        "expert error in:\n{verbose}"
+    );
 
     let mut names: Vec<&str> = cases
         .iter()
@@ -161,5 +188,9 @@ fn wireshark_decodes_every_frame_kind_as_encoded() {
             }
         }
     }
-    assert!(mismatches.is_empty(), "Wireshark disagrees:\n{}", mismatches.join("\n"));
+    assert!(
+        mismatches.is_empty(),
+        "Wireshark disagrees:\n{}",
+        mismatches.join("\n")
+    );
 }

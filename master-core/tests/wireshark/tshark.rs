@@ -4,8 +4,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use pcap_file::pcap::{PcapHeader, PcapPacket, PcapWriter};
 use pcap_file::DataLink;
+use pcap_file::pcap::{PcapHeader, PcapPacket, PcapWriter};
 
 /// A capture file in a fresh temporary directory, removed on drop.
 pub struct Capture {
@@ -88,7 +88,16 @@ pub fn flagged_frames(capture: &Capture) -> Vec<String> {
 pub fn fields(capture: &Capture, names: &[&str]) -> Vec<BTreeMap<String, String>> {
     let mut cmd = tshark();
     cmd.arg("-r").arg(capture.path());
-    cmd.args(["-T", "fields", "-E", "occurrence=a", "-E", "aggregator=,", "-E", "separator=\t"]);
+    cmd.args([
+        "-T",
+        "fields",
+        "-E",
+        "occurrence=a",
+        "-E",
+        "aggregator=,",
+        "-E",
+        "separator=\t",
+    ]);
     for name in names {
         cmd.args(["-e", name]);
     }
