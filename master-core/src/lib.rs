@@ -5,11 +5,15 @@
 //!   frames, datagrams, ESC registers, the SII and every mailbox protocol. No I/O.
 //! - [`link`]: sending and receiving raw Ethernet frames — raw socket, in-process pair, pcap
 //!   tap, fault injector.
+//! - [`bus`]: the one thread that owns the link — packs datagrams from every caller into
+//!   frames, matches replies, retries lost frames, checks working counters, runs the cyclic
+//!   frame.
 //! - [`od`]: the CoE object dictionary and the SDO server answering mailbox requests against
 //!   it — shared by the simulator's slaves and the master's own ETG.1510 dictionary.
 //!
-//! The bus, slave, mailbox and gateway layers build on these.
+//! The slave, mailbox and gateway layers build on these.
 
+pub mod bus;
 pub mod link;
 pub mod od;
 pub mod wire;

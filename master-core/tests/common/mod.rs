@@ -4,5 +4,8 @@
 //! items are expected here.
 #![allow(dead_code)]
 
+pub mod bus;
 pub mod frames;
 pub mod netns;
+pub mod responder;
+pub mod segment;

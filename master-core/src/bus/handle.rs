@@ -1,0 +1,268 @@
+//! The callers' side of the bus: submitting datagrams from any thread or task.
+
+use std::fmt;
+use std::sync::Arc;
+
+use crate::wire::datagram::OVERHEAD;
+
+use super::Shared;
+use super::completion::{self, Pending};
+use super::config::BusConfig;
+use super::cyclic::CyclicTask;
+use super::data::DatagramData;
+use super::engine::ACYCLIC_INDEX_LIMIT;
+use super::error::BusError;
+use super::queue::Queued;
+use super::record::MAX_DATAGRAMS_PER_FRAME;
+use super::request::DatagramRequest;
+use super::stats::BusStatsSnapshot;
+
+/// A handle on a running bus: submit datagrams, install the cyclic task, read statistics.
+///
+/// Cheap to clone, and usable from any thread and any async task. Submitting never blocks:
+/// it queues the datagram and returns a [`Pending`] to `.await` or
+/// [`wait`](Pending::wait) for. When the last handle is dropped the bus shuts down.
+#[derive(Clone)]
+pub struct BusHandle {
+    inner: Arc<Inner>,
+}
+
+/// Dropped with the last handle, which stops the bus.
+struct Inner {
+    shared: Arc<Shared>,
+}
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        self.shared.queue.request_shutdown();
+    }
+}
+
+impl BusHandle {
+    pub(crate) fn new(shared: Arc<Shared>) -> BusHandle {
+        BusHandle {
+            inner: Arc::new(Inner { shared }),
+        }
+    }
+
+    fn shared(&self) -> &Shared {
+        &self.inner.shared
+    }
+
+    /// Queues one datagram. Requests that cannot be sent (an address of another
+    /// addressing mode than the command's, data too long for a frame) and submissions to
+    /// a full queue or a stopped bus complete at once with the error.
+    pub fn submit(&self, request: DatagramRequest) -> Pending {
+        if let Err(err) = self.check(&request) {
+            return Pending::ready(Err(err));
+        }
+        let (pending, completer) = completion::pair();
+        let queued = Queued {
+            request,
+            completer,
+            group_left: 1,
+        };
+        if let Err((err, refused)) = self.shared().queue.push(std::iter::once(queued)) {
+            for entry in refused {
+                entry.completer.complete(Err(err.clone()));
+            }
+        }
+        pending
+    }
+
+    /// Queues datagrams that must travel in the same frame, in this order (the cyclic
+    /// exchange, a DC time distribution next to the read that latches it). Returns one
+    /// `Pending` per datagram, in the same order.
+    ///
+    /// The group is refused as a whole (every `Pending` completes with the error) if any
+    /// request is invalid, if together they do not fit one frame, or if the queue has no
+    /// room for all of them. A lost frame is sent again whole, so the group stays together.
+    pub fn submit_group(
+        &self,
+        requests: impl IntoIterator<Item = DatagramRequest>,
+    ) -> Vec<Pending> {
+        let requests: Vec<DatagramRequest> = requests.into_iter().collect();
+        let mut pendings = Vec::with_capacity(requests.len());
+        let mut completers = Vec::with_capacity(requests.len());
+        for _ in 0..requests.len() {
+            let (pending, completer) = completion::pair();
+            pendings.push(pending);
+            completers.push(completer);
+        }
+        let checked = self.check_group(&requests);
+        let count = requests.len();
+        let batch =
+            requests
+                .into_iter()
+                .zip(completers)
+                .enumerate()
+                .map(|(i, (request, completer))| Queued {
+                    request,
+                    completer,
+                    // Checked: a group has at most `MAX_DATAGRAMS_PER_FRAME` members.
+                    group_left: (count - i) as u16,
+                });
+        let refused = match checked {
+            Ok(()) => self.shared().queue.push(batch).err(),
+            Err(err) => Some((err, batch.collect())),
+        };
+        if let Some((err, refused)) = refused {
+            for entry in refused {
+                entry.completer.complete(Err(err.clone()));
+            }
+        }
+        pendings
+    }
+
+    fn check(&self, request: &DatagramRequest) -> Result<(), BusError> {
+        request.address.encode(request.command).map_err(|_| {
+            BusError::InvalidRequest("the address's addressing mode is not the command's")
+        })?;
+        let max = self.shared().config.max_data_len();
+        if request.data.len() > max {
+            return Err(BusError::TooLarge {
+                what: "datagram data",
+                need: request.data.len(),
+                room: max,
+            });
+        }
+        Ok(())
+    }
+
+    fn check_group(&self, requests: &[DatagramRequest]) -> Result<(), BusError> {
+        for request in requests {
+            self.check(request)?;
+        }
+        let config = &self.shared().config;
+        let limit = MAX_DATAGRAMS_PER_FRAME
+            .min(ACYCLIC_INDEX_LIMIT)
+            .min(config.queue_capacity);
+        if requests.len() > limit {
+            return Err(BusError::TooLarge {
+                what: "datagram group (datagrams)",
+                need: requests.len(),
+                room: limit,
+            });
+        }
+        let bytes: usize = requests.iter().map(|r| r.data.len() + OVERHEAD).sum();
+        if bytes > config.datagram_room() {
+            return Err(BusError::TooLarge {
+                what: "datagram group (bytes)",
+                need: bytes,
+                room: config.datagram_room(),
+            });
+        }
+        Ok(())
+    }
+
+    /// APRD: reads `len` bytes at `ado` of the slave at ring `position`.
+    pub fn aprd(&self, position: u16, ado: u16, len: usize) -> Pending {
+        self.submit(DatagramRequest::aprd(position, ado, len))
+    }
+
+    /// APWR: writes `data` at `ado` of the slave at ring `position`.
+    pub fn apwr(&self, position: u16, ado: u16, data: impl Into<DatagramData>) -> Pending {
+        self.submit(DatagramRequest::apwr(position, ado, data))
+    }
+
+    /// APRW: exchanges `data` with the memory at `ado` of the slave at ring `position`.
+    pub fn aprw(&self, position: u16, ado: u16, data: impl Into<DatagramData>) -> Pending {
+        self.submit(DatagramRequest::aprw(position, ado, data))
+    }
+
+    /// FPRD: reads `len` bytes at `ado` of the slave with station address `station`.
+    pub fn fprd(&self, station: u16, ado: u16, len: usize) -> Pending {
+        self.submit(DatagramRequest::fprd(station, ado, len))
+    }
+
+    /// FPWR: writes `data` at `ado` of the slave with station address `station`.
+    pub fn fpwr(&self, station: u16, ado: u16, data: impl Into<DatagramData>) -> Pending {
+        self.submit(DatagramRequest::fpwr(station, ado, data))
+    }
+
+    /// FPRW: exchanges `data` with the memory at `ado` of the slave `station`.
+    pub fn fprw(&self, station: u16, ado: u16, data: impl Into<DatagramData>) -> Pending {
+        self.submit(DatagramRequest::fprw(station, ado, data))
+    }
+
+    /// BRD: ORs `len` bytes at `ado` of every slave; the working counter counts them.
+    pub fn brd(&self, ado: u16, len: usize) -> Pending {
+        self.submit(DatagramRequest::brd(ado, len))
+    }
+
+    /// BWR: writes `data` at `ado` of every slave.
+    pub fn bwr(&self, ado: u16, data: impl Into<DatagramData>) -> Pending {
+        self.submit(DatagramRequest::bwr(ado, data))
+    }
+
+    /// BRW: broadcast read-write at `ado`.
+    pub fn brw(&self, ado: u16, data: impl Into<DatagramData>) -> Pending {
+        self.submit(DatagramRequest::brw(ado, data))
+    }
+
+    /// LRD: reads `len` bytes of logical memory at `address`.
+    pub fn lrd(&self, address: u32, len: usize) -> Pending {
+        self.submit(DatagramRequest::lrd(address, len))
+    }
+
+    /// LWR: writes `data` to logical memory at `address`.
+    pub fn lwr(&self, address: u32, data: impl Into<DatagramData>) -> Pending {
+        self.submit(DatagramRequest::lwr(address, data))
+    }
+
+    /// LRW: writes `data` to and reads inputs from logical memory at `address`.
+    pub fn lrw(&self, address: u32, data: impl Into<DatagramData>) -> Pending {
+        self.submit(DatagramRequest::lrw(address, data))
+    }
+
+    /// ARMW: the slave at `position` reads `len` bytes at `ado`, all others write them.
+    pub fn armw(&self, position: u16, ado: u16, len: usize) -> Pending {
+        self.submit(DatagramRequest::armw(position, ado, len))
+    }
+
+    /// FRMW: the slave `station` reads `len` bytes at `ado`, all others write them.
+    pub fn frmw(&self, station: u16, ado: u16, len: usize) -> Pending {
+        self.submit(DatagramRequest::frmw(station, ado, len))
+    }
+
+    /// Installs `task` as the cyclic task (replacing and dropping any earlier one), or with
+    /// `None` stops cyclic exchange. Takes effect on the bus thread's next turn.
+    ///
+    /// A task must not own a `BusHandle`: the bus owns the task, so the last handle would
+    /// never be dropped and the bus would only stop through [`BusHandle::shutdown`].
+    pub fn set_cyclic(&self, task: Option<Box<dyn CyclicTask>>) {
+        self.shared().queue.request_cyclic(task);
+    }
+
+    /// The bus's counters now.
+    pub fn stats(&self) -> BusStatsSnapshot {
+        self.shared().stats.snapshot()
+    }
+
+    /// The configuration the bus runs with.
+    pub fn config(&self) -> &BusConfig {
+        &self.shared().config
+    }
+
+    /// Datagrams waiting in the submission queue (not yet taken by the bus thread).
+    pub fn queued(&self) -> usize {
+        self.shared().queue.len()
+    }
+
+    /// Stops the bus thread: datagrams queued or in flight complete with
+    /// [`BusError::Shutdown`], and later submissions fail with it. Other handles stay valid
+    /// but every submission through them fails. Returns at once; join the thread returned
+    /// by [`Bus::start`](super::Bus::start) to wait for it.
+    pub fn shutdown(&self) {
+        self.shared().queue.request_shutdown();
+    }
+}
+
+impl fmt::Debug for BusHandle {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("BusHandle")
+            .field("config", self.config())
+            .field("queued", &self.queued())
+            .finish()
+    }
+}

@@ -1,0 +1,245 @@
+//! The bounded submission queue between callers and the bus thread, and the bus thread's
+//! control requests (shutdown, a new cyclic task).
+//!
+//! Callers push under a mutex held for a few instructions; the bus thread moves everything
+//! queued into its own staging area in one go, so callers and the bus hardly ever contend.
+//! The bus thread parks on the condition variable only when it has nothing in flight;
+//! callers notify it only when it is parked, which keeps a system call off the common
+//! submission path.
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Condvar, Mutex, MutexGuard, PoisonError};
+use std::time::Instant;
+
+use super::completion::Completer;
+use super::cyclic::CyclicTask;
+use super::error::BusError;
+use super::request::DatagramRequest;
+
+/// One queued datagram.
+#[derive(Debug)]
+pub(crate) struct Queued {
+    pub request: DatagramRequest,
+    pub completer: Completer,
+    /// How many datagrams of its group start here, this one included: 1 for a lone datagram,
+    /// `n, n-1, ..., 1` along a group of `n` that must share a frame.
+    pub group_left: u16,
+}
+
+/// A change of cyclic task asked for: `Some(task)` to run one, `None` to stop.
+pub(crate) type CyclicChange = Option<Box<dyn CyclicTask>>;
+
+/// What the bus thread is asked to do besides moving datagrams.
+#[derive(Default)]
+pub(crate) struct Control {
+    pub shutdown: bool,
+    pub cyclic: Option<CyclicChange>,
+}
+
+/// The queue and the bus thread's wake-up.
+pub(crate) struct Submissions {
+    state: Mutex<State>,
+    wake: Condvar,
+    capacity: usize,
+    /// Datagrams queued, readable without the lock (the busy-polling bus checks it each turn).
+    queued: AtomicUsize,
+    /// Set when a [`Control`] request waits, readable without the lock.
+    control_pending: AtomicBool,
+}
+
+struct State {
+    entries: VecDeque<Queued>,
+    /// Set once the bus thread has stopped taking submissions.
+    closed: bool,
+    /// The bus thread sleeps on `wake` and must be notified.
+    parked: bool,
+    control: Control,
+}
+
+impl Submissions {
+    /// A queue of `capacity` datagrams, its memory reserved now.
+    pub fn new(capacity: usize) -> Submissions {
+        Submissions {
+            state: Mutex::new(State {
+                entries: VecDeque::with_capacity(capacity),
+                closed: false,
+                parked: false,
+                control: Control::default(),
+            }),
+            wake: Condvar::new(),
+            capacity,
+            queued: AtomicUsize::new(0),
+            control_pending: AtomicBool::new(false),
+        }
+    }
+
+    fn lock(&self) -> MutexGuard<'_, State> {
+        // No update can be left half done by a panic (each is a push, a take or a flag),
+        // so the state behind a poisoned lock is still consistent.
+        self.state.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// How many datagrams are waiting.
+    pub fn len(&self) -> usize {
+        self.queued.load(Ordering::Acquire)
+    }
+
+    /// Queues all of `batch` or none of it (a group must not be split by a full queue).
+    /// On refusal the batch is handed back with the reason.
+    pub fn push(
+        &self,
+        batch: impl ExactSizeIterator<Item = Queued>,
+    ) -> Result<(), (BusError, Vec<Queued>)> {
+        let mut state = self.lock();
+        if state.closed {
+            return Err((BusError::Shutdown, batch.collect()));
+        }
+        if state.entries.len() + batch.len() > self.capacity {
+            return Err((BusError::QueueFull, batch.collect()));
+        }
+        let count = batch.len();
+        state.entries.extend(batch);
+        self.queued.fetch_add(count, Ordering::Release);
+        if state.parked {
+            self.wake.notify_one();
+        }
+        Ok(())
+    }
+
+    /// Moves every queued datagram to the end of `staging` (bus thread). `staging` should
+    /// be empty and hold `capacity` entries, so that this never allocates.
+    pub fn take_into(&self, staging: &mut VecDeque<Queued>) {
+        if self.len() == 0 {
+            return;
+        }
+        let mut state = self.lock();
+        let count = state.entries.len();
+        staging.extend(state.entries.drain(..));
+        self.queued.fetch_sub(count, Ordering::Release);
+    }
+
+    /// Asks the bus thread to stop; idempotent.
+    pub fn request_shutdown(&self) {
+        self.with_control(|control| control.shutdown = true);
+    }
+
+    /// Asks the bus thread to change its cyclic task.
+    pub fn request_cyclic(&self, change: CyclicChange) {
+        // A change not yet taken up is replaced (and its task dropped here, not on the bus
+        // thread): only the latest wish matters.
+        self.with_control(|control| control.cyclic = Some(change));
+    }
+
+    fn with_control(&self, change: impl FnOnce(&mut Control)) {
+        let mut state = self.lock();
+        change(&mut state.control);
+        self.control_pending.store(true, Ordering::Release);
+        if state.parked {
+            self.wake.notify_one();
+        }
+    }
+
+    /// Takes the pending control requests, if any (bus thread).
+    pub fn take_control(&self) -> Option<Control> {
+        if !self.control_pending.load(Ordering::Acquire) {
+            return None;
+        }
+        let mut state = self.lock();
+        self.control_pending.store(false, Ordering::Release);
+        let control = std::mem::take(&mut state.control);
+        // Keep answering "shut down" once asked, whatever else comes later.
+        state.control.shutdown = control.shutdown;
+        Some(control)
+    }
+
+    /// Sleeps until a control request arrives, a submission too if `on_submission`, or
+    /// `until` passes (bus thread).
+    ///
+    /// Not waking on submissions lets the bus sleep out a failing link's back-off while
+    /// callers keep queueing.
+    pub fn park(&self, until: Option<Instant>, on_submission: bool) {
+        let mut state = self.lock();
+        state.parked = true;
+        loop {
+            let submitted = on_submission && !state.entries.is_empty();
+            if submitted || self.control_pending.load(Ordering::Acquire) {
+                break;
+            }
+            match until {
+                None => {
+                    state = self
+                        .wake
+                        .wait(state)
+                        .unwrap_or_else(PoisonError::into_inner);
+                }
+                Some(until) => {
+                    let now = Instant::now();
+                    if now >= until {
+                        break;
+                    }
+                    state = self
+                        .wake
+                        .wait_timeout(state, until - now)
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .0;
+                }
+            }
+        }
+        state.parked = false;
+    }
+
+    /// Refuses all further submissions and hands back those still queued (bus thread, when
+    /// it stops).
+    pub fn close(&self) -> VecDeque<Queued> {
+        let mut state = self.lock();
+        state.closed = true;
+        self.queued.store(0, Ordering::Release);
+        std::mem::take(&mut state.entries)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::completion::pair;
+
+    fn queued() -> Queued {
+        let (_pending, completer) = pair();
+        Queued {
+            request: DatagramRequest::brd(0, 2),
+            completer,
+            group_left: 1,
+        }
+    }
+
+    #[test]
+    fn a_batch_goes_in_whole_or_not_at_all() {
+        let queue = Submissions::new(3);
+        queue.push([queued(), queued()].into_iter()).unwrap();
+        let (err, back) = queue.push([queued(), queued()].into_iter()).unwrap_err();
+        assert_eq!(err, BusError::QueueFull);
+        assert_eq!(back.len(), 2);
+        assert_eq!(queue.len(), 2);
+        let mut staging = VecDeque::with_capacity(3);
+        queue.take_into(&mut staging);
+        assert_eq!((staging.len(), queue.len()), (2, 0));
+        queue.push([queued()].into_iter()).unwrap();
+        assert_eq!(queue.close().len(), 1);
+        let (err, _) = queue.push([queued()].into_iter()).unwrap_err();
+        assert_eq!(err, BusError::Shutdown);
+    }
+
+    #[test]
+    fn shutdown_stays_requested_and_park_returns_at_once_while_control_waits() {
+        let queue = Submissions::new(1);
+        assert!(queue.take_control().is_none());
+        queue.request_shutdown();
+        // Does not sleep: a control request is pending.
+        queue.park(None, true);
+        assert!(queue.take_control().unwrap().shutdown);
+        queue.request_cyclic(None);
+        let control = queue.take_control().unwrap();
+        assert!(control.shutdown && control.cyclic.is_some());
+    }
+}

@@ -1,0 +1,123 @@
+//! Counters of everything the bus does, lock-free, readable at any time.
+//!
+//! The bus thread is the only writer (one relaxed atomic add per event); any thread may take
+//! a [`BusStatsSnapshot`]. Counters taken one after the other are not one consistent cut,
+//! but each is exact and never goes down.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use super::histogram::{Histogram, HistogramSnapshot};
+
+/// The live counters, shared between the bus thread and its handles.
+#[derive(Debug, Default)]
+pub(crate) struct BusStats {
+    pub frames_sent: Counter,
+    pub frames_received: Counter,
+    pub frames_lost: Counter,
+    pub retries: Counter,
+    pub frames_foreign: Counter,
+    pub frames_stale: Counter,
+    pub link_errors: Counter,
+    pub datagrams_sent: Counter,
+    pub datagrams_completed: Counter,
+    pub datagrams_failed: Counter,
+    pub wkc_mismatches: Counter,
+    pub cycles_run: Counter,
+    pub cycles_late: Counter,
+    pub cycles_lost: Counter,
+    pub round_trip: Histogram,
+    pub cycle_start_delay: Histogram,
+}
+
+/// One monotonic event counter.
+#[derive(Debug, Default)]
+pub(crate) struct Counter(AtomicU64);
+
+impl Counter {
+    pub fn add(&self, n: u64) {
+        self.0.fetch_add(n, Ordering::Relaxed);
+    }
+
+    pub fn inc(&self) {
+        self.add(1);
+    }
+
+    pub fn get(&self) -> u64 {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+/// What the bus has done since it started.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BusStatsSnapshot {
+    /// Frames handed to the link (cyclic and acyclic, first tries and retries).
+    pub frames_sent: u64,
+    /// Returned frames matched to a frame in flight.
+    pub frames_received: u64,
+    /// Frames that did not come back before their deadline.
+    pub frames_lost: u64,
+    /// Lost acyclic frames that were sent again.
+    pub retries: u64,
+    /// Received frames that are not EtherCAT datagram frames or do not parse; ignored.
+    pub frames_foreign: u64,
+    /// Received datagram frames that match no frame in flight (late replies to frames
+    /// already retried or given up, duplicates, other masters' frames); ignored.
+    pub frames_stale: u64,
+    /// Errors the link returned from `send` or `recv`.
+    pub link_errors: u64,
+    /// Datagrams put on the wire by acyclic frames (each try counts).
+    pub datagrams_sent: u64,
+    /// Datagrams that completed with a reply (also those whose working counter was wrong).
+    pub datagrams_completed: u64,
+    /// Datagrams that failed without a reply: timeout or shutdown.
+    pub datagrams_failed: u64,
+    /// Replies whose working counter was not the one the caller expected.
+    pub wkc_mismatches: u64,
+    /// Cycles of the cyclic task that were started.
+    pub cycles_run: u64,
+    /// Cycles started a whole period or more after they were due (the missed periods are
+    /// skipped, not caught up in a burst).
+    pub cycles_late: u64,
+    /// Cyclic frames that did not come back in time.
+    pub cycles_lost: u64,
+    /// Round-trip times of returned frames, from send to receive on the bus thread.
+    pub round_trip: HistogramSnapshot,
+    /// How long after its due time each cycle started.
+    pub cycle_start_delay: HistogramSnapshot,
+}
+
+impl BusStatsSnapshot {
+    /// Estimated median round-trip time.
+    pub fn rtt_p50(&self) -> Option<Duration> {
+        self.round_trip.p50()
+    }
+
+    /// Estimated 99th-percentile round-trip time.
+    pub fn rtt_p99(&self) -> Option<Duration> {
+        self.round_trip.p99()
+    }
+}
+
+impl BusStats {
+    pub fn snapshot(&self) -> BusStatsSnapshot {
+        BusStatsSnapshot {
+            frames_sent: self.frames_sent.get(),
+            frames_received: self.frames_received.get(),
+            frames_lost: self.frames_lost.get(),
+            retries: self.retries.get(),
+            frames_foreign: self.frames_foreign.get(),
+            frames_stale: self.frames_stale.get(),
+            link_errors: self.link_errors.get(),
+            datagrams_sent: self.datagrams_sent.get(),
+            datagrams_completed: self.datagrams_completed.get(),
+            datagrams_failed: self.datagrams_failed.get(),
+            wkc_mismatches: self.wkc_mismatches.get(),
+            cycles_run: self.cycles_run.get(),
+            cycles_late: self.cycles_late.get(),
+            cycles_lost: self.cycles_lost.get(),
+            round_trip: self.round_trip.snapshot(),
+            cycle_start_delay: self.cycle_start_delay.snapshot(),
+        }
+    }
+}
