@@ -72,3 +72,17 @@ fn default_segment_builds_with_valid_sii() {
     assert_eq!(dict.process_data_bits(0x1C12), 48);
     assert_eq!(dict.process_data_bits(0x1C13), 48);
 }
+
+#[test]
+fn drive_process_data_follows_its_assignment() {
+    let built = build_with_handles(&Topology::default_segment()).unwrap();
+    let sizes =
+        |b: &sim::topology::Built| b.segment.slave(0).unwrap().device().process_data_sizes();
+    assert_eq!((sizes(&built).outputs, sizes(&built).inputs), (6, 6));
+    let dict = built.slaves[0].dictionary.clone().unwrap();
+    // A master switching the TxPDO assignment off (0x1C13:00 = 0) in PREOP.
+    sim::device::coe::lock_dictionary(&dict)
+        .set(0x1C13, 0, &0u8)
+        .unwrap();
+    assert_eq!((sizes(&built).outputs, sizes(&built).inputs), (6, 0));
+}
