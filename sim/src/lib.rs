@@ -4,10 +4,14 @@
 //!   machine, DL status, distributed clock).
 //! - [`segment`]: slaves chained in a line, processing whole frames.
 //! - [`device`]: the application behind a slave's PDI (mailbox protocols, process data).
+//! - [`topology`]: a segment described as data (TOML) and built into a [`segment::Segment`].
+//! - [`link`]: [`link::InProcessLink`], a `master_core::link::Link` straight into a segment.
 //!
 //! The simulator uses only `master_core::wire` (the codecs) from the master, never its logic,
 //! so a mistake in the master cannot be mirrored by the simulator.
 
 pub mod device;
 pub mod esc;
+pub mod link;
 pub mod segment;
+pub mod topology;

@@ -129,11 +129,17 @@ pub trait Device: Send {
     }
 }
 
+pub mod coe;
+pub mod composite;
 pub mod dio;
+pub mod drive;
 pub mod eoe;
 pub mod foe;
 pub mod mailbox;
 pub mod soe;
 pub mod voe;
 
+pub use coe::{CoeService, SharedDictionary};
+pub use composite::SlaveDevice;
+pub use drive::Drive;
 pub use mailbox::{MailboxService, MailboxStack, ReplySink};

@@ -1,0 +1,265 @@
+//! The serde model of a segment description. Field names are what the TOML file uses.
+
+use std::net::Ipv4Addr;
+
+use serde::{Deserialize, Serialize};
+
+/// A segment: slaves in line order (position 0 is next to the master).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Topology {
+    /// The slaves, by ring position.
+    #[serde(default, rename = "slave")]
+    pub slaves: Vec<SlaveSpec>,
+}
+
+impl Topology {
+    /// Parses a TOML description.
+    pub fn from_toml(text: &str) -> Result<Self, toml::de::Error> {
+        toml::from_str(text)
+    }
+
+    /// The description as TOML.
+    pub fn to_toml(&self) -> Result<String, toml::ser::Error> {
+        toml::to_string_pretty(self)
+    }
+}
+
+/// A mailbox protocol a slave supports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Protocol {
+    /// CANopen over EtherCAT (SDO server over the dictionary).
+    Coe,
+    /// Ethernet over EtherCAT.
+    Eoe,
+    /// File access over EtherCAT.
+    Foe,
+    /// Servo profile over EtherCAT (the default IDN set).
+    Soe,
+    /// Vendor specific over EtherCAT (an echo service).
+    Voe,
+}
+
+/// One slave.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SlaveSpec {
+    /// Device name (SII name string, CoE 0x1008).
+    pub name: String,
+    /// EtherCAT vendor ID.
+    pub vendor_id: u32,
+    /// Product code.
+    pub product_code: u32,
+    /// Revision number.
+    #[serde(default)]
+    pub revision: u32,
+    /// Serial number.
+    #[serde(default)]
+    pub serial: u32,
+    /// Configured station alias (SII word 4).
+    #[serde(default)]
+    pub alias: u16,
+    /// CoE device type 0x1000 (profile in the low word; 0x0192 = CiA 402).
+    #[serde(default)]
+    pub device_type: u32,
+    /// Mailbox SyncManager sizes; none for a slave without mailbox.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mailbox: Option<MailboxSpec>,
+    /// Mailbox protocols (ignored without a mailbox).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub protocols: Vec<Protocol>,
+    /// ESC options.
+    #[serde(default)]
+    pub esc: EscSpec,
+    /// The process-data application.
+    #[serde(default)]
+    pub application: Application,
+    /// RxPDOs (outputs, master → slave) and TxPDOs (inputs), in SII and dictionary order.
+    #[serde(default, rename = "pdo", skip_serializing_if = "Vec::is_empty")]
+    pub pdos: Vec<PdoSpec>,
+    /// CoE objects beyond the standard ones the builder derives.
+    #[serde(default, rename = "object", skip_serializing_if = "Vec::is_empty")]
+    pub objects: Vec<CoeObject>,
+    /// SoE: number of drives (each with the default IDN set).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub soe_drives: u8,
+    /// FoE files present at power-on.
+    #[serde(default, rename = "foe_file", skip_serializing_if = "Vec::is_empty")]
+    pub foe_files: Vec<FoeFileSpec>,
+    /// EoE settings.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eoe: Option<EoeSpec>,
+    /// VoE vendor ID (default: the slave's own vendor ID).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub voe_vendor_id: Option<u32>,
+}
+
+fn one() -> u8 {
+    1
+}
+
+fn is_one(v: &u8) -> bool {
+    *v == 1
+}
+
+/// Mailbox SyncManager sizes; SM0 starts at 0x1000, SM1 right behind it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MailboxSpec {
+    /// SM0 (master → slave) length in bytes.
+    pub rx_size: u16,
+    /// SM1 (slave → master) length in bytes.
+    pub tx_size: u16,
+}
+
+/// ESC options.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EscSpec {
+    /// Process RAM in KiB (at most 60).
+    #[serde(default = "default_ram_kib")]
+    pub ram_kib: u16,
+    /// DC propagation delay from the previous device to this slave, in ns.
+    #[serde(default = "default_hop_delay")]
+    pub hop_delay_ns: u32,
+}
+
+fn default_ram_kib() -> u16 {
+    8
+}
+
+fn default_hop_delay() -> u32 {
+    150
+}
+
+impl Default for EscSpec {
+    fn default() -> Self {
+        EscSpec {
+            ram_kib: default_ram_kib(),
+            hop_delay_ns: default_hop_delay(),
+        }
+    }
+}
+
+/// What exchanges the process data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Application {
+    /// No process data.
+    #[default]
+    None,
+    /// A CiA-402-like drive mapped through its dictionary (needs CoE).
+    Drive,
+    /// Digital outputs, one bit per channel.
+    DigitalOutputs {
+        /// Number of channels.
+        channels: u16,
+    },
+    /// Digital inputs, one bit per channel.
+    DigitalInputs {
+        /// Number of channels.
+        channels: u16,
+    },
+}
+
+/// A PDO. Its direction follows from `index`: 0x1600..=0x17FF RxPDO, 0x1A00..=0x1BFF TxPDO.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PdoSpec {
+    /// PDO index.
+    pub index: u16,
+    /// SyncManager carrying it.
+    pub sm: u8,
+    /// PDO name.
+    pub name: String,
+    /// Mapped entries, in image order.
+    #[serde(rename = "entry")]
+    pub entries: Vec<PdoEntrySpec>,
+}
+
+impl PdoSpec {
+    /// Whether this is an RxPDO (outputs).
+    pub fn is_rx(&self) -> bool {
+        (0x1600..0x1800).contains(&self.index)
+    }
+
+    /// Bits the PDO takes.
+    pub fn bits(&self) -> u32 {
+        self.entries.iter().map(|e| u32::from(e.bits)).sum()
+    }
+}
+
+/// One mapped entry.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PdoEntrySpec {
+    /// Object index (0 for a gap).
+    pub index: u16,
+    /// Subindex.
+    #[serde(default)]
+    pub subindex: u8,
+    /// Bit length.
+    pub bits: u8,
+    /// Data type name (e.g. `UNSIGNED16`, `BOOLEAN`).
+    pub data_type: String,
+    /// Entry name.
+    pub name: String,
+}
+
+/// An extra CoE object or entry. Entries with subindex 0 are VARs; entries sharing an index
+/// with subindex ≥ 1 make a RECORD (SI0 made by the builder).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CoeObject {
+    /// Object index.
+    pub index: u16,
+    /// Subindex.
+    #[serde(default)]
+    pub subindex: u8,
+    /// Data type name (e.g. `UNSIGNED16`, `INTEGER32`, `VISIBLE_STRING`, `OCTET_STRING`).
+    pub data_type: String,
+    /// Access: `ro`, `rw`, `wo`, `rw_preop`, `ro_tx` (TxPDO-mappable), `rw_rx`
+    /// (RxPDO-mappable).
+    pub access: String,
+    /// Object (VAR) or entry name.
+    pub name: String,
+    /// Initial value (integer, float, bool or string); zero/empty when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<toml::Value>,
+    /// For byte objects without a value: the size in bytes, filled with the test pattern
+    /// byte *i* = *i* mod 251 (a prime, so the pattern never lines up with segment sizes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<usize>,
+}
+
+/// An FoE file.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FoeFileSpec {
+    /// File name.
+    pub name: String,
+    /// Text content; when absent, `size` bytes of the test pattern.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub content: Option<String>,
+    /// Size when no content is given.
+    #[serde(default)]
+    pub size: usize,
+    /// FoE password (0 = none).
+    #[serde(default)]
+    pub password: u32,
+}
+
+/// EoE settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EoeSpec {
+    /// IP address the slave has before any Set IP parameter.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ip: Option<Ipv4Addr>,
+}
+
+/// The test pattern for sized objects and files: byte *i* = *i* mod 251.
+pub fn pattern(size: usize) -> Vec<u8> {
+    (0..size).map(|i| (i % 251) as u8).collect()
+}
