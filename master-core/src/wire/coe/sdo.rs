@@ -22,6 +22,7 @@
 //! - a download (or upload response) with command bits 0-1 clear (0x20) and 1-4 data bytes
 //!   in a frame of at most 10 bytes: expedited, size taken from the bytes present.
 
+use crate::wire::coe::abort::AbortCode;
 use crate::wire::coe::header::CoeService;
 use crate::wire::error::{Result, WireError, need};
 use crate::wire::field::{self, Field, Rest};
@@ -156,6 +157,14 @@ impl<T: AsRef<[u8]>> SdoFrame<T> {
     pub fn data_field_u32(&self) -> Option<u32> {
         let f = self.data_field();
         (f.len() == 4).then(|| field::u32_le(f, 0))
+    }
+
+    /// Index, subindex and abort code of an abort frame, which has the same layout in both
+    /// directions (§6.3, command specifier 4).
+    pub fn abort_fields(&self) -> Result<(u16, u8, AbortCode)> {
+        need("SDO abort", self.buffer.as_ref(), SDO_INITIATE_LEN)?;
+        let code = AbortCode::from(self.data_field_u32().unwrap_or(0));
+        Ok((self.index(), self.subindex(), code))
     }
 
     /// The bytes after the 8-byte SDO header (data of a normal initiate frame).

@@ -10,7 +10,7 @@ use super::sdo::{
     write_segment,
 };
 use super::sdo_payload::SdoPayload;
-use crate::wire::error::{Result, WireError, need, room};
+use crate::wire::error::{Result, WireError, room};
 
 const WHAT: &str = "SDO request";
 
@@ -105,11 +105,11 @@ impl<'a> SdoRequest<'a> {
             },
             ccs::UPLOAD_SEGMENT => SdoRequest::UploadSegment { toggle },
             ccs::ABORT => {
-                need("SDO abort", frame.bytes(), SDO_INITIATE_LEN)?;
+                let (index, subindex, code) = frame.abort_fields()?;
                 SdoRequest::Abort {
-                    index: frame.index(),
-                    subindex: frame.subindex(),
-                    code: AbortCode::from(frame.data_field_u32().unwrap_or(0)),
+                    index,
+                    subindex,
+                    code,
                 }
             }
             other => {

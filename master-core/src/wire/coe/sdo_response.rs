@@ -13,7 +13,7 @@ use super::sdo::{
     write_segment,
 };
 use super::sdo_payload::SdoPayload;
-use crate::wire::error::{Result, WireError, need, room};
+use crate::wire::error::{Result, WireError, room};
 
 const WHAT: &str = "SDO response";
 
@@ -106,11 +106,11 @@ impl<'a> SdoResponse<'a> {
                 data: frame.segment_data_ref(),
             },
             scs::ABORT => {
-                need("SDO abort", frame.bytes(), SDO_INITIATE_LEN)?;
+                let (index, subindex, code) = frame.abort_fields()?;
                 SdoResponse::Abort {
-                    index: frame.index(),
-                    subindex: frame.subindex(),
-                    code: AbortCode::from(frame.data_field_u32().unwrap_or(0)),
+                    index,
+                    subindex,
+                    code,
                 }
             }
             other => {
