@@ -11,9 +11,12 @@
 //! - [`od`]: the CoE object dictionary and the SDO server answering mailbox requests against
 //!   it — shared by the simulator's slaves and the master's own ETG.1510 dictionary.
 //!
-//! The slave, mailbox and gateway layers build on these.
+//! - [`master`]: bring-up, slave addressing, AL states, topology watch, events.
+//! - [`mailbox`]: one owner per slave mailbox, and the protocol clients on top.
 
 pub mod bus;
 pub mod link;
+pub mod mailbox;
+pub mod master;
 pub mod od;
 pub mod wire;

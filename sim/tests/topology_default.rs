@@ -86,3 +86,23 @@ fn drive_process_data_follows_its_assignment() {
         .unwrap();
     assert_eq!((sizes(&built).outputs, sizes(&built).inputs), (6, 0));
 }
+
+#[test]
+fn repeated_segment_cycles_the_default_slaves_with_own_serials() {
+    let topology = Topology::repeated(12);
+    let built = build_with_handles(&topology).unwrap();
+    assert_eq!(built.segment.len(), 12);
+    let default = Topology::default_segment();
+    for p in 0..12 {
+        let sii = SiiImage::parse(built.segment.esc(p).unwrap().sii()).unwrap();
+        assert!(sii.checksum_ok, "slave {p}");
+        assert_eq!(sii.fixed.product_code, default.slaves[p % 5].product_code);
+        assert_eq!(sii.fixed.serial, p as u32 + 1, "slave {p}");
+    }
+    assert!(
+        topology
+            .slaves
+            .iter()
+            .all(|s| s.eoe.is_none_or(|e| e.ip.is_none()))
+    );
+}

@@ -212,3 +212,24 @@ impl Topology {
         }
     }
 }
+
+impl Topology {
+    /// A segment of `count` slaves for scale tests and benchmarks: the built-in segment's
+    /// slaves repeated in order (so every fifth slave is a drive with a mailbox), each with
+    /// its own serial number (its position + 1). The EoE devices get no IP address, so that
+    /// no two endpoints answer for the same one.
+    pub fn repeated(count: usize) -> Topology {
+        let pattern = Topology::default_segment().slaves;
+        let slaves = (0..count)
+            .map(|position| {
+                let mut slave = pattern[position % pattern.len()].clone();
+                slave.serial = u32::try_from(position + 1).unwrap_or(u32::MAX);
+                if let Some(eoe) = slave.eoe.as_mut() {
+                    eoe.ip = None;
+                }
+                slave
+            })
+            .collect();
+        Topology { slaves }
+    }
+}

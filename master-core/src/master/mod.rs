@@ -1,0 +1,1 @@
+//! The master: bring-up of the segment, slave addressing, AL states, topology watch, events.
