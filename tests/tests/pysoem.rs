@@ -31,7 +31,8 @@ fn pysoem_finds_maps_operates_and_talks_to_every_slave() {
     // Process-data sizes from the PDO assignment (read with complete access).
     let sizes = r["pd_sizes"].as_array().unwrap();
     let mut total = 0;
-    for p in 0..topology.slaves.len() {
+    assert_eq!(sizes.len(), topology.slaves.len());
+    for (p, seen) in sizes.iter().enumerate() {
         let expected = built
             .segment
             .slave(p)
@@ -39,7 +40,7 @@ fn pysoem_finds_maps_operates_and_talks_to_every_slave() {
             .device()
             .process_data_sizes();
         assert_eq!(
-            (u(&sizes[p]["outputs"]), u(&sizes[p]["inputs"])),
+            (u(&seen["outputs"]), u(&seen["inputs"])),
             (u64::from(expected.outputs), u64::from(expected.inputs)),
             "slave {p} outputs/inputs"
         );
