@@ -153,3 +153,48 @@ fn unknown_addresses_are_refused_by_name() {
     assert_eq!(read, 1003u16.to_le_bytes());
     let _ = AlStatusCode::NoError;
 }
+
+#[test]
+fn a_slave_with_a_bad_mailbox_is_reported_by_code_and_name_and_the_others_reach_op() {
+    let mut topology = Topology::default_segment();
+    let broken = 3;
+    let spec = &mut topology.slaves[broken];
+    // The SII announces a mailbox beyond the ESC's RAM: the ESC refuses it.
+    let ram_end = 0x1000 + spec.esc.ram_kib * 1024;
+    spec.mailbox.as_mut().unwrap().start = Some(ram_end);
+    let rig = rig(topology.clone(), MasterConfig::default());
+    let mut events = rig.master().events();
+    let report = block_on(rig.master().scan()).expect("scan");
+    assert_eq!(report.failures.len(), 1, "{:?}", report.failures);
+    let failure = &report.failures[0];
+    assert_eq!(
+        failure.al_status_code(),
+        Some(AlStatusCode::InvalidMailboxConfigPreop)
+    );
+    let text = failure.to_string();
+    assert!(
+        text.contains("0x0016 Invalid mailbox configuration (PREOP)"),
+        "{text}"
+    );
+    assert!(text.contains(&topology.slaves[broken].name), "{text}");
+    for info in &report.slaves {
+        if usize::from(info.position) == broken {
+            assert_eq!(info.al_state, AlState::Init);
+            assert_eq!(info.al_status_code, AlStatusCode::InvalidMailboxConfigPreop);
+        } else {
+            assert_eq!(info.al_state, AlState::Op, "{}", info.name);
+        }
+    }
+    let event =
+        master_support::next_event(&mut events, |e| matches!(e, MasterEvent::AlError { .. }));
+    assert_eq!(
+        event,
+        Some(MasterEvent::AlError {
+            position: broken as u16,
+            station: 1001 + broken as u16,
+            name: topology.slaves[broken].name.clone(),
+            state: AlState::Init,
+            code: AlStatusCode::InvalidMailboxConfigPreop,
+        })
+    );
+}
