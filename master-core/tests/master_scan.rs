@@ -151,7 +151,6 @@ fn unknown_addresses_are_refused_by_name() {
     )
     .unwrap();
     assert_eq!(read, 1003u16.to_le_bytes());
-    let _ = AlStatusCode::NoError;
 }
 
 #[test]
@@ -197,4 +196,43 @@ fn a_slave_with_a_bad_mailbox_is_reported_by_code_and_name_and_the_others_reach_
             code: AlStatusCode::InvalidMailboxConfigPreop,
         })
     );
+}
+
+#[test]
+fn the_sii_read_through_the_master_is_the_simulator_s() {
+    let rig = rig(Topology::default_segment(), MasterConfig::default());
+    block_on(rig.master().scan()).expect("scan");
+    for position in 0..5u16 {
+        let read = block_on(rig.master().read_sii(SlaveAddress::Position(position))).unwrap();
+        let segment = rig.segment();
+        let image = segment.esc(usize::from(position)).unwrap().sii();
+        // Read up to and including the END marker: the simulator's image up to there.
+        assert!(read.len() > 128, "more than the fixed area");
+        assert_eq!(&image[..read.len()], &read[..], "slave {position}");
+        assert_eq!(&read[read.len() - 2..], &[0xFF, 0xFF], "ends with END");
+    }
+}
+
+#[test]
+fn a_slave_goes_to_boot_with_the_bootstrap_mailbox_and_back_to_op() {
+    let rig = rig(Topology::default_segment(), MasterConfig::default());
+    block_on(rig.master().scan()).expect("scan");
+    let drive = SlaveAddress::Position(0);
+    block_on(rig.master().request_state(drive, AlState::Boot)).expect("BOOT");
+    assert_eq!(rig.segment().esc(0).unwrap().al_state(), AlState::Boot);
+    let info = rig.master().slave(drive).unwrap();
+    assert_eq!(info.al_state, AlState::Boot);
+    assert_eq!(info.requested_state, AlState::Boot);
+    // SM0/SM1 hold the bootstrap mailbox the SII announces.
+    let boot = info.boot_mailbox.expect("bootstrap mailbox");
+    let sm0 = block_on(rig.master().read_register(drive, 0x0800, 4)).unwrap();
+    assert_eq!(sm0[..2], boot.sm0_start.to_le_bytes());
+    assert_eq!(sm0[2..], boot.sm0_length.to_le_bytes());
+    block_on(rig.master().request_state(drive, AlState::Op)).expect("back to OP");
+    assert_eq!(rig.segment().esc(0).unwrap().al_state(), AlState::Op);
+    // The cyclic exchange serves the drive again.
+    assert!(wait_until(|| {
+        let stats = rig.master().cycle_stats();
+        stats.last_wkc == stats.expected_wkc
+    }));
 }

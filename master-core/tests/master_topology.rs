@@ -153,3 +153,76 @@ fn an_alias_keeps_the_sii_valid_addresses_the_slave_and_survives_a_power_cycle()
     let again = rig.master().slave(SlaveAddress::Alias(alias)).unwrap();
     assert_eq!((again.position, again.alias), (position, alias));
 }
+
+#[test]
+fn a_slave_with_another_identity_after_a_power_cycle_is_reported_replaced() {
+    let rig = scanned();
+    let position = 2u16;
+    let address = SlaveAddress::Position(position);
+    let old = rig.master().slave(address).unwrap().identity;
+    // Another product code in the SII (words 0x0A-0x0B, outside the checksummed words):
+    // after a power cycle the slave at this position is another device.
+    let product = old.product_code ^ 0x00AB_0000;
+    let words = [product as u16, (product >> 16) as u16];
+    block_on(rig.master().write_sii(address, 0x0A, &words)).expect("write SII");
+    let mut events = rig.master().events();
+    rig.segment().power_cycle(usize::from(position));
+    let replaced = next_event(&mut events, |e| {
+        matches!(e, MasterEvent::SlaveReplaced { .. })
+    });
+    match replaced {
+        Some(MasterEvent::SlaveReplaced {
+            position: p,
+            old: was,
+            new,
+            ..
+        }) => {
+            assert_eq!(p, position);
+            assert_eq!(was, old);
+            assert_eq!(new.product_code, product);
+            assert_eq!(new.vendor_id, old.vendor_id);
+        }
+        other => panic!("expected a replacement, got {other:?}"),
+    }
+    assert!(wait_until(|| in_op(&rig, position)));
+    assert_eq!(
+        rig.master().slave(address).unwrap().identity.product_code,
+        product
+    );
+}
+
+#[test]
+fn without_the_watch_a_look_on_request_sees_the_change() {
+    let config = MasterConfig {
+        watch_interval: None,
+        ..MasterConfig::default()
+    };
+    let rig = rig(Topology::default_segment(), config);
+    block_on(rig.master().scan()).expect("scan");
+    assert!(!rig.master().watching());
+    let mut events = rig.master().events();
+    rig.segment().set_plugged(3, false);
+    block_on(rig.master().check_topology()).expect("look");
+    let mut lost = Vec::new();
+    while let Ok(event) = events.try_recv() {
+        if let MasterEvent::SlaveLost { position, .. } = event {
+            lost.push(position);
+        }
+    }
+    // The slave unplugged and every slave behind it.
+    assert_eq!(lost, vec![3, 4]);
+    rig.segment().set_plugged(3, true);
+    block_on(rig.master().check_topology()).expect("look");
+    let mut found = Vec::new();
+    while let Ok(event) = events.try_recv() {
+        if let MasterEvent::SlaveFound { position, .. } = event {
+            found.push(position);
+        }
+    }
+    assert_eq!(found, vec![3, 4]);
+    assert!(in_op(&rig, 3) && in_op(&rig, 4));
+    rig.master().start_watch(Duration::from_millis(10));
+    assert!(rig.master().watching());
+    rig.master().stop_watch();
+    assert!(!rig.master().watching());
+}

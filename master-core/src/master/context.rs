@@ -11,8 +11,9 @@ use super::config::MasterConfig;
 use super::error::MasterError;
 use super::event::MasterEvent;
 use super::image::Image;
-use super::info::SlaveInfo;
+use super::info::{Identity, ProcessDataInfo, SlaveInfo};
 use super::layout::{LayoutSource, ProcessDataLayout};
+use crate::wire::register::{AlState, AlStatusCode, DlStatus, EscInfoRepr};
 
 /// One slave: the snapshot callers see, its SII image and its process-data layout.
 #[derive(Debug, Clone)]
@@ -20,6 +21,34 @@ pub(crate) struct SlaveRecord {
     pub info: SlaveInfo,
     pub sii: Vec<u8>,
     pub layout: ProcessDataLayout,
+}
+
+impl SlaveRecord {
+    /// A slave that answered the scan but could not be identified (its SII unreadable):
+    /// kept in its place, with no SII, for the watch to try again.
+    pub fn unidentified(position: u16, station: u16, requested_state: AlState) -> SlaveRecord {
+        SlaveRecord {
+            info: SlaveInfo {
+                position,
+                station,
+                alias: 0,
+                identity: Identity::default(),
+                name: String::new(),
+                esc: EscInfoRepr::default(),
+                mailbox: None,
+                boot_mailbox: None,
+                dl_status: DlStatus::default(),
+                al_state: AlState::Init,
+                al_error: false,
+                al_status_code: AlStatusCode::NoError,
+                requested_state,
+                process_data: ProcessDataInfo::default(),
+                present: false,
+            },
+            sii: Vec::new(),
+            layout: ProcessDataLayout::default(),
+        }
+    }
 }
 
 /// The slaves of the last scan, by ring position.

@@ -40,8 +40,9 @@ mod watch;
 
 use std::future::Future;
 use std::io;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
+use std::time::Duration;
 
 use tokio::sync::{broadcast, oneshot};
 
@@ -69,6 +70,7 @@ pub struct Master {
     runtime: tokio::runtime::Handle,
     stop: Mutex<Option<oneshot::Sender<()>>>,
     thread: Option<JoinHandle<()>>,
+    watch: Mutex<Option<tokio::task::AbortHandle>>,
 }
 
 impl Master {
@@ -115,15 +117,54 @@ impl Master {
                     let _ = stopped.await;
                 });
             })?;
-        if let Some(interval) = config.watch_interval {
-            handle.spawn(watch::watch(Arc::clone(&ctx), interval));
-        }
-        Ok(Master {
+        let master = Master {
             ctx,
             runtime: handle,
             stop: Mutex::new(Some(stop)),
             thread: Some(thread),
-        })
+            watch: Mutex::new(None),
+        };
+        if let Some(interval) = config.watch_interval {
+            master.start_watch(interval);
+        }
+        Ok(master)
+    }
+
+    /// Starts the topology watch with `interval` between looks, replacing a running one.
+    /// It does nothing until a scan has found slaves.
+    pub fn start_watch(&self, interval: Duration) {
+        let task = self
+            .runtime
+            .spawn(watch::watch(Arc::clone(&self.ctx), interval));
+        let old = self
+            .watch
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .replace(task.abort_handle());
+        if let Some(old) = old {
+            old.abort();
+        }
+    }
+
+    /// Stops the topology watch (a look in progress ends at its next await).
+    pub fn stop_watch(&self) {
+        let old = self
+            .watch
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take();
+        if let Some(old) = old {
+            old.abort();
+        }
+    }
+
+    /// Whether the topology watch is running.
+    pub fn watching(&self) -> bool {
+        self.watch
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .as_ref()
+            .is_some_and(|task| !task.is_finished())
     }
 
     /// Runs `work` on the master's runtime and waits for its result (from any executor).

@@ -86,16 +86,28 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
     }
     reset_all(&ctx.bus, count).await?;
 
+    let target = ctx.config.target_state;
     let mut tasks = JoinSet::new();
     for position in 0..count {
         let ctx = Arc::clone(&ctx);
-        tasks.spawn(async move { identify(&ctx, position, None).await });
+        tasks.spawn(async move { (position, identify(&ctx, position, None).await) });
     }
-    let mut identified = Vec::new();
+    let mut failures = Vec::new();
+    let mut all = Vec::new();
     while let Some(joined) = tasks.join_next().await {
-        identified.push(joined.map_err(|_| MasterError::Stopped)??);
+        let (position, result) = joined.map_err(|_| MasterError::Stopped)?;
+        match result {
+            Ok(record) => all.push(record),
+            Err(err) => {
+                failures.push(err);
+                // Checked above: every position has a station address.
+                let station = ctx.config.station_of(position).unwrap_or(0);
+                all.push(SlaveRecord::unidentified(position, station, target));
+            }
+        }
     }
-    identified.sort_by_key(|r| r.info.position);
+    all.sort_by_key(|r| r.info.position);
+    let identified: Vec<SlaveRecord> = all.iter().filter(|r| !r.sii.is_empty()).cloned().collect();
     for record in &identified {
         let i = &record.info;
         ctx.emit(MasterEvent::SlaveFound {
@@ -105,11 +117,9 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
             name: i.name.clone(),
         });
     }
-    ctx.lock().list = identified.clone();
+    ctx.lock().list = all;
 
-    let target = ctx.config.target_state;
     let first = first_stop(target);
-    let mut failures = Vec::new();
     let mut ready = Vec::new();
     for (position, result) in for_each(&ctx, identified, move |ctx, record| async move {
         bring_to(&ctx, &record, first).await

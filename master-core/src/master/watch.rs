@@ -45,36 +45,64 @@ pub(crate) async fn look(ctx: &Arc<Context>) -> Result<(), MasterError> {
         .await
         .map_err(MasterError::bus("count slaves"))?
         .wkc;
-    for record in known {
-        let info = &record.info;
-        let reply = ctx
-            .bus
-            .submit(DatagramRequest::fprd(
-                info.station,
-                reg::AL_STATUS,
-                AL_STATUS_BLOCK_LEN,
-            ))
-            .await
-            .map_err(MasterError::bus("AL status"))?;
-        if reply.wkc == 1 {
-            let status = AlStatusBlock::new_checked(&reply.data[..])
-                .and_then(|view| AlStatusBlockRepr::parse(&view))
-                .map_err(|source| MasterError::Malformed {
-                    position: info.position,
-                    what: "AL status",
-                    source,
-                })?;
-            still_there(ctx, &record, status).await?;
-        } else if info.position < count {
-            if info.present {
-                lost(ctx, &record);
-            }
-            come_back(ctx, record).await?;
-        } else if info.present {
-            lost(ctx, &record);
+    // All status reads at once: the bus packs them into as few frames as fit.
+    let pendings: Vec<_> = known
+        .iter()
+        .map(|r| {
+            let request =
+                DatagramRequest::fprd(r.info.station, reg::AL_STATUS, AL_STATUS_BLOCK_LEN);
+            ctx.bus.submit(request)
+        })
+        .collect();
+    let mut first_error = None;
+    for (record, pending) in known.into_iter().zip(pendings) {
+        let result = match pending.await {
+            Ok(reply) => one(ctx, record, reply.wkc, &reply.data, count).await,
+            Err(source) => Err(MasterError::Bus {
+                what: "AL status",
+                source,
+            }),
+        };
+        // One slave's trouble does not keep the others from being looked at.
+        if let Err(err) = result {
+            first_error.get_or_insert(err);
         }
     }
-    Ok(())
+    first_error.map_or(Ok(()), Err)
+}
+
+/// What to do about one known slave, given its answer to the AL status read.
+async fn one(
+    ctx: &Context,
+    record: SlaveRecord,
+    wkc: u16,
+    data: &[u8],
+    count: u16,
+) -> Result<(), MasterError> {
+    let info = &record.info;
+    // A slave the scan could not identify (no SII) is identified again like one that came
+    // back.
+    let identified = !record.sii.is_empty();
+    if wkc == 1 && identified {
+        let status = AlStatusBlock::new_checked(data)
+            .and_then(|view| AlStatusBlockRepr::parse(&view))
+            .map_err(|source| MasterError::Malformed {
+                position: info.position,
+                what: "AL status",
+                source,
+            })?;
+        still_there(ctx, &record, status).await
+    } else if info.position < count {
+        if info.present && identified {
+            lost(ctx, &record);
+        }
+        come_back(ctx, record).await
+    } else {
+        if info.present {
+            lost(ctx, &record);
+        }
+        Ok(())
+    }
 }
 
 fn lost(ctx: &Context, record: &SlaveRecord) {
@@ -156,7 +184,7 @@ async fn come_back(ctx: &Context, old: SlaveRecord) -> Result<(), MasterError> {
     reset_one(&ctx.bus, info.station).await?;
     let mut record = identify(ctx, info.position, Some(&old)).await?;
     let new = &record.info;
-    if new.identity == info.identity {
+    if new.identity == info.identity || old.sii.is_empty() {
         ctx.emit(MasterEvent::SlaveFound {
             position: new.position,
             station: new.station,
