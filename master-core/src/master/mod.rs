@@ -1,1 +1,387 @@
-//! The master: bring-up of the segment, slave addressing, AL states, topology watch, events.
+//! The master: bring-up of the segment, slave addressing, AL states, register and SII
+//! access, the process image, the topology watch and its events.
+//!
+//! [`Master::start`] takes a [`BusHandle`] and spawns the master's own thread (named
+//! `ecat-master`) running a small runtime: every timed step (polling AL status and the
+//! EEPROM, timeouts, the watch) runs there, so the public `async fn`s can be awaited from
+//! any executor (or driven by a plain `block_on`), and the caller needs no particular
+//! runtime. It also installs the process-data exchange as the bus's cyclic task.
+//!
+//! [`Master::scan`] brings the segment up as the seed capture shows it (digest Appendix A):
+//! count the slaves (BRD), reset their registers (§2.15), give each its station address
+//! (`station_base + position`), read its ESC information, alias and whole SII, DL status,
+//! configure the mailbox SyncManagers from the SII, and move it INIT → PREOP → SAFEOP → OP,
+//! with the process-data SyncManagers and FMMUs set from the layout a [`LayoutSource`]
+//! gives (the SII's PDO categories by default) and the cyclic LRW running before OP. A
+//! slave that refuses a state is reported with its AL status code, and the others go on.
+//!
+//! Files: `config`, `error`, `address` (naming slaves), `info` (the snapshot type),
+//! `event`, `access` (single-slave register access), `eeprom` (the SII interface), `al`
+//! (state changes), `reset`, `layout` (process-data sources), `image` (process image and
+//! cyclic task), `configure` (one slave), `scan` (all slaves), `watch` (topology changes),
+//! `tools` (register/SII/alias access), `context` (shared state).
+
+mod access;
+mod address;
+mod al;
+mod config;
+mod configure;
+mod context;
+mod eeprom;
+mod error;
+mod event;
+mod image;
+mod info;
+mod layout;
+mod reset;
+mod scan;
+mod tools;
+mod watch;
+
+use std::future::Future;
+use std::io;
+use std::sync::{Arc, Mutex, PoisonError};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use tokio::sync::{broadcast, oneshot};
+
+use crate::bus::BusHandle;
+use crate::wire::register::AlState;
+
+pub use address::SlaveAddress;
+pub use config::MasterConfig;
+pub use error::MasterError;
+pub use event::MasterEvent;
+pub use image::CycleStats;
+pub use info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
+pub use layout::{LayoutFuture, LayoutSource, PdSyncManager, ProcessDataLayout, SiiLayout};
+pub use scan::ScanReport;
+
+use context::{Context, Slaves};
+use image::{Image, ProcessCycle};
+
+/// An EtherCAT master over a running bus. See the [module documentation](self).
+///
+/// Dropping it stops its thread (and the watch) and removes its cyclic task from the bus;
+/// the slaves stay in the state they are in.
+pub struct Master {
+    ctx: Arc<Context>,
+    runtime: tokio::runtime::Handle,
+    stop: Mutex<Option<oneshot::Sender<()>>>,
+    thread: Option<JoinHandle<()>>,
+    watch: Mutex<Option<tokio::task::AbortHandle>>,
+}
+
+impl Master {
+    /// Starts a master on `bus` that takes process-data layouts from the SII.
+    ///
+    /// Fails only if the master's thread or runtime cannot be created.
+    pub fn start(bus: BusHandle, config: MasterConfig) -> io::Result<Master> {
+        Master::with_layout_source(bus, config, Box::new(SiiLayout))
+    }
+
+    /// Starts a master whose process-data layouts come from `source` (CoE, once the mailbox
+    /// engine provides it).
+    pub fn with_layout_source(
+        bus: BusHandle,
+        config: MasterConfig,
+        source: Box<dyn LayoutSource>,
+    ) -> io::Result<Master> {
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_time()
+            .build()?;
+        let handle = runtime.handle().clone();
+        let image = Arc::new(Image::default());
+        bus.set_cyclic(Some(Box::new(ProcessCycle {
+            image: Arc::clone(&image),
+            period: config.cycle_period,
+        })));
+        let (events, _) = broadcast::channel(config.event_capacity.max(1));
+        let ctx = Arc::new(Context {
+            bus,
+            config,
+            slaves: Mutex::new(Slaves::default()),
+            events,
+            image,
+            layout_source: source,
+            topology: tokio::sync::Mutex::new(()),
+        });
+        let (stop, stopped) = oneshot::channel::<()>();
+        let thread = std::thread::Builder::new()
+            .name("ecat-master".into())
+            .spawn(move || {
+                // Ends when the master is dropped; dropping the runtime cancels the watch
+                // and any request still running.
+                runtime.block_on(async {
+                    let _ = stopped.await;
+                });
+            })?;
+        let master = Master {
+            ctx,
+            runtime: handle,
+            stop: Mutex::new(Some(stop)),
+            thread: Some(thread),
+            watch: Mutex::new(None),
+        };
+        if let Some(interval) = config.watch_interval {
+            master.start_watch(interval);
+        }
+        Ok(master)
+    }
+
+    /// Starts the topology watch with `interval` between looks, replacing a running one.
+    /// It does nothing until a scan has found slaves.
+    pub fn start_watch(&self, interval: Duration) {
+        let task = self
+            .runtime
+            .spawn(watch::watch(Arc::clone(&self.ctx), interval));
+        let old = self
+            .watch
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .replace(task.abort_handle());
+        if let Some(old) = old {
+            old.abort();
+        }
+    }
+
+    /// Stops the topology watch (a look in progress ends at its next await).
+    pub fn stop_watch(&self) {
+        let old = self
+            .watch
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take();
+        if let Some(old) = old {
+            old.abort();
+        }
+    }
+
+    /// Whether the topology watch is running.
+    pub fn watching(&self) -> bool {
+        self.watch
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .as_ref()
+            .is_some_and(|task| !task.is_finished())
+    }
+
+    /// Runs `work` on the master's runtime and waits for its result (from any executor).
+    async fn run<T, F>(&self, work: F) -> Result<T, MasterError>
+    where
+        T: Send + 'static,
+        F: Future<Output = Result<T, MasterError>> + Send + 'static,
+    {
+        let (tx, rx) = oneshot::channel();
+        self.runtime.spawn(async move {
+            let _ = tx.send(work.await);
+        });
+        rx.await.map_err(|_| MasterError::Stopped)?
+    }
+
+    /// Scans the segment and brings every slave to [`MasterConfig::target_state`]
+    /// (everything the scan knew before is forgotten). Fails only if the segment cannot be
+    /// counted, reset or identified; slaves that refuse a state are listed in
+    /// [`ScanReport::failures`] while the others carry on.
+    pub async fn scan(&self) -> Result<ScanReport, MasterError> {
+        let ctx = Arc::clone(&self.ctx);
+        self.run(scan::scan(ctx)).await
+    }
+
+    /// Every slave of the last scan, by ring position.
+    pub fn slaves(&self) -> Vec<SlaveInfo> {
+        self.ctx
+            .lock()
+            .list
+            .iter()
+            .map(|r| r.info.clone())
+            .collect()
+    }
+
+    /// The slave at `address`.
+    pub fn slave(&self, address: SlaveAddress) -> Result<SlaveInfo, MasterError> {
+        self.ctx.resolve(address).map(|r| r.info)
+    }
+
+    /// The mailboxes of every slave that has one, for the mailbox engine.
+    pub fn mailbox_layouts(&self) -> Vec<MailboxLayout> {
+        self.ctx
+            .lock()
+            .list
+            .iter()
+            .filter_map(|r| r.info.mailbox)
+            .collect()
+    }
+
+    /// A new subscription to the master's events, from now on.
+    pub fn events(&self) -> broadcast::Receiver<MasterEvent> {
+        self.ctx.events.subscribe()
+    }
+
+    /// Moves the slave at `address` to `state` (through the states in between) and keeps it
+    /// there: the watch restores this state after a power cycle.
+    pub async fn request_state(
+        &self,
+        address: SlaveAddress,
+        state: AlState,
+    ) -> Result<(), MasterError> {
+        if matches!(state, AlState::Unknown(_)) {
+            return Err(MasterError::InvalidState(state));
+        }
+        let ctx = Arc::clone(&self.ctx);
+        self.run(async move {
+            let _topology = ctx.topology.lock().await;
+            let mut record = ctx.resolve(address)?;
+            ctx.update(record.info.position, |r| r.info.requested_state = state);
+            record.info.requested_state = state;
+            configure::bring_to(&ctx, &record, state).await
+        })
+        .await
+    }
+
+    /// Looks at the segment once, as the watch does at every tick (for callers that run
+    /// without a watch, or want a look now).
+    pub async fn check_topology(&self) -> Result<(), MasterError> {
+        let ctx = Arc::clone(&self.ctx);
+        self.run(async move { watch::look(&ctx).await }).await
+    }
+
+    /// Reads `len` bytes at register `ado` of the slave at `address`.
+    pub async fn read_register(
+        &self,
+        address: SlaveAddress,
+        ado: u16,
+        len: usize,
+    ) -> Result<Vec<u8>, MasterError> {
+        let ctx = Arc::clone(&self.ctx);
+        self.run(async move { tools::read_register(&ctx, address, ado, len).await })
+            .await
+    }
+
+    /// Writes `data` at register `ado` of the slave at `address`.
+    pub async fn write_register(
+        &self,
+        address: SlaveAddress,
+        ado: u16,
+        data: &[u8],
+    ) -> Result<(), MasterError> {
+        let ctx = Arc::clone(&self.ctx);
+        let data = data.to_vec();
+        self.run(async move { tools::write_register(&ctx, address, ado, data).await })
+            .await
+    }
+
+    /// Reads the whole SII image of the slave at `address` (from the slave, not a cache).
+    pub async fn read_sii(&self, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
+        let ctx = Arc::clone(&self.ctx);
+        self.run(async move { tools::read_sii(&ctx, address).await })
+            .await
+    }
+
+    /// Writes SII words from word `start` on. The checksum (word 7) is not touched; use
+    /// [`Master::set_alias`] for the alias.
+    pub async fn write_sii(
+        &self,
+        address: SlaveAddress,
+        start: u16,
+        words: &[u16],
+    ) -> Result<(), MasterError> {
+        let ctx = Arc::clone(&self.ctx);
+        let words = words.to_vec();
+        self.run(async move { tools::write_sii(&ctx, address, start, &words).await })
+            .await
+    }
+
+    /// Sets the station alias of the slave at `address` in its SII (word 4, checksum in
+    /// word 7 kept valid) and in its alias register (EEPROM reload), so that it is
+    /// reachable as [`SlaveAddress::Alias`] at once and after a power cycle. Returns the
+    /// alias register read back.
+    pub async fn set_alias(&self, address: SlaveAddress, alias: u16) -> Result<u16, MasterError> {
+        let ctx = Arc::clone(&self.ctx);
+        self.run(async move { tools::set_alias(&ctx, address, alias).await })
+            .await
+    }
+
+    /// Writes `data` into the outputs of the slave at `address`, from byte `offset` of its
+    /// outputs on; the next cycle sends them.
+    pub fn write_outputs(
+        &self,
+        address: SlaveAddress,
+        offset: usize,
+        data: &[u8],
+    ) -> Result<(), MasterError> {
+        let pd = self.ctx.resolve(address)?.info.process_data;
+        if offset + data.len() > usize::from(pd.outputs) {
+            return Err(MasterError::InvalidArgument(
+                "outputs beyond the slave's process data",
+            ));
+        }
+        let at = pd.outputs_offset as usize + offset;
+        if self.ctx.image.write(at, data) {
+            Ok(())
+        } else {
+            Err(MasterError::InvalidArgument(
+                "outputs beyond the process image",
+            ))
+        }
+    }
+
+    /// The outputs of the slave at `address` as the master sends them.
+    pub fn read_outputs(&self, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
+        let pd = self.ctx.resolve(address)?.info.process_data;
+        self.ctx
+            .image
+            .read(pd.outputs_offset as usize, usize::from(pd.outputs), true)
+            .ok_or(MasterError::InvalidArgument(
+                "outputs beyond the process image",
+            ))
+    }
+
+    /// The inputs of the slave at `address` as the last cycle brought them.
+    pub fn read_inputs(&self, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
+        let pd = self.ctx.resolve(address)?.info.process_data;
+        self.ctx
+            .image
+            .read(pd.inputs_offset as usize, usize::from(pd.inputs), false)
+            .ok_or(MasterError::InvalidArgument(
+                "inputs beyond the process image",
+            ))
+    }
+
+    /// Counters of the cyclic exchange.
+    pub fn cycle_stats(&self) -> CycleStats {
+        self.ctx.image.stats()
+    }
+
+    /// The bus the master runs on.
+    pub fn bus(&self) -> &BusHandle {
+        &self.ctx.bus
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &MasterConfig {
+        &self.ctx.config
+    }
+}
+
+impl Drop for Master {
+    fn drop(&mut self) {
+        if let Some(stop) = self.stop.lock().ok().and_then(|mut s| s.take()) {
+            let _ = stop.send(());
+        }
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+        self.ctx.bus.set_cyclic(None);
+    }
+}
+
+impl std::fmt::Debug for Master {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Master")
+            .field("config", &self.ctx.config)
+            .field("slaves", &self.ctx.lock().list.len())
+            .finish()
+    }
+}

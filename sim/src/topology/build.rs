@@ -402,7 +402,7 @@ fn syncms(spec: &SlaveSpec) -> Vec<SyncmEntry> {
     let mut next = 0x1000u16;
     if let Some(mbx) = spec.mailbox {
         entries.push(SyncmEntry {
-            start: 0x1000,
+            start: mbx.sm0_start(),
             length: mbx.rx_size,
             control: 0x26,
             status: 0,
@@ -410,14 +410,17 @@ fn syncms(spec: &SlaveSpec) -> Vec<SyncmEntry> {
             sm_type: SyncmType::MailboxOut,
         });
         entries.push(SyncmEntry {
-            start: 0x1000 + mbx.rx_size,
+            start: mbx.sm1_start(),
             length: mbx.tx_size,
             control: 0x22,
             status: 0,
             enable: SyncmEnable(0x01),
             sm_type: SyncmType::MailboxIn,
         });
-        next = (0x1000 + mbx.rx_size + mbx.tx_size).next_multiple_of(0x80);
+        next = mbx
+            .sm1_start()
+            .saturating_add(mbx.tx_size)
+            .next_multiple_of(0x80);
     }
     let used: BTreeSet<u8> = spec.pdos.iter().map(|p| p.sm).collect();
     for sm in used {
@@ -456,11 +459,11 @@ fn sii(spec: &SlaveSpec, protocols: u16) -> Result<Vec<u8>, WireError> {
     let (rx, tx) = match spec.mailbox {
         Some(m) => (
             MailboxArea {
-                offset: 0x1000,
+                offset: m.sm0_start(),
                 size: m.rx_size,
             },
             MailboxArea {
-                offset: 0x1000 + m.rx_size,
+                offset: m.sm1_start(),
                 size: m.tx_size,
             },
         ),

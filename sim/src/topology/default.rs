@@ -30,6 +30,7 @@ fn mailbox() -> Option<MailboxSpec> {
     Some(MailboxSpec {
         rx_size: 128,
         tx_size: 128,
+        start: None,
     })
 }
 

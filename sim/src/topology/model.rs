@@ -106,7 +106,7 @@ fn is_one(v: &u8) -> bool {
     *v == 1
 }
 
-/// Mailbox SyncManager sizes; SM0 starts at 0x1000, SM1 right behind it.
+/// Mailbox SyncManager sizes; SM0 starts at `start` (0x1000 unless set), SM1 right behind it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MailboxSpec {
@@ -114,6 +114,24 @@ pub struct MailboxSpec {
     pub rx_size: u16,
     /// SM1 (slave → master) length in bytes.
     pub tx_size: u16,
+    /// SM0 start address the SII announces; 0x1000 when absent. A start the ESC's RAM does
+    /// not cover (at or above `0x1000 + esc.ram_kib` KiB) makes a broken slave: a master that
+    /// configures the mailbox as the SII says is refused INIT → PREOP with AL status code
+    /// 0x0016 (invalid mailbox configuration).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<u16>,
+}
+
+impl MailboxSpec {
+    /// SM0 start address.
+    pub fn sm0_start(&self) -> u16 {
+        self.start.unwrap_or(0x1000)
+    }
+
+    /// SM1 start address: right behind SM0.
+    pub fn sm1_start(&self) -> u16 {
+        self.sm0_start().wrapping_add(self.rx_size)
+    }
 }
 
 /// ESC options.

@@ -1,0 +1,108 @@
+//! What the master's public handle, its scan and its watch share.
+
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+
+use tokio::sync::broadcast;
+
+use crate::bus::BusHandle;
+
+use super::address::{self, SlaveAddress};
+use super::config::MasterConfig;
+use super::error::MasterError;
+use super::event::MasterEvent;
+use super::image::Image;
+use super::info::{Identity, ProcessDataInfo, SlaveInfo};
+use super::layout::{LayoutSource, ProcessDataLayout};
+use crate::wire::register::{AlState, AlStatusCode, DlStatus, EscInfoRepr};
+
+/// One slave: the snapshot callers see, its SII image and its process-data layout.
+#[derive(Debug, Clone)]
+pub(crate) struct SlaveRecord {
+    pub info: SlaveInfo,
+    pub sii: Vec<u8>,
+    pub layout: ProcessDataLayout,
+}
+
+impl SlaveRecord {
+    /// A slave that answered the scan but could not be identified (its SII unreadable):
+    /// kept in its place, with no SII, for the watch to try again.
+    pub fn unidentified(position: u16, station: u16, requested_state: AlState) -> SlaveRecord {
+        SlaveRecord {
+            info: SlaveInfo {
+                position,
+                station,
+                alias: 0,
+                identity: Identity::default(),
+                name: String::new(),
+                esc: EscInfoRepr::default(),
+                mailbox: None,
+                boot_mailbox: None,
+                dl_status: DlStatus::default(),
+                al_state: AlState::Init,
+                al_error: false,
+                al_status_code: AlStatusCode::NoError,
+                requested_state,
+                process_data: ProcessDataInfo::default(),
+                present: false,
+            },
+            sii: Vec::new(),
+            layout: ProcessDataLayout::default(),
+        }
+    }
+}
+
+/// The slaves of the last scan, by ring position.
+#[derive(Debug, Default)]
+pub(crate) struct Slaves {
+    pub list: Vec<SlaveRecord>,
+}
+
+/// Shared by everything in the master. The lock is never held across an `.await`.
+pub(crate) struct Context {
+    pub bus: BusHandle,
+    pub config: MasterConfig,
+    pub slaves: Mutex<Slaves>,
+    pub events: broadcast::Sender<MasterEvent>,
+    pub image: Arc<Image>,
+    pub layout_source: Box<dyn LayoutSource>,
+    /// Serialises scans and the watch's repairs, so they never configure the same slave at
+    /// once (a tokio mutex: it is held across the awaits of a whole scan).
+    pub topology: tokio::sync::Mutex<()>,
+}
+
+impl Context {
+    pub fn lock(&self) -> MutexGuard<'_, Slaves> {
+        self.slaves.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Reports `event`; nobody listening is fine.
+    pub fn emit(&self, event: MasterEvent) {
+        let _ = self.events.send(event);
+    }
+
+    /// The record of the slave at `address`.
+    pub fn resolve(&self, address: SlaveAddress) -> Result<SlaveRecord, MasterError> {
+        let slaves = self.lock();
+        address::resolve(
+            address,
+            slaves.list.iter().map(|s| {
+                let i = &s.info;
+                (s, i.position, i.station, i.alias)
+            }),
+        )
+        .cloned()
+        .ok_or(MasterError::UnknownSlave(address))
+    }
+
+    /// Changes the record at `position` (if there is one).
+    pub fn update(&self, position: u16, change: impl FnOnce(&mut SlaveRecord)) {
+        if let Some(record) = self.lock().list.get_mut(usize::from(position)) {
+            change(record);
+        }
+    }
+
+    /// The record at `position`.
+    pub fn record(&self, position: u16) -> Option<SlaveRecord> {
+        self.lock().list.get(usize::from(position)).cloned()
+    }
+}

@@ -1,0 +1,189 @@
+//! Bringing the whole segment up (digest Appendix A): count, reset, identify every slave,
+//! then move them all to the target state together, so that their datagrams share frames.
+
+use std::future::Future;
+use std::sync::Arc;
+
+use tokio::task::JoinSet;
+
+use crate::wire::register::AlState;
+use crate::wire::register::address as reg;
+use crate::wire::sii::SiiImage;
+
+use super::configure::{bring_to, identify};
+use super::context::{Context, SlaveRecord};
+use super::error::MasterError;
+use super::event::MasterEvent;
+use super::info::{ProcessDataInfo, SlaveInfo};
+use super::reset::reset_all;
+
+/// What a scan found and did.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ScanReport {
+    /// Every slave, by ring position, as it is after the scan.
+    pub slaves: Vec<SlaveInfo>,
+    /// Slaves that did not reach the target state, and why (a refusal names the slave and
+    /// its AL status code). The other slaves are not held back by them.
+    pub failures: Vec<MasterError>,
+}
+
+/// Runs `work` for each record at once on the master's runtime; results by position.
+pub(crate) async fn for_each<F, Fut, T>(
+    ctx: &Arc<Context>,
+    records: Vec<SlaveRecord>,
+    work: F,
+) -> Vec<(u16, Result<T, MasterError>)>
+where
+    F: Fn(Arc<Context>, SlaveRecord) -> Fut,
+    Fut: Future<Output = Result<T, MasterError>> + Send + 'static,
+    T: Send + 'static,
+{
+    let mut tasks = JoinSet::new();
+    for record in records {
+        let position = record.info.position;
+        let fut = work(Arc::clone(ctx), record);
+        tasks.spawn(async move { (position, fut.await) });
+    }
+    let mut results = Vec::new();
+    while let Some(joined) = tasks.join_next().await {
+        // A task only ends early if the runtime shuts down.
+        results.push(joined.unwrap_or((u16::MAX, Err(MasterError::Stopped))));
+    }
+    results.sort_by_key(|(position, _)| *position);
+    results
+}
+
+/// The first state every slave is brought to, before the process-data layout is made.
+fn first_stop(target: AlState) -> AlState {
+    match target {
+        AlState::Init | AlState::Boot => target,
+        _ => AlState::PreOp,
+    }
+}
+
+/// Scans the segment and brings every slave to the configured target state.
+pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
+    let _topology = ctx.topology.lock().await;
+    let count = ctx
+        .bus
+        .brd(reg::TYPE, 2)
+        .await
+        .map_err(MasterError::bus("count slaves"))?
+        .wkc;
+    if count > 0 && ctx.config.station_of(count - 1).is_none() {
+        return Err(MasterError::TooManySlaves {
+            count,
+            base: ctx.config.station_base,
+        });
+    }
+    ctx.lock().list.clear();
+    ctx.image.resize(0, 0);
+    if count == 0 {
+        return Ok(ScanReport {
+            slaves: Vec::new(),
+            failures: Vec::new(),
+        });
+    }
+    reset_all(&ctx.bus, count).await?;
+
+    let target = ctx.config.target_state;
+    let mut tasks = JoinSet::new();
+    for position in 0..count {
+        let ctx = Arc::clone(&ctx);
+        tasks.spawn(async move { (position, identify(&ctx, position, None).await) });
+    }
+    let mut failures = Vec::new();
+    let mut all = Vec::new();
+    while let Some(joined) = tasks.join_next().await {
+        let (position, result) = joined.map_err(|_| MasterError::Stopped)?;
+        match result {
+            Ok(record) => all.push(record),
+            Err(err) => {
+                failures.push(err);
+                // Checked above: every position has a station address.
+                let station = ctx.config.station_of(position).unwrap_or(0);
+                all.push(SlaveRecord::unidentified(position, station, target));
+            }
+        }
+    }
+    all.sort_by_key(|r| r.info.position);
+    let identified: Vec<SlaveRecord> = all.iter().filter(|r| !r.sii.is_empty()).cloned().collect();
+    for record in &identified {
+        let i = &record.info;
+        ctx.emit(MasterEvent::SlaveFound {
+            position: i.position,
+            station: i.station,
+            identity: i.identity,
+            name: i.name.clone(),
+        });
+    }
+    ctx.lock().list = all;
+
+    let first = first_stop(target);
+    let mut ready = Vec::new();
+    for (position, result) in for_each(&ctx, identified, move |ctx, record| async move {
+        bring_to(&ctx, &record, first).await
+    })
+    .await
+    {
+        match result {
+            Ok(()) => ready.push(position),
+            Err(err) => failures.push(err),
+        }
+    }
+
+    if first == AlState::PreOp {
+        lay_out(&ctx, &ready).await?;
+        let records: Vec<SlaveRecord> = ready.iter().filter_map(|&p| ctx.record(p)).collect();
+        for (_, result) in for_each(&ctx, records, move |ctx, record| async move {
+            bring_to(&ctx, &record, target).await
+        })
+        .await
+        {
+            if let Err(err) = result {
+                failures.push(err);
+            }
+        }
+    }
+    let slaves = ctx.lock().list.iter().map(|r| r.info.clone()).collect();
+    Ok(ScanReport { slaves, failures })
+}
+
+/// Decides the process-data layout of the slaves at `positions` (in PREOP), gives each its
+/// place in the image, and sizes the image.
+async fn lay_out(ctx: &Context, positions: &[u16]) -> Result<(), MasterError> {
+    let mut offset: u32 = 0;
+    let mut expected_wkc: u16 = 0;
+    for &position in positions {
+        let Some(record) = ctx.record(position) else {
+            continue;
+        };
+        let sii = SiiImage::parse(&record.sii).map_err(|source| MasterError::Malformed {
+            position,
+            what: "SII",
+            source,
+        })?;
+        let layout = ctx.layout_source.layout(&record.info, &sii).await?;
+        let outputs = layout.outputs_len();
+        let inputs = layout.inputs_len();
+        let pd = ProcessDataInfo {
+            outputs: u16::try_from(outputs).unwrap_or(u16::MAX),
+            inputs: u16::try_from(inputs).unwrap_or(u16::MAX),
+            outputs_offset: offset,
+            inputs_offset: offset + outputs as u32,
+        };
+        offset += (outputs + inputs) as u32;
+        expected_wkc += if outputs > 0 { 2 } else { 0 } + u16::from(inputs > 0);
+        ctx.update(position, |r| {
+            r.layout = layout;
+            r.info.process_data = pd;
+        });
+    }
+    let room = ctx.bus.config().max_data_len();
+    let need = offset as usize;
+    if need > room {
+        return Err(MasterError::ImageTooLarge { need, room });
+    }
+    ctx.image.resize(need, expected_wkc);
+    Ok(())
+}
