@@ -4,6 +4,7 @@ Usage: kickcat_check.py IFACE --sdo SLAVE[,SLAVE...]
 
 For every listed slave it reads the identity object 0x1018 entry by entry (expedited
 uploads), as one complete-access upload, and the device name 0x1008 (a normal upload).
+Then it maps the process data and takes the bus to SAFE_OP and OP with the cycle running.
 It reports observations only; tests/tests/kickcat.rs compares them with the topology.
 """
 
@@ -16,6 +17,11 @@ import kickcat
 # The link timeout the simulator test rig uses (the brief: 20 ms).
 LINK_TIMEOUT_S = 0.020
 SDO_TIMEOUT_S = 1.0
+STATE_TIMEOUT_S = 1.0
+
+
+def state_name(state):
+    return getattr(state, "name", str(state).split(".")[-1])
 
 
 def main():
@@ -50,6 +56,17 @@ def main():
         report["name"][str(p)] = bus.read_sdo(
             s, 0x1008, 0, kickcat.Access.PARTIAL, 64, SDO_TIMEOUT_S
         ).decode(errors="replace")
+
+    bus.create_mapping()
+    report["pd_sizes"] = [
+        {"inputs": s.input_size, "outputs": s.output_size} for s in slaves
+    ]
+    bus.request_state(kickcat.State.SAFE_OP)
+    bus.wait_for_state(kickcat.State.SAFE_OP, STATE_TIMEOUT_S)
+    bus.process_data()
+    bus.request_state(kickcat.State.OPERATIONAL)
+    bus.wait_for_state(kickcat.State.OPERATIONAL, STATE_TIMEOUT_S, lambda: bus.process_data())
+    report["states"] = [state_name(bus.get_state(s)) for s in slaves]
     json.dump(report, sys.stdout)
     print()
 

@@ -8,10 +8,10 @@ use ecat_tests::pysoem_session::{hex, plan, u};
 use ecat_tests::python::run_script;
 use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
-use sim::topology::Topology;
+use sim::topology::{Topology, build};
 
 #[test]
-fn kickcat_initialises_the_bus_and_reads_sdos() {
+fn kickcat_initialises_the_bus_reads_sdos_and_reaches_op() {
     let topology = Topology::default_segment();
     let coe = plan(&topology).coe;
     let rig = Rig::new();
@@ -57,5 +57,21 @@ fn kickcat_initialises_the_bus_and_reads_sdos() {
             "slave {p} 0x1018 complete access"
         );
         assert_eq!(r["name"][&key], spec.name.as_str(), "slave {p} 0x1008");
+    }
+
+    // Process data mapped from the SII/PDO assignment, then OP with the cycle running.
+    let built = build(&topology).unwrap();
+    let sizes = r["pd_sizes"].as_array().unwrap();
+    assert_eq!(sizes.len(), topology.slaves.len());
+    for (p, seen) in sizes.iter().enumerate() {
+        let expected = built.slave(p).unwrap().device().process_data_sizes();
+        assert_eq!(
+            (u(&seen["outputs"]), u(&seen["inputs"])),
+            (u64::from(expected.outputs), u64::from(expected.inputs)),
+            "slave {p} outputs/inputs"
+        );
+    }
+    for (p, state) in r["states"].as_array().unwrap().iter().enumerate() {
+        assert_eq!(state, "OPERATIONAL", "slave {p}");
     }
 }
