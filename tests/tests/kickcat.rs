@@ -16,6 +16,20 @@ fn kickcat_initialises_the_bus_reads_sdos_and_reaches_op() {
     let coe = plan(&topology).coe;
     let rig = Rig::new();
     let mut sim = SimProcess::start(&rig.sim, SIM_IFACE, &[]);
+    // Before its ready line, ecat-sim lists what it emulates: one line per slave.
+    let listed: Vec<&String> = sim
+        .banner
+        .iter()
+        .filter(|l| l.trim_start().starts_with("slave "))
+        .collect();
+    assert_eq!(listed.len(), topology.slaves.len(), "{:?}", sim.banner);
+    for (p, (line, spec)) in listed.iter().zip(&topology.slaves).enumerate() {
+        assert!(
+            line.contains(&format!("slave {p}: {:?}", spec.name))
+                && line.contains(&format!("product 0x{:08X}", spec.product_code)),
+            "{line}"
+        );
+    }
     let list: Vec<String> = coe.iter().map(ToString::to_string).collect();
     let r = run_script(
         &rig.master,
