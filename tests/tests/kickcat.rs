@@ -39,6 +39,15 @@ fn kickcat_initialises_the_bus_reads_sdos_and_reaches_op() {
     let status = sim.stop();
     assert!(status.success(), "ecat-sim exit after SIGTERM: {status}");
 
+    let attempts = u(&r["init_attempts"]);
+    if attempts > 1 {
+        // The simulator's own count says whether it lost a frame or was merely late.
+        eprintln!(
+            "KickCAT needed {attempts} init attempts (a frame missed its 20 ms timeout); \
+             ecat-sim: {}",
+            sim.stderr().trim()
+        );
+    }
     assert_eq!(u(&r["slave_count"]), topology.slaves.len() as u64);
     for &p in &coe {
         let spec = &topology.slaves[p];
