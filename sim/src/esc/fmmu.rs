@@ -95,9 +95,12 @@ impl Esc {
 
     /// The enabled FMMUs.
     fn enabled_fmmus(&self) -> impl Iterator<Item = FmmuRepr> + '_ {
-        (0..self.layout.fmmu_count)
-            .filter_map(|n| self.fmmu(n))
-            .filter(|f| f.enable && f.bit_count() > 0)
+        (0..self.layout.fmmu_count).filter_map(|n| self.enabled_fmmu(n))
+    }
+
+    /// FMMU `n` if it is enabled and maps at least one bit.
+    fn enabled_fmmu(&self, n: u8) -> Option<FmmuRepr> {
+        self.fmmu(n).filter(|f| f.enable && f.bit_count() > 0)
     }
 
     /// Whether `[addr, addr + len)` lies completely inside one enabled FMMU's physical
@@ -125,23 +128,28 @@ impl Esc {
         read: bool,
         write: bool,
     ) -> (bool, bool) {
-        let fmmus: Vec<FmmuRepr> = self.enabled_fmmus().collect();
         let mut received = self.take_scratch(0);
         if write {
             received.extend_from_slice(data);
         }
         let mut read_hit = false;
         let mut write_hit = false;
+        // By index rather than collecting the FMMUs: this runs for every logical datagram
+        // at every slave, and must not allocate.
         if read {
-            for f in fmmus.iter().filter(|f| f.read) {
-                if let Some(o) = Overlap::of(f, address, data.len()) {
+            for n in 0..self.layout.fmmu_count {
+                if let Some(f) = self.enabled_fmmu(n).filter(|f| f.read)
+                    && let Some(o) = Overlap::of(&f, address, data.len())
+                {
                     read_hit |= self.fmmu_read(device, o, data);
                 }
             }
         }
         if write {
-            for f in fmmus.iter().filter(|f| f.write) {
-                if let Some(o) = Overlap::of(f, address, received.len()) {
+            for n in 0..self.layout.fmmu_count {
+                if let Some(f) = self.enabled_fmmu(n).filter(|f| f.write)
+                    && let Some(o) = Overlap::of(&f, address, received.len())
+                {
                     write_hit |= self.fmmu_write(device, o, &received);
                 }
             }

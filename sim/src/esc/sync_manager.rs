@@ -368,10 +368,7 @@ impl SmChannel {
                             // wrote them.
                             let w = tb.free();
                             match tb.latest {
-                                Some(l) => {
-                                    let copy = tb.buffers[l].clone();
-                                    tb.buffers[w] = copy;
-                                }
+                                Some(l) => copy_buffer(&mut tb.buffers, l, w),
                                 None => tb.buffers[w].fill(0),
                             }
                             tb.writing = Some(w);
@@ -450,6 +447,22 @@ impl SmChannel {
         self.publish_status(mem);
         true
     }
+}
+
+/// Copies buffer `from` over buffer `to` in place (no allocation: it runs on every output
+/// write). Buffers of one SyncManager all have its length.
+fn copy_buffer(buffers: &mut [Vec<u8>; 3], from: usize, to: usize) {
+    if from == to || from > 2 || to > 2 {
+        return;
+    }
+    let (low, high) = buffers.split_at_mut(from.max(to));
+    let (src, dst) = if from < to {
+        (&low[from], &mut high[0])
+    } else {
+        (&high[0], &mut low[to])
+    };
+    let n = src.len().min(dst.len());
+    dst[..n].copy_from_slice(&src[..n]);
 }
 
 #[cfg(test)]
@@ -593,5 +606,17 @@ mod tests {
         mem.set_u16(base(0), 0x2FFF);
         sm.refresh(&mut mem, RAM_END);
         assert!(!sm.config().active, "range beyond RAM");
+    }
+
+    #[test]
+    fn buffer_copies_go_either_way_and_ignore_bad_indices() {
+        let mut buffers = [vec![1u8; 4], vec![2u8; 4], vec![3u8; 4]];
+        copy_buffer(&mut buffers, 2, 0);
+        assert_eq!(buffers[0], [3; 4]);
+        copy_buffer(&mut buffers, 1, 2);
+        assert_eq!(buffers[2], [2; 4]);
+        copy_buffer(&mut buffers, 1, 3);
+        copy_buffer(&mut buffers, 1, 1);
+        assert_eq!(buffers, [vec![3; 4], vec![2; 4], vec![2; 4]]);
     }
 }
