@@ -312,7 +312,8 @@ impl Master {
         data: &[u8],
     ) -> Result<(), MasterError> {
         let pd = self.ctx.resolve(address)?.info.process_data;
-        if offset + data.len() > usize::from(pd.outputs) {
+        let end = offset.checked_add(data.len());
+        if end.is_none_or(|end| end > usize::from(pd.outputs)) {
             return Err(MasterError::InvalidArgument(
                 "outputs beyond the slave's process data",
             ));
