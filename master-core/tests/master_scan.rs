@@ -236,3 +236,22 @@ fn a_slave_goes_to_boot_with_the_bootstrap_mailbox_and_back_to_op() {
         stats.last_wkc == stats.expected_wkc
     }));
 }
+
+#[test]
+fn a_second_scan_starts_over_and_ends_in_the_same_place() {
+    let rig = rig(Topology::default_segment(), MasterConfig::default());
+    let first = block_on(rig.master().scan()).expect("first scan");
+    // A tokio runtime of the caller's works as well as no runtime at all.
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .build()
+        .unwrap();
+    let second = runtime.block_on(rig.master().scan()).expect("second scan");
+    assert!(second.failures.is_empty(), "{:?}", second.failures);
+    assert_eq!(first.slaves, second.slaves);
+    let stats = rig.master().cycle_stats();
+    assert!(wait_until(|| {
+        let now = rig.master().cycle_stats();
+        now.completed > stats.completed && now.last_wkc == now.expected_wkc
+    }));
+}

@@ -226,3 +226,26 @@ fn without_the_watch_a_look_on_request_sees_the_change() {
     rig.master().stop_watch();
     assert!(!rig.master().watching());
 }
+
+#[test]
+fn a_watchdog_error_is_reported_with_its_code_and_acknowledged_back_to_op() {
+    let rig = scanned();
+    let mut events = rig.master().events();
+    // A second without process data, as the slaves' watchdogs see it: the drive and the
+    // output terminal fall back to SAFEOP with AL status code 0x001B.
+    rig.time.advance(1_000_000_000);
+    let error = next_event(&mut events, |e| matches!(e, MasterEvent::AlError { .. }));
+    assert_eq!(
+        error,
+        Some(MasterEvent::AlError {
+            position: 0,
+            station: 1001,
+            name: rig.topology.slaves[0].name.clone(),
+            state: AlState::SafeOp,
+            code: master_core::wire::register::AlStatusCode::SmWatchdog,
+        })
+    );
+    assert!(wait_until(|| (0..5).all(|p| in_op(&rig, p))));
+    let drive = rig.master().slave(SlaveAddress::Position(0)).unwrap();
+    assert!(!drive.al_error);
+}

@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 use master_core::bus::{Bus, BusConfig};
 use master_core::link::{Link, Wait};
 use master_core::master::{Master, MasterConfig, MasterEvent};
+use sim::esc::ManualTime;
 use sim::link::{InProcessLink, SharedSegment};
 use sim::segment::Segment;
 use sim::topology::{SlaveHandles, Topology, build_with_handles};
@@ -106,6 +107,8 @@ pub struct Rig<L: Link + 'static> {
     pub segment: SharedSegment,
     pub handles: Vec<SlaveHandles>,
     pub topology: Topology,
+    /// The segment's time base (advance it to let watchdogs run out).
+    pub time: ManualTime,
     bus_thread: Option<JoinHandle<L>>,
 }
 
@@ -164,6 +167,7 @@ pub fn rig_with<L: Link + 'static>(
         segment,
         handles: built.slaves,
         topology,
+        time: built.time,
         bus_thread: Some(bus_thread),
     }
 }
