@@ -255,3 +255,42 @@ fn a_second_scan_starts_over_and_ends_in_the_same_place() {
         now.completed > stats.completed && now.last_wkc == now.expected_wkc
     }));
 }
+
+#[test]
+fn slaves_that_return_four_bytes_per_eeprom_read_are_read_whole() {
+    use sim::device::SlaveDevice;
+    use sim::esc::{Esc, EscConfig, ManualTime};
+    use sim::segment::Segment;
+    // The CoE store and the EoE port (no process data) on ESCs with 4-byte EEPROM reads.
+    let default = Topology::default_segment();
+    let built = sim::topology::build(&default).unwrap();
+    let picked = [3usize, 4];
+    let time = ManualTime::new(0);
+    let mut segment = Segment::new(Box::new(time.clone()));
+    for &p in &picked {
+        let config = EscConfig {
+            eeprom_read_8_bytes: false,
+            ..EscConfig::default()
+        };
+        let sii = built.esc(p).unwrap().sii().to_vec();
+        segment.push(Esc::new(config, sii), Box::new(SlaveDevice::new()));
+    }
+    let topology = Topology {
+        slaves: picked.iter().map(|&p| default.slaves[p].clone()).collect(),
+    };
+    let rig = master_support::rig_on(segment, time, topology.clone(), MasterConfig::default());
+    let report = block_on(rig.master().scan()).expect("scan");
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    for (info, spec) in report.slaves.iter().zip(&topology.slaves) {
+        assert_eq!(info.name, spec.name);
+        assert_eq!(info.identity.serial, spec.serial);
+        assert_eq!(info.al_state, AlState::Op);
+        let address = SlaveAddress::Position(info.position);
+        let control = block_on(rig.master().read_register(address, 0x0502, 2)).unwrap();
+        assert_eq!(control[0] & 0x40, 0, "the ESC reports 4-byte reads");
+        let read = block_on(rig.master().read_sii(address)).unwrap();
+        let segment = rig.segment();
+        let image = segment.esc(usize::from(info.position)).unwrap().sii();
+        assert_eq!(&image[..read.len()], &read[..]);
+    }
+}

@@ -386,3 +386,27 @@ impl std::fmt::Debug for Master {
             .finish()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn send_sync<T: Send + Sync>(_: &T) {}
+    fn send<T: Send>(_: &T) {}
+
+    #[test]
+    fn the_master_and_its_futures_can_move_between_threads() {
+        let (bus, _thread) = crate::bus::Bus::start(
+            crate::link::MemoryLink::pair(1).0,
+            crate::bus::BusConfig::default(),
+        )
+        .unwrap();
+        let master = Master::start(bus, MasterConfig::default()).unwrap();
+        send_sync(&master);
+        send(&master.scan());
+        send(&master.read_register(SlaveAddress::Position(0), 0, 1));
+        send(&master.set_alias(SlaveAddress::Position(0), 1));
+        send(&master.request_state(SlaveAddress::Position(0), AlState::Op));
+        send(&master.events());
+    }
+}

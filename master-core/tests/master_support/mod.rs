@@ -172,6 +172,28 @@ pub fn rig_with<L: Link + 'static>(
     }
 }
 
+/// A master on a segment the test built itself (described by `topology`, for the
+/// expectations), on the plain in-process link.
+pub fn rig_on(
+    segment: Segment,
+    time: ManualTime,
+    topology: Topology,
+    config: MasterConfig,
+) -> Rig<InProcessLink> {
+    let segment: SharedSegment = Arc::new(Mutex::new(segment));
+    let link = InProcessLink::shared(Arc::clone(&segment), 64);
+    let (bus, bus_thread) = Bus::start(link, BusConfig::default()).expect("bus starts");
+    let master = Master::start(bus, config).expect("master starts");
+    Rig {
+        master: Some(master),
+        segment,
+        handles: Vec::new(),
+        topology,
+        time,
+        bus_thread: Some(bus_thread),
+    }
+}
+
 /// A master on the plain in-process link.
 pub fn rig(topology: Topology, config: MasterConfig) -> Rig<InProcessLink> {
     rig_with(topology, config, BusConfig::default(), |link| link)
