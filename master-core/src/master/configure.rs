@@ -15,7 +15,7 @@ use crate::wire::register::{
 use crate::wire::sii::fmmu::FmmuUsage;
 use crate::wire::sii::{MailboxArea, SiiImage};
 
-use super::access::{apwr, fprd, fpwr};
+use super::access::{apwr, fprd, fprd_u16, fpwr};
 use super::al::{self, Who};
 use super::context::{Context, SlaveRecord};
 use super::eeprom::Eeprom;
@@ -91,8 +91,7 @@ pub(crate) async fn identify(
     let esc = EscInfo::new_checked(&info[..])
         .and_then(|view| EscInfoRepr::parse(&view))
         .map_err(malformed(position, "ESC information"))?;
-    let alias = fprd(bus, station, reg::STATION_ALIAS, 2, "station alias").await?;
-    let alias = u16::from_le_bytes([alias[0], alias[1]]);
+    let alias = fprd_u16(bus, station, reg::STATION_ALIAS, "station alias").await?;
     let eeprom = eeprom(ctx, station);
     eeprom.take().await?;
     let image = eeprom.read_image(ctx.config.max_sii_words).await?;
