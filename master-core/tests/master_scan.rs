@@ -294,3 +294,48 @@ fn slaves_that_return_four_bytes_per_eeprom_read_are_read_whole() {
         assert_eq!(&image[..read.len()], &read[..]);
     }
 }
+
+#[test]
+fn a_slave_with_a_malformed_sii_is_reported_and_the_others_come_up() {
+    use master_core::master::MasterError;
+    use sim::device::SlaveDevice;
+    use sim::esc::{Esc, EscConfig, ManualTime};
+    use sim::segment::Segment;
+    let default = Topology::default_segment();
+    let built = sim::topology::build(&default).unwrap();
+    let picked = [3usize, 4];
+    let time = ManualTime::new(0);
+    let mut segment = Segment::new(Box::new(time.clone()));
+    for (i, &p) in picked.iter().enumerate() {
+        let mut sii = built.esc(p).unwrap().sii().to_vec();
+        if i == 0 {
+            // The first category (word 0x40) claims more words than the EEPROM holds.
+            sii[0x82..0x84].copy_from_slice(&0x7FFFu16.to_le_bytes());
+        }
+        segment.push(
+            Esc::new(EscConfig::default(), sii),
+            Box::new(SlaveDevice::new()),
+        );
+    }
+    let topology = Topology {
+        slaves: picked.iter().map(|&p| default.slaves[p].clone()).collect(),
+    };
+    let rig = master_support::rig_on(segment, time, topology.clone(), MasterConfig::default());
+    let report = block_on(rig.master().scan()).expect("scan");
+    assert!(
+        matches!(
+            report.failures.as_slice(),
+            [MasterError::Malformed {
+                position: 0,
+                what: "SII",
+                ..
+            }]
+        ),
+        "{:?}",
+        report.failures
+    );
+    assert!(!report.slaves[0].present);
+    assert_eq!(report.slaves[1].name, topology.slaves[1].name);
+    assert_eq!(report.slaves[1].al_state, AlState::Op);
+    assert_eq!(rig.segment().esc(0).unwrap().al_state(), AlState::Init);
+}
