@@ -56,6 +56,19 @@ fn the_default_segment_comes_up_as_the_topology_describes_it() {
             }
             None => assert_eq!(info.mailbox, None),
         }
+        let cached = rig
+            .master()
+            .sii_image(SlaveAddress::Position(p as u16))
+            .unwrap();
+        assert_eq!(
+            &rig.segment().esc(p).unwrap().sii()[..cached.len()],
+            &cached[..]
+        );
+        let layout = rig
+            .master()
+            .process_data_layout(SlaveAddress::Position(p as u16))
+            .unwrap();
+        assert_eq!(layout.outputs_len(), usize::from(info.process_data.outputs));
         let bits = |rx: bool| -> u32 {
             spec.pdos
                 .iter()

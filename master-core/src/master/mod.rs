@@ -204,6 +204,21 @@ impl Master {
         self.ctx.resolve(address).map(|r| r.info)
     }
 
+    /// The process-data SyncManagers of the slave at `address` (empty until a scan brought it
+    /// to PREOP and made the layout).
+    pub fn process_data_layout(
+        &self,
+        address: SlaveAddress,
+    ) -> Result<ProcessDataLayout, MasterError> {
+        self.ctx.resolve(address).map(|r| r.layout)
+    }
+
+    /// The SII image of the slave at `address` as the scan (or the watch) read it; see
+    /// [`Master::read_sii`] for a fresh read.
+    pub fn sii_image(&self, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
+        self.ctx.resolve(address).map(|r| r.sii)
+    }
+
     /// The mailboxes of every slave that has one, for the mailbox engine.
     pub fn mailbox_layouts(&self) -> Vec<MailboxLayout> {
         self.ctx
