@@ -293,7 +293,7 @@ impl<'a> DatagramRepr<'a> {
     /// ([`WireError::ReservedBits`]), or a data length above [`MAX_DATA_LEN`].
     pub fn parse<T: AsRef<[u8]> + ?Sized>(datagram: &Datagram<&'a T>) -> Result<Self> {
         datagram.check_len()?;
-        check_flags_and_limit(datagram)?;
+        check_flags_and_limit(datagram, false)?;
         let declared = usize::from(datagram.length());
         // Borrow the data for 'a (from the buffer), not for the lifetime of `datagram`.
         let buf: &'a [u8] = T::as_ref(datagram.buffer);
@@ -432,9 +432,12 @@ impl<'a> Iterator for Datagrams<'a> {
 
 /// Checks what [`DatagramRepr::parse`] checks beyond the view's lengths, so that the shared
 /// and the mutable chain walks accept exactly the same chains.
-fn check_flags_and_limit<T: AsRef<[u8]>>(datagram: &Datagram<T>) -> Result<()> {
+fn check_flags_and_limit<T: AsRef<[u8]>>(
+    datagram: &Datagram<T>,
+    ignore_reserved: bool,
+) -> Result<()> {
     let reserved = datagram.len_flags() & fields::RESERVED_MASK;
-    if reserved != 0 {
+    if reserved != 0 && !ignore_reserved {
         return Err(WireError::ReservedBits {
             what: "datagram flags",
             value: u32::from(reserved),
@@ -462,6 +465,7 @@ pub struct DatagramsMut<'a> {
     offset: usize,
     started: bool,
     done: bool,
+    ignore_reserved: bool,
 }
 
 impl<'a> DatagramsMut<'a> {
@@ -472,6 +476,17 @@ impl<'a> DatagramsMut<'a> {
             offset: 0,
             started: false,
             done: false,
+            ignore_reserved: false,
+        }
+    }
+
+    /// Like [`DatagramsMut::new`], but datagrams with reserved bits 11-13 set are walked
+    /// like any other (the bits stay as they are). This is what a slave controller does:
+    /// it ignores the reserved bits, and some masters (KickCAT) leave them uninitialised.
+    pub fn ignoring_reserved_bits(payload: &'a mut [u8]) -> Self {
+        DatagramsMut {
+            ignore_reserved: true,
+            ..Self::new(payload)
         }
     }
 
@@ -499,9 +514,10 @@ impl<'a> Iterator for DatagramsMut<'a> {
             }));
         }
         self.started = true;
-        let (total, more) = match Datagram::new_checked(&*rest)
-            .and_then(|d| check_flags_and_limit(&d).map(|()| (d.total_len(), d.more())))
-        {
+        let ignore_reserved = self.ignore_reserved;
+        let (total, more) = match Datagram::new_checked(&*rest).and_then(|d| {
+            check_flags_and_limit(&d, ignore_reserved).map(|()| (d.total_len(), d.more()))
+        }) {
             Ok(walk) => walk,
             Err(error) => return Some(Err(error)),
         };
@@ -1067,6 +1083,11 @@ pub(crate) mod tests {
             DatagramsMut::new(&mut reserved).next(),
             Some(Err(WireError::ReservedBits { .. }))
         ));
+        // A slave controller's walk takes it, leaving the bits alone.
+        let mut walk = DatagramsMut::ignoring_reserved_bits(&mut reserved);
+        let datagram = walk.next().unwrap().unwrap();
+        assert_eq!(datagram.len_flags() & 0x3800, 0x0800);
+        assert!(walk.next().is_none());
         assert!(DatagramsMut::new(&mut []).next().unwrap().is_err());
     }
 

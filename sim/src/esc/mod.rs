@@ -181,7 +181,8 @@ impl Esc {
     ) {
         self.frame = timing;
         self.check_watchdog(device);
-        for datagram in DatagramsMut::new(payload) {
+        // A real ESC ignores the reserved length bits; KickCAT leaves them uninitialised.
+        for datagram in DatagramsMut::ignoring_reserved_bits(payload) {
             match datagram {
                 Ok(mut datagram) => self.process_datagram(&mut datagram, device),
                 Err(_) => {

@@ -26,13 +26,13 @@ use crate::device::coe::{CoeService, SharedDictionary};
 use crate::device::dio::{DigitalInputs, DigitalOutputs, InputDriver, OutputProbe};
 use crate::device::eoe::{EoeService, IpConfig};
 use crate::device::foe::{FileStore, FoeFile, FoeService};
-use crate::device::soe::SoeService;
 use crate::device::voe::VoeEcho;
 use crate::device::{Drive, MailboxStack, SlaveDevice};
 use crate::esc::{DcConfig, Esc, EscConfig, ManualTime};
 use crate::segment::Segment;
 
 use super::model::{Application, CoeObject, PdoSpec, Protocol, SlaveSpec, Topology, pattern};
+use super::soe::soe_service;
 
 /// Why a topology cannot be built.
 #[derive(Debug, Error)]
@@ -145,7 +145,7 @@ fn build_slave(position: usize, spec: &SlaveSpec) -> Result<SlaveParts, BuildErr
             stack = stack.with(CoeService::shared(Arc::clone(dict)));
         }
         if has(Protocol::Soe) {
-            stack = stack.with(SoeService::new(spec.soe_drives));
+            stack = stack.with(soe_service(spec).map_err(invalid)?);
         }
         if has(Protocol::Foe) {
             let store = FileStore::new(1 << 20);

@@ -2,7 +2,7 @@
 //!
 //! | pos | name | mailbox | protocols | process data |
 //! |---|---|---|---|---|
-//! | 0 | ECATD-SIM Drive | 128/128 | CoE SoE FoE VoE EoE | drive: 0x1600 (0x6040, 0x607A) / 0x1A00 (0x6041, 0x6064) |
+//! | 0 | ECATD-SIM Drive | 128/128 | CoE SoE FoE VoE EoE | drive: 0x1600 (0x6040, 0x607A) / 0x1A00 (0x6041, 0x6064); SoE: default IDNs + P-0-0100 |
 //! | 1 | ECATD-SIM DO8 | none | – | 8 digital outputs |
 //! | 2 | ECATD-SIM DI8 | none | – | 8 digital inputs |
 //! | 3 | ECATD-SIM CoE Store | 128/128 | CoE | none; 0x2000 OCTET_STRING of 4096 bytes |
@@ -11,8 +11,8 @@
 use std::net::Ipv4Addr;
 
 use super::model::{
-    Application, CoeObject, EoeSpec, EscSpec, FoeFileSpec, MailboxSpec, PdoEntrySpec, PdoSpec,
-    Protocol, SlaveSpec, Topology,
+    Application, CoeObject, EoeSpec, EscSpec, FoeFileSpec, IdnSpec, MailboxSpec, PdoEntrySpec,
+    PdoSpec, Protocol, SlaveSpec, Topology,
 };
 
 /// The vendor ID of every built-in simulated slave: 0xE0000001.
@@ -50,6 +50,7 @@ fn base(name: &str, product_code: u32) -> SlaveSpec {
         pdos: Vec::new(),
         objects: Vec::new(),
         soe_drives: 1,
+        idns: Vec::new(),
         foe_files: Vec::new(),
         eoe: None,
         voe_vendor_id: None,
@@ -123,6 +124,7 @@ fn drive() -> SlaveSpec {
             object(0x607A, "INTEGER32", "rw_rx", "Target position", 0),
             object(0x6064, "INTEGER32", "ro_tx", "Position actual value", 0),
         ],
+        idns: vec![motor_temperature()],
         foe_files: vec![FoeFileSpec {
             name: "firmware.bin".into(),
             content: None,
@@ -134,6 +136,26 @@ fn drive() -> SlaveSpec {
         }),
         voe_vendor_id: Some(0x0000_1164),
         ..base("ECATD-SIM Drive", 0x0000_0001)
+    }
+}
+
+/// P-0-0100 on the drive: an IDN from the topology rather than the default set, with every
+/// element (0.1 °C steps: u16, one decimal place).
+fn motor_temperature() -> IdnSpec {
+    let u16_bytes = |v: u16| v.to_le_bytes().to_vec();
+    IdnSpec {
+        idn: 0x8000 | 100,
+        drive: None,
+        name: "Motor temperature".into(),
+        // Conversion factor 1, 2-byte element, unsigned, 1 decimal place.
+        attribute: 0x0111_0001,
+        unit: Some("degC".into()),
+        min: Some(u16_bytes(0)),
+        max: Some(u16_bytes(1500)),
+        value: Some(u16_bytes(253)),
+        default: Some(u16_bytes(200)),
+        read_only: true,
+        list_capacity: None,
     }
 }
 

@@ -11,10 +11,11 @@
 mod build;
 mod default;
 mod model;
+mod soe;
 
 pub use build::{BuildError, Built, SlaveHandles, build, build_with_handles};
 pub use default::SIM_VENDOR_ID;
 pub use model::{
-    Application, CoeObject, EoeSpec, EscSpec, FoeFileSpec, MailboxSpec, PdoEntrySpec, PdoSpec,
-    Protocol, SlaveSpec, Topology,
+    Application, CoeObject, EoeSpec, EscSpec, FoeFileSpec, IdnSpec, MailboxSpec, PdoEntrySpec,
+    PdoSpec, Protocol, SlaveSpec, Topology,
 };

@@ -84,6 +84,9 @@ pub struct SlaveSpec {
     /// SoE: number of drives (each with the default IDN set).
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub soe_drives: u8,
+    /// SoE: IDNs added to the default set, or replacing default ones with the same number.
+    #[serde(default, rename = "idn", skip_serializing_if = "Vec::is_empty")]
+    pub idns: Vec<IdnSpec>,
     /// FoE files present at power-on.
     #[serde(default, rename = "foe_file", skip_serializing_if = "Vec::is_empty")]
     pub foe_files: Vec<FoeFileSpec>,
@@ -249,6 +252,54 @@ pub struct CoeObject {
     /// byte *i* = *i* mod 251 (a prime, so the pattern never lines up with segment sizes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub size: Option<usize>,
+}
+
+/// One SoE IDN of a drive (digest §7.3): its elements as they travel on the wire.
+///
+/// Byte elements (`min`, `max`, `value`, `default`) are little-endian, as in the SoE
+/// messages; for a list IDN they are the list contents without the 4-byte length header
+/// (the drive adds it on a read).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IdnSpec {
+    /// IDN number as on the wire: S-0-nnnn is nnnn, P-0-nnnn is 0x8000 + nnnn (bits 12-14
+    /// hold the parameter set).
+    pub idn: u16,
+    /// The drive (0..=7) that has it; absent: every drive of the slave.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive: Option<u8>,
+    /// Element 2, the name.
+    pub name: String,
+    /// Element 3, the attribute as its raw u32: bits 0-15 conversion factor, 16-17 element
+    /// size (0: 1, 1: 2, 2: 4, 3: 8 bytes), 18 list, 19 procedure command, 20-22 data type
+    /// (0 binary, 1 unsigned, 2 signed, 3 hex, 4 text, 5 IDN, 6 float), 24-27 decimal
+    /// places, 28-30 write-protected in PREOP/SAFEOP/OP. Bits 23 and 31 are reserved (0).
+    pub attribute: u32,
+    /// Element 4, the unit; absent: a read of it answers error 0x4001.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unit: Option<String>,
+    /// Element 5, minimum input value; absent: 0x5001.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min: Option<Vec<u8>>,
+    /// Element 6, maximum input value; absent: 0x6001.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max: Option<Vec<u8>>,
+    /// Element 7, the operation data at power-on; absent: the default value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<Vec<u8>>,
+    /// The default value; absent: a read of it answers 0x8001.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub default: Option<Vec<u8>>,
+    /// The value cannot be written at all (writes answer 0x7004).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub read_only: bool,
+    /// For a list IDN: its maximum length in bytes (default: the value's length).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub list_capacity: Option<u16>,
+}
+
+fn is_false(v: &bool) -> bool {
+    !*v
 }
 
 /// An FoE file.
