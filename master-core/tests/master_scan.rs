@@ -56,6 +56,19 @@ fn the_default_segment_comes_up_as_the_topology_describes_it() {
             }
             None => assert_eq!(info.mailbox, None),
         }
+        let cached = rig
+            .master()
+            .sii_image(SlaveAddress::Position(p as u16))
+            .unwrap();
+        assert_eq!(
+            &rig.segment().esc(p).unwrap().sii()[..cached.len()],
+            &cached[..]
+        );
+        let layout = rig
+            .master()
+            .process_data_layout(SlaveAddress::Position(p as u16))
+            .unwrap();
+        assert_eq!(layout.outputs_len(), usize::from(info.process_data.outputs));
         let bits = |rx: bool| -> u32 {
             spec.pdos
                 .iter()
@@ -235,4 +248,107 @@ fn a_slave_goes_to_boot_with_the_bootstrap_mailbox_and_back_to_op() {
         let stats = rig.master().cycle_stats();
         stats.last_wkc == stats.expected_wkc
     }));
+}
+
+#[test]
+fn a_second_scan_starts_over_and_ends_in_the_same_place() {
+    let rig = rig(Topology::default_segment(), MasterConfig::default());
+    let first = block_on(rig.master().scan()).expect("first scan");
+    // A tokio runtime of the caller's works as well as no runtime at all.
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .build()
+        .unwrap();
+    let second = runtime.block_on(rig.master().scan()).expect("second scan");
+    assert!(second.failures.is_empty(), "{:?}", second.failures);
+    assert_eq!(first.slaves, second.slaves);
+    let stats = rig.master().cycle_stats();
+    assert!(wait_until(|| {
+        let now = rig.master().cycle_stats();
+        now.completed > stats.completed && now.last_wkc == now.expected_wkc
+    }));
+}
+
+#[test]
+fn slaves_that_return_four_bytes_per_eeprom_read_are_read_whole() {
+    use sim::device::SlaveDevice;
+    use sim::esc::{Esc, EscConfig, ManualTime};
+    use sim::segment::Segment;
+    // The CoE store and the EoE port (no process data) on ESCs with 4-byte EEPROM reads.
+    let default = Topology::default_segment();
+    let built = sim::topology::build(&default).unwrap();
+    let picked = [3usize, 4];
+    let time = ManualTime::new(0);
+    let mut segment = Segment::new(Box::new(time.clone()));
+    for &p in &picked {
+        let config = EscConfig {
+            eeprom_read_8_bytes: false,
+            ..EscConfig::default()
+        };
+        let sii = built.esc(p).unwrap().sii().to_vec();
+        segment.push(Esc::new(config, sii), Box::new(SlaveDevice::new()));
+    }
+    let topology = Topology {
+        slaves: picked.iter().map(|&p| default.slaves[p].clone()).collect(),
+    };
+    let rig = master_support::rig_on(segment, time, topology.clone(), MasterConfig::default());
+    let report = block_on(rig.master().scan()).expect("scan");
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    for (info, spec) in report.slaves.iter().zip(&topology.slaves) {
+        assert_eq!(info.name, spec.name);
+        assert_eq!(info.identity.serial, spec.serial);
+        assert_eq!(info.al_state, AlState::Op);
+        let address = SlaveAddress::Position(info.position);
+        let control = block_on(rig.master().read_register(address, 0x0502, 2)).unwrap();
+        assert_eq!(control[0] & 0x40, 0, "the ESC reports 4-byte reads");
+        let read = block_on(rig.master().read_sii(address)).unwrap();
+        let segment = rig.segment();
+        let image = segment.esc(usize::from(info.position)).unwrap().sii();
+        assert_eq!(&image[..read.len()], &read[..]);
+    }
+}
+
+#[test]
+fn a_slave_with_a_malformed_sii_is_reported_and_the_others_come_up() {
+    use master_core::master::MasterError;
+    use sim::device::SlaveDevice;
+    use sim::esc::{Esc, EscConfig, ManualTime};
+    use sim::segment::Segment;
+    let default = Topology::default_segment();
+    let built = sim::topology::build(&default).unwrap();
+    let picked = [3usize, 4];
+    let time = ManualTime::new(0);
+    let mut segment = Segment::new(Box::new(time.clone()));
+    for (i, &p) in picked.iter().enumerate() {
+        let mut sii = built.esc(p).unwrap().sii().to_vec();
+        if i == 0 {
+            // The first category (word 0x40) claims more words than the EEPROM holds.
+            sii[0x82..0x84].copy_from_slice(&0x7FFFu16.to_le_bytes());
+        }
+        segment.push(
+            Esc::new(EscConfig::default(), sii),
+            Box::new(SlaveDevice::new()),
+        );
+    }
+    let topology = Topology {
+        slaves: picked.iter().map(|&p| default.slaves[p].clone()).collect(),
+    };
+    let rig = master_support::rig_on(segment, time, topology.clone(), MasterConfig::default());
+    let report = block_on(rig.master().scan()).expect("scan");
+    assert!(
+        matches!(
+            report.failures.as_slice(),
+            [MasterError::Malformed {
+                position: 0,
+                what: "SII",
+                ..
+            }]
+        ),
+        "{:?}",
+        report.failures
+    );
+    assert!(!report.slaves[0].present);
+    assert_eq!(report.slaves[1].name, topology.slaves[1].name);
+    assert_eq!(report.slaves[1].al_state, AlState::Op);
+    assert_eq!(rig.segment().esc(0).unwrap().al_state(), AlState::Init);
 }

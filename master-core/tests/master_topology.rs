@@ -72,8 +72,11 @@ fn a_power_cycled_slave_is_configured_again_and_returns_to_op() {
     let rig = scanned();
     let mut events = rig.master().events();
     // The drive: mailbox, process data, everything to configure again.
-    rig.segment().power_cycle(0);
-    assert_eq!(rig.segment().esc(0).unwrap().station_address(), 0);
+    {
+        let mut segment = rig.segment();
+        segment.power_cycle(0);
+        assert_eq!(segment.esc(0).unwrap().station_address(), 0);
+    }
     let lost = next_event(&mut events, |e| matches!(e, MasterEvent::SlaveLost { .. }));
     assert!(
         matches!(lost, Some(MasterEvent::SlaveLost { position: 0, .. })),
@@ -225,4 +228,44 @@ fn without_the_watch_a_look_on_request_sees_the_change() {
     assert!(rig.master().watching());
     rig.master().stop_watch();
     assert!(!rig.master().watching());
+}
+
+#[test]
+fn a_watchdog_error_is_reported_with_its_code_and_acknowledged_back_to_op() {
+    let rig = scanned();
+    let mut events = rig.master().events();
+    // A second without process data, as the slaves' watchdogs see it: the drive and the
+    // output terminal fall back to SAFEOP with AL status code 0x001B.
+    rig.time.advance(1_000_000_000);
+    let error = next_event(&mut events, |e| matches!(e, MasterEvent::AlError { .. }));
+    // The slaves with outputs watch them; whichever the watch looks at first is reported
+    // first.
+    let watched: Vec<u16> = (0..rig.topology.slaves.len() as u16)
+        .filter(|&p| {
+            rig.topology.slaves[usize::from(p)]
+                .pdos
+                .iter()
+                .any(|pdo| pdo.is_rx())
+        })
+        .collect();
+    assert_eq!(watched, vec![0, 1]);
+    match error {
+        Some(MasterEvent::AlError {
+            position,
+            station,
+            name,
+            state,
+            code,
+        }) => {
+            assert!(watched.contains(&position), "{position}");
+            assert_eq!(station, 1001 + position);
+            assert_eq!(name, rig.topology.slaves[usize::from(position)].name);
+            assert_eq!(state, AlState::SafeOp);
+            assert_eq!(code, master_core::wire::register::AlStatusCode::SmWatchdog);
+        }
+        other => panic!("expected a watchdog error, got {other:?}"),
+    }
+    assert!(wait_until(|| (0..5).all(|p| in_op(&rig, p))));
+    let drive = rig.master().slave(SlaveAddress::Position(0)).unwrap();
+    assert!(!drive.al_error);
 }

@@ -47,3 +47,19 @@ pub(crate) async fn apwr(
         .map(drop)
         .map_err(MasterError::bus(what))
 }
+
+/// FPRD of a u16 register of `station`.
+pub(crate) async fn fprd_u16(
+    bus: &BusHandle,
+    station: u16,
+    ado: u16,
+    what: &'static str,
+) -> Result<u16, MasterError> {
+    let data = fprd(bus, station, ado, 2, what).await?;
+    // The bus returns as many bytes as were asked for; a short reply would read as 0.
+    let bytes: [u8; 2] = data
+        .get(..2)
+        .and_then(|b| b.try_into().ok())
+        .unwrap_or_default();
+    Ok(u16::from_le_bytes(bytes))
+}

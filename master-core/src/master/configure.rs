@@ -15,7 +15,7 @@ use crate::wire::register::{
 use crate::wire::sii::fmmu::FmmuUsage;
 use crate::wire::sii::{MailboxArea, SiiImage};
 
-use super::access::{apwr, fprd, fpwr};
+use super::access::{apwr, fprd, fprd_u16, fpwr};
 use super::al::{self, Who};
 use super::context::{Context, SlaveRecord};
 use super::eeprom::Eeprom;
@@ -91,8 +91,7 @@ pub(crate) async fn identify(
     let esc = EscInfo::new_checked(&info[..])
         .and_then(|view| EscInfoRepr::parse(&view))
         .map_err(malformed(position, "ESC information"))?;
-    let alias = fprd(bus, station, reg::STATION_ALIAS, 2, "station alias").await?;
-    let alias = u16::from_le_bytes([alias[0], alias[1]]);
+    let alias = fprd_u16(bus, station, reg::STATION_ALIAS, "station alias").await?;
     let eeprom = eeprom(ctx, station);
     eeprom.take().await?;
     let image = eeprom.read_image(ctx.config.max_sii_words).await?;
@@ -170,9 +169,15 @@ async fn configure_mailbox(ctx: &Context, info: &SlaveInfo, boot: bool) -> Resul
 /// (inputs) in order, then any FMMU not used otherwise.
 fn fmmu_plan(
     sii: &SiiImage<'_>,
+    fmmu_count: u8,
     layout: &ProcessDataLayout,
     pd: ProcessDataInfo,
 ) -> Vec<(u8, FmmuRepr)> {
+    // An ESC reporting no FMMU count is taken to have the usual 16 at most.
+    let count = match usize::from(fmmu_count) {
+        0 => 16,
+        n => n.min(16),
+    };
     let mut taken = [false; 16];
     let mut plan = Vec::new();
     let (mut out_at, mut in_at) = (pd.outputs_offset, pd.inputs_offset);
@@ -186,9 +191,9 @@ fn fmmu_plan(
             .fmmu
             .iter()
             .enumerate()
-            .position(|(i, &u)| u == wanted && !taken.get(i).copied().unwrap_or(true));
+            .position(|(i, &u)| u == wanted && i < count && !taken[i]);
         let free = || {
-            (0..16).find(|&i| {
+            (0..count).find(|&i| {
                 !taken[i]
                     && !matches!(
                         sii.fmmu.get(i),
@@ -231,7 +236,7 @@ async fn configure_process_data(ctx: &Context, record: &SlaveRecord) -> Result<(
         )
         .await?;
     }
-    for (index, fmmu) in fmmu_plan(&sii, &record.layout, info.process_data) {
+    for (index, fmmu) in fmmu_plan(&sii, info.esc.fmmu_count, &record.layout, info.process_data) {
         let mut bytes = [0u8; 16];
         fmmu.emit(&mut Fmmu::new_unchecked(&mut bytes[..]))
             .map_err(malformed(info.position, "FMMU"))?;
@@ -323,4 +328,77 @@ pub(crate) async fn bring_to(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wire::register::SmControl;
+    use crate::wire::sii::SiiBuilder;
+    use crate::wire::sii::fixed::SiiFixedRepr;
+
+    use super::super::layout::PdSyncManager;
+
+    fn layout() -> ProcessDataLayout {
+        let sm = |index, start, length, outputs| PdSyncManager {
+            index,
+            start,
+            length,
+            control: if outputs {
+                SmControl::OUTPUTS
+            } else {
+                SmControl::INPUTS
+            },
+            outputs,
+        };
+        ProcessDataLayout {
+            sync_managers: vec![sm(2, 0x1100, 6, true), sm(3, 0x1400, 4, false)],
+        }
+    }
+
+    fn image(fmmu: Vec<FmmuUsage>) -> Vec<u8> {
+        let mut b = SiiBuilder::new(SiiFixedRepr::default());
+        b.fmmu = fmmu;
+        b.build().unwrap()
+    }
+
+    const PD: ProcessDataInfo = ProcessDataInfo {
+        outputs: 6,
+        inputs: 4,
+        outputs_offset: 0x20,
+        inputs_offset: 0x26,
+    };
+
+    #[test]
+    fn fmmus_follow_the_sii_usage_and_the_image_offsets() {
+        // Inputs first in the SII: FMMU 1 serves the outputs, FMMU 0 the inputs.
+        let bytes = image(vec![
+            FmmuUsage::Inputs,
+            FmmuUsage::Outputs,
+            FmmuUsage::SyncManagerStatus,
+        ]);
+        let sii = SiiImage::parse(&bytes).unwrap();
+        assert_eq!(
+            fmmu_plan(&sii, 8, &layout(), PD),
+            vec![
+                (1, FmmuRepr::outputs(0x20, 6, 0x1100)),
+                (0, FmmuRepr::inputs(0x26, 4, 0x1400)),
+            ]
+        );
+    }
+
+    #[test]
+    fn without_usage_free_fmmus_are_taken_within_the_esc_s_count() {
+        let bytes = image(Vec::new());
+        let sii = SiiImage::parse(&bytes).unwrap();
+        assert_eq!(
+            fmmu_plan(&sii, 8, &layout(), PD),
+            vec![
+                (0, FmmuRepr::outputs(0x20, 6, 0x1100)),
+                (1, FmmuRepr::inputs(0x26, 4, 0x1400)),
+            ]
+        );
+        // An ESC with one FMMU maps what it can.
+        assert_eq!(fmmu_plan(&sii, 1, &layout(), PD).len(), 1);
+    }
 }

@@ -186,23 +186,27 @@ impl Eeprom<'_> {
             .min(u32::from(max_words)) as u16;
         let mut at = CATEGORY_START_WORD;
         let header_words = (CATEGORY_HEADER_LEN / 2) as u16;
+        // Where the image ends: after the END marker (kept, so that a parser sees where
+        // the list stops), or after the last category that fits the EEPROM.
+        let mut stop = at;
         while let Some(header_end) = at.checked_add(header_words).filter(|&e| e <= limit) {
             self.fill(&mut words, header_end).await?;
             let kind = words.get(usize::from(at)).copied().unwrap_or(0xFFFF);
             if kind == u16::from(CategoryType::End) {
+                stop = at + 1;
                 break;
             }
             let size = words.get(usize::from(at) + 1).copied().unwrap_or(0);
             let end = header_end.saturating_add(size).min(limit);
             self.fill(&mut words, end).await?;
+            at = end;
+            stop = end;
             if end >= limit {
                 break;
             }
-            at = end;
         }
-        // Keep the END marker so that a parser sees where the list stops.
-        let end = (usize::from(at) + 1).min(words.len());
-        words.truncate(end.max(FIXED_LEN / 2));
+        // Reads come in chunks of 2 or 4 words: drop what lies beyond the image.
+        words.truncate(usize::from(stop).max(FIXED_LEN / 2));
         Ok(words.iter().flat_map(|w| w.to_le_bytes()).collect())
     }
 

@@ -64,7 +64,8 @@ impl Image {
     /// Writes `data` into the image at `offset`; false if it does not fit.
     pub fn write(&self, offset: usize, data: &[u8]) -> bool {
         let mut b = self.lock();
-        match b.outputs.get_mut(offset..offset + data.len()) {
+        let range = offset..offset.saturating_add(data.len());
+        match b.outputs.get_mut(range) {
             Some(target) => {
                 target.copy_from_slice(data);
                 true
@@ -77,7 +78,9 @@ impl Image {
     pub fn read(&self, offset: usize, len: usize, outputs: bool) -> Option<Vec<u8>> {
         let b = self.lock();
         let source = if outputs { &b.outputs } else { &b.inputs };
-        source.get(offset..offset + len).map(<[u8]>::to_vec)
+        source
+            .get(offset..offset.saturating_add(len))
+            .map(<[u8]>::to_vec)
     }
 
     pub fn stats(&self) -> CycleStats {

@@ -126,3 +126,83 @@ impl LayoutSource for SiiLayout {
         Box::pin(async move { Ok(layout) })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wire::sii::SiiBuilder;
+    use crate::wire::sii::fixed::SiiFixedRepr;
+    use crate::wire::sii::pdo::{Pdo, PdoEntry, PdoFlags};
+    use crate::wire::sii::syncm::{SyncmEnable, SyncmEntry};
+
+    fn sm(start: u16, length: u16, control: u8, enable: u8, sm_type: SyncmType) -> SyncmEntry {
+        SyncmEntry {
+            start,
+            length,
+            control,
+            status: 0,
+            enable: SyncmEnable(enable),
+            sm_type,
+        }
+    }
+
+    fn pdo(index: u16, sm: u8, bits: &[u8]) -> Pdo {
+        Pdo {
+            index,
+            sync_manager: sm,
+            dc_sync: 0,
+            name_idx: 0,
+            flags: PdoFlags(0),
+            entries: bits
+                .iter()
+                .map(|&bit_length| PdoEntry {
+                    index: 0x7000,
+                    subindex: 1,
+                    name_idx: 0,
+                    data_type: 0,
+                    bit_length,
+                    flags: 0,
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn sizes_come_from_the_assigned_pdos_else_from_syncm() {
+        let mut b = SiiBuilder::new(SiiFixedRepr::default());
+        b.syncm = vec![
+            sm(0x1000, 128, 0x26, 1, SyncmType::MailboxOut),
+            sm(0x1080, 128, 0x22, 1, SyncmType::MailboxIn),
+            // Length 0 in SYNCM: computed from the PDOs, 1 + 16 bits → 3 bytes.
+            sm(0x1100, 0, 0x64, 1, SyncmType::Outputs),
+            // No PDO assigned: the SYNCM length counts; type inferred from control 0x20.
+            sm(0x1200, 4, 0x00, 1, SyncmType::Unspecified),
+            // Virtual: carries nothing.
+            sm(0x0998, 8, 0x20, 0x04, SyncmType::Inputs),
+        ];
+        b.rxpdo = vec![pdo(0x1600, 2, &[1, 16]), pdo(0x1601, 0xFF, &[32])];
+        let image = b.build().unwrap();
+        let sii = SiiImage::parse(&image).unwrap();
+        let layout = SiiLayout::of(&sii);
+        assert_eq!(
+            layout.sync_managers,
+            vec![
+                PdSyncManager {
+                    index: 2,
+                    start: 0x1100,
+                    length: 3,
+                    control: SmControl::decode(0x64),
+                    outputs: true,
+                },
+                PdSyncManager {
+                    index: 3,
+                    start: 0x1200,
+                    length: 4,
+                    control: SmControl::INPUTS,
+                    outputs: false,
+                },
+            ]
+        );
+        assert_eq!((layout.outputs_len(), layout.inputs_len()), (3, 4));
+    }
+}

@@ -204,6 +204,21 @@ impl Master {
         self.ctx.resolve(address).map(|r| r.info)
     }
 
+    /// The process-data SyncManagers of the slave at `address` (empty until a scan brought it
+    /// to PREOP and made the layout).
+    pub fn process_data_layout(
+        &self,
+        address: SlaveAddress,
+    ) -> Result<ProcessDataLayout, MasterError> {
+        self.ctx.resolve(address).map(|r| r.layout)
+    }
+
+    /// The SII image of the slave at `address` as the scan (or the watch) read it; see
+    /// [`Master::read_sii`] for a fresh read.
+    pub fn sii_image(&self, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
+        self.ctx.resolve(address).map(|r| r.sii)
+    }
+
     /// The mailboxes of every slave that has one, for the mailbox engine.
     pub fn mailbox_layouts(&self) -> Vec<MailboxLayout> {
         self.ctx
@@ -312,7 +327,8 @@ impl Master {
         data: &[u8],
     ) -> Result<(), MasterError> {
         let pd = self.ctx.resolve(address)?.info.process_data;
-        if offset + data.len() > usize::from(pd.outputs) {
+        let end = offset.checked_add(data.len());
+        if end.is_none_or(|end| end > usize::from(pd.outputs)) {
             return Err(MasterError::InvalidArgument(
                 "outputs beyond the slave's process data",
             ));
@@ -383,5 +399,29 @@ impl std::fmt::Debug for Master {
             .field("config", &self.ctx.config)
             .field("slaves", &self.ctx.lock().list.len())
             .finish()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn send_sync<T: Send + Sync>(_: &T) {}
+    fn send<T: Send>(_: &T) {}
+
+    #[test]
+    fn the_master_and_its_futures_can_move_between_threads() {
+        let (bus, _thread) = crate::bus::Bus::start(
+            crate::link::MemoryLink::pair(1).0,
+            crate::bus::BusConfig::default(),
+        )
+        .unwrap();
+        let master = Master::start(bus, MasterConfig::default()).unwrap();
+        send_sync(&master);
+        send(&master.scan());
+        send(&master.read_register(SlaveAddress::Position(0), 0, 1));
+        send(&master.set_alias(SlaveAddress::Position(0), 1));
+        send(&master.request_state(SlaveAddress::Position(0), AlState::Op));
+        send(&master.events());
     }
 }

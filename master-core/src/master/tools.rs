@@ -6,7 +6,7 @@ use crate::wire::register::address as reg;
 use crate::wire::sii::checksum::CHECKSUM_OFFSET;
 use crate::wire::sii::fixed::ALIAS_WORD;
 
-use super::access::{fprd, fpwr};
+use super::access::{fprd, fprd_u16, fpwr};
 use super::address::SlaveAddress;
 use super::configure::eeprom;
 use super::context::Context;
@@ -107,15 +107,19 @@ pub(crate) async fn set_alias(
         what: "SII configuration area",
         source,
     })?;
+    // Only words 4 and 7 change (seed 004); write back just those.
     let word_at = |w: u16| {
         let at = usize::from(w) * 2;
-        u16::from_le_bytes([fixed[at], fixed[at + 1]])
+        let bytes: [u8; 2] = fixed
+            .get(at..at + 2)
+            .and_then(|b| b.try_into().ok())
+            .unwrap_or_default();
+        u16::from_le_bytes(bytes)
     };
     eeprom.write(ALIAS_WORD, word_at(ALIAS_WORD)).await?;
     eeprom.write(CHECKSUM_WORD, word_at(CHECKSUM_WORD)).await?;
     eeprom.reload().await?;
-    let read = fprd(&ctx.bus, station, reg::STATION_ALIAS, 2, "station alias").await?;
-    let now = u16::from_le_bytes([read[0], read[1]]);
+    let now = fprd_u16(&ctx.bus, station, reg::STATION_ALIAS, "station alias").await?;
     ctx.update(record.info.position, |r| {
         r.info.alias = now;
         if r.sii.len() >= fixed.len() {

@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 use master_core::bus::{Bus, BusConfig};
 use master_core::link::{Link, Wait};
 use master_core::master::{Master, MasterConfig, MasterEvent};
+use sim::esc::ManualTime;
 use sim::link::{InProcessLink, SharedSegment};
 use sim::segment::Segment;
 use sim::topology::{SlaveHandles, Topology, build_with_handles};
@@ -106,6 +107,8 @@ pub struct Rig<L: Link + 'static> {
     pub segment: SharedSegment,
     pub handles: Vec<SlaveHandles>,
     pub topology: Topology,
+    /// The segment's time base (advance it to let watchdogs run out).
+    pub time: ManualTime,
     bus_thread: Option<JoinHandle<L>>,
 }
 
@@ -164,6 +167,29 @@ pub fn rig_with<L: Link + 'static>(
         segment,
         handles: built.slaves,
         topology,
+        time: built.time,
+        bus_thread: Some(bus_thread),
+    }
+}
+
+/// A master on a segment the test built itself (described by `topology`, for the
+/// expectations), on the plain in-process link.
+pub fn rig_on(
+    segment: Segment,
+    time: ManualTime,
+    topology: Topology,
+    config: MasterConfig,
+) -> Rig<InProcessLink> {
+    let segment: SharedSegment = Arc::new(Mutex::new(segment));
+    let link = InProcessLink::shared(Arc::clone(&segment), 64);
+    let (bus, bus_thread) = Bus::start(link, BusConfig::default()).expect("bus starts");
+    let master = Master::start(bus, config).expect("master starts");
+    Rig {
+        master: Some(master),
+        segment,
+        handles: Vec::new(),
+        topology,
+        time,
         bus_thread: Some(bus_thread),
     }
 }
