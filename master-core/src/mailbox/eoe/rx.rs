@@ -65,3 +65,48 @@ impl EoeRx {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wire::eoe::{EoeRepr, Fragmenter};
+
+    fn fragments(frame: &[u8], frame_number: u8) -> Vec<Vec<u8>> {
+        Fragmenter::new(frame, 64, frame_number)
+            .unwrap()
+            .map(|f| {
+                let repr = EoeRepr::Fragment(f);
+                let mut out = vec![0u8; repr.buffer_len()];
+                repr.emit(&mut EoePacket::new_unchecked(&mut out[..]))
+                    .unwrap();
+                out
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_frame_whose_next_fragment_is_late_is_dropped() {
+        let frame: Vec<u8> = (0..150u8).collect();
+        let parts = fragments(&frame, 3);
+        assert_eq!(parts.len(), 4, "32 bytes per fragment in a 64-byte mailbox");
+        let start = Instant::now();
+        let mut rx = EoeRx::new(Duration::from_millis(100));
+        assert_eq!(rx.push(&parts[0], start), Pushed::Partial);
+        assert_eq!(rx.push(&parts[1], start), Pushed::Partial);
+        let late = start + Duration::from_millis(150);
+        assert!(rx.expire(late), "the partial frame is dropped");
+        assert_eq!(
+            rx.push(&parts[2], late),
+            Pushed::Dropped,
+            "no frame in progress"
+        );
+        // The next frame goes through whole.
+        let again = fragments(&frame, 4);
+        let results: Vec<_> = again.iter().map(|p| rx.push(p, late)).collect();
+        assert_eq!(results.last(), Some(&Pushed::Frame(frame.clone())));
+        assert!(
+            !rx.expire(late + Duration::from_secs(10)),
+            "nothing in progress"
+        );
+    }
+}
