@@ -1,5 +1,5 @@
 //! The mailbox counters (digest §5.3): the master's 1..7 sequence for requests, and the
-//! check of the slave's counter that spots a message read twice after a repeat request.
+//! check of the slave's counter that spots a message read twice.
 
 /// Counter state of one slave's mailbox.
 #[derive(Debug, Clone, Default)]
@@ -8,8 +8,6 @@ pub(crate) struct Counters {
     tx: u8,
     /// Counter of the last message accepted from the slave, if it numbers its messages.
     last_rx: Option<u8>,
-    /// The next message read follows a repeat request and may be the one read before.
-    after_repeat: bool,
 }
 
 impl Counters {
@@ -20,25 +18,24 @@ impl Counters {
         self.tx
     }
 
-    /// A repeat request was acknowledged: the slave re-posted the last message it handed
-    /// out, which the master may already have (the lost frame may have been lost on its way
-    /// out, before the slave saw the read).
-    pub fn note_repeat(&mut self) {
-        self.after_repeat = true;
-    }
-
-    /// Whether a message with the slave's counter `counter` is new. Only right after a
-    /// repeat is a message with the same non-zero counter as the last one a duplicate; at
-    /// any other time the slave may have restarted its count (a fall back to INIT), so its
-    /// messages are taken as they come.
+    /// Whether a message with the slave's counter `counter` is new.
+    ///
+    /// A slave numbers every message it posts 1..7 (0 = it does not count, and nothing can
+    /// be checked), so two messages in a row never have the same counter: one that repeats
+    /// the last accepted counter is the same message again. That happens after repeat
+    /// requests (digest §5.6): the slave re-posts the message the master read last, which
+    /// the master already has when the lost frame was lost before it reached the slave —
+    /// and after two repeats in a row a slave may even hand that copy out twice. A slave
+    /// that falls back to INIT restarts its count; the master then takes its mailbox over
+    /// afresh ([`MailboxEngine::add_slave`](crate::mailbox::MailboxEngine::add_slave)), with new counters.
     pub fn accept_rx(&mut self, counter: u8) -> bool {
-        let check = std::mem::take(&mut self.after_repeat);
-        if check && counter != 0 && self.last_rx == Some(counter) {
+        if counter == 0 {
+            return true;
+        }
+        if self.last_rx == Some(counter) {
             return false;
         }
-        if counter != 0 {
-            self.last_rx = Some(counter);
-        }
+        self.last_rx = Some(counter);
         true
     }
 }
@@ -55,22 +52,21 @@ mod tests {
     }
 
     #[test]
-    fn a_message_read_again_after_a_repeat_is_a_duplicate() {
+    fn a_message_read_again_is_a_duplicate() {
         let mut c = Counters::default();
         assert!(c.accept_rx(3));
-        c.note_repeat();
-        assert!(!c.accept_rx(3), "the backup of message 3 again");
+        assert!(!c.accept_rx(3), "the re-posted message 3");
+        assert!(!c.accept_rx(3), "and once more after a second repeat");
         assert!(c.accept_rx(4));
-        c.note_repeat();
-        assert!(c.accept_rx(5), "the lost message itself");
-        assert!(
-            c.accept_rx(5),
-            "outside a repeat the same counter is accepted"
-        );
-        c.note_repeat();
+        assert!(c.accept_rx(5));
         assert!(
             c.accept_rx(0),
             "a slave that does not count cannot be checked"
+        );
+        assert!(c.accept_rx(0));
+        assert!(
+            !c.accept_rx(5),
+            "the last counted message is still remembered"
         );
     }
 }

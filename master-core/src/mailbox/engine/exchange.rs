@@ -318,7 +318,6 @@ impl Exchange {
                 let interval = self.shared.engine.poll_interval;
                 request_repeat(&self.bus, station, deadline, interval).await?;
                 inc(&self.shared.stats.repeats);
-                self.counters.note_repeat();
                 return Ok(Read::Nothing);
             }
             Err(err) => return Err(err.into()),
