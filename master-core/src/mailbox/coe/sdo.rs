@@ -74,8 +74,9 @@ async fn abort(x: &mut Exchange, target: &Target, code: AbortCode) {
     let _ = send_request(x, request).await;
 }
 
-/// Runs the segment phase `segments`; if it fails other than by the slave's own abort,
-/// or the caller goes away, aborts the transfer towards the slave.
+/// Passes on the result of a transfer's later phase; if it failed other than by the
+/// slave's own abort or mailbox error (the caller went away, the deadline passed, the
+/// slave broke the protocol), first aborts the transfer towards the slave.
 async fn guarded<T>(x: &mut Exchange, target: &Target, result: Result<T>) -> Result<T> {
     match &result {
         Err(MailboxError::SdoAbort { .. } | MailboxError::Mailbox(_)) | Ok(_) => {}
