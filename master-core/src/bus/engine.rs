@@ -209,8 +209,13 @@ impl<L: Link> Engine<L> {
                     }
                 }
                 RecordKind::Acyclic if record.attempts <= self.config.retries => {
-                    self.shared.stats.retries.inc();
-                    self.resend(id);
+                    self.fail_send_once(id);
+                    if self.records[id].entries.is_empty() {
+                        self.release_record(id);
+                    } else {
+                        self.shared.stats.retries.inc();
+                        self.resend(id);
+                    }
                 }
                 RecordKind::Acyclic => {
                     let error = match record.send_error {
@@ -228,6 +233,36 @@ impl<L: Link> Engine<L> {
                 }
             }
         }
+    }
+
+    /// Fails the datagrams of lost frame `id` that must not be sent twice
+    /// ([`BusHandle::submit_once`](super::BusHandle::submit_once)), and takes them out of
+    /// the record so that only the others are sent again.
+    fn fail_send_once(&mut self, id: usize) {
+        let record = &mut self.records[id];
+        if !record.entries.iter().any(|entry| entry.once) {
+            return;
+        }
+        let error = BusError::Timeout {
+            attempts: record.attempts,
+        };
+        let mut kept = 0;
+        for i in 0..record.entries.len() {
+            if record.entries[i].once {
+                self.indices.release(record.datagrams[i].index);
+            } else {
+                record.entries.swap(kept, i);
+                record.datagrams.swap(kept, i);
+                kept += 1;
+            }
+        }
+        let mut failed = 0;
+        for entry in record.entries.drain(kept..) {
+            entry.completer.complete(Err(error.clone()));
+            failed += 1;
+        }
+        record.datagrams.truncate(kept);
+        self.shared.stats.datagrams_failed.add(failed);
     }
 
     /// Sends the datagrams of a lost acyclic frame again, together, under new indices, so

@@ -53,6 +53,23 @@ impl BusHandle {
     /// addressing mode than the command's, data too long for a frame) and submissions to
     /// a full queue or a stopped bus complete at once with the error.
     pub fn submit(&self, request: DatagramRequest) -> Pending {
+        self.submit_single(request, false)
+    }
+
+    /// Queues one datagram that is **never sent again**: if its frame is lost, it fails
+    /// with [`BusError::Timeout`] after [`BusConfig::response_timeout`] instead of being
+    /// retried (the other datagrams of that frame are retried as usual).
+    ///
+    /// For reads with a side effect, where a blind retry would do harm: reading a slave's
+    /// send mailbox (SM1) empties it, so a retried read of a lost frame could return the
+    /// *next* message and the lost one would be gone without a trace. The mailbox layer
+    /// reads SM1 with this and recovers a lost read with the repeat procedure instead
+    /// (digest §5.6).
+    pub fn submit_once(&self, request: DatagramRequest) -> Pending {
+        self.submit_single(request, true)
+    }
+
+    fn submit_single(&self, request: DatagramRequest, once: bool) -> Pending {
         if let Err(err) = self.check(&request) {
             return Pending::ready(Err(err));
         }
@@ -61,6 +78,7 @@ impl BusHandle {
             request,
             completer,
             group_left: 1,
+            once,
         };
         if let Err((err, refused)) = self.shared().queue.push(std::iter::once(queued)) {
             for entry in refused {
@@ -101,6 +119,7 @@ impl BusHandle {
                     completer,
                     // Checked: a group has at most `MAX_DATAGRAMS_PER_FRAME` members.
                     group_left: (count - i) as u16,
+                    once: false,
                 });
         let refused = match checked {
             Ok(()) => self.shared().queue.push(batch).err(),

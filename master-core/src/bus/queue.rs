@@ -25,6 +25,9 @@ pub(crate) struct Queued {
     /// How many datagrams of its group start here, this one included: 1 for a lone datagram,
     /// `n, n-1, ..., 1` along a group of `n` that must share a frame.
     pub group_left: u16,
+    /// Sent once only: if its frame is lost it fails with `Timeout` instead of being sent
+    /// again (see [`BusHandle::submit_once`](super::BusHandle::submit_once)).
+    pub once: bool,
 }
 
 /// A change of cyclic task asked for: `Some(task)` to run one, `None` to stop.
@@ -210,6 +213,7 @@ mod tests {
             request: DatagramRequest::brd(0, 2),
             completer,
             group_left: 1,
+            once: false,
         }
     }
 

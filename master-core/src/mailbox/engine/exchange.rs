@@ -1,0 +1,377 @@
+//! One slave's mailbox as the protocol code sees it: write a message into SM0, wait for the
+//! answer in SM1. Everything else read from SM1 on the way is routed to where it belongs.
+//!
+//! Only the slave's owner task has an `Exchange`, so there is exactly one reader of the
+//! slave's send mailbox and one transaction at a time.
+//!
+//! Guards against a bus that may deliver a retried write twice and lose a read:
+//! - every request carries the next counter 1..7, and a write the bus retried carries the
+//!   same one, so the slave discards the second copy (digest §5.3);
+//! - SM1 is read with [`BusHandle::submit_once`]: a lost read is never blindly repeated
+//!   (which could swallow the next message) but recovered with the repeat procedure, and a
+//!   message re-posted by it that the master already has is recognised by the slave's
+//!   counter and dropped (§5.6).
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use crate::bus::{BusError, BusHandle, DatagramData, DatagramRequest};
+use crate::mailbox::config::MailboxConfig;
+use crate::mailbox::eoe::rx::{EoeRx, Pushed};
+use crate::mailbox::error::{MailboxError, Result};
+use crate::wire::WireError;
+use crate::wire::mailbox::{
+    ErrorReply, ErrorReplyRepr, HEADER_LEN, Mailbox, MailboxHeader, MailboxType,
+};
+
+use super::counter::Counters;
+use super::demux::{Route, Want, route};
+use super::events::{EoeFrame, SoeNotification};
+use super::repeat::request_repeat;
+use super::slave::SlaveShared;
+use super::stats::inc;
+
+/// Answers read while a request waited for room in SM0, kept for it.
+const STASH_LEN: usize = 8;
+/// Messages an idle read takes from SM1 in a row at most.
+const IDLE_DRAIN: usize = 16;
+
+/// What one read of SM1 brought.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Read {
+    /// Nothing (empty, lost and recovered, or dropped).
+    Nothing,
+    /// A message, routed elsewhere.
+    Routed,
+    /// The waiting request's answer, now in `rx`.
+    Answer,
+}
+
+/// An answer to a request: a message of the type asked for, or a mailbox error reply.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Reply<'a> {
+    /// Station address of the slave that answered.
+    pub station: u16,
+    /// The header.
+    pub header: MailboxHeader,
+    /// The whole message (header and data).
+    pub message: &'a [u8],
+    /// The mailbox data.
+    pub data: &'a [u8],
+}
+
+impl<'a> Reply<'a> {
+    /// The mailbox data, or the mailbox error the slave answered with.
+    pub fn data(&self) -> Result<&'a [u8]> {
+        if self.header.mailbox_type != MailboxType::Error {
+            return Ok(self.data);
+        }
+        match ErrorReply::new_checked(self.data).and_then(|r| ErrorReplyRepr::parse(&r)) {
+            Ok(reply) => Err(MailboxError::Mailbox(reply.detail)),
+            Err(_) => Err(MailboxError::Protocol {
+                station: self.station,
+                reason: "a mailbox error reply that cannot be parsed",
+            }),
+        }
+    }
+}
+
+/// The owner task's access to one slave's mailbox.
+pub(crate) struct Exchange {
+    shared: Arc<SlaveShared>,
+    bus: BusHandle,
+    counters: Counters,
+    tx: Vec<u8>,
+    rx: Vec<u8>,
+    stash: VecDeque<Vec<u8>>,
+    eoe_rx: EoeRx,
+    deadline: Instant,
+    cancelled: Option<Arc<AtomicBool>>,
+}
+
+impl Exchange {
+    pub fn new(shared: Arc<SlaveShared>, bus: BusHandle) -> Exchange {
+        let write = usize::from(shared.config.write.len);
+        let read = usize::from(shared.config.read.len);
+        let eoe_timeout = shared.engine.eoe_fragment_timeout;
+        Exchange {
+            shared,
+            bus,
+            counters: Counters::default(),
+            tx: vec![0; write],
+            rx: Vec::with_capacity(read),
+            stash: VecDeque::with_capacity(STASH_LEN),
+            eoe_rx: EoeRx::new(eoe_timeout),
+            deadline: Instant::now(),
+            cancelled: None,
+        }
+    }
+
+    /// The slave's station address.
+    pub fn station(&self) -> u16 {
+        self.shared.config.station
+    }
+
+    /// The engine's settings.
+    pub fn config(&self) -> &MailboxConfig {
+        &self.shared.engine
+    }
+
+    /// SM0 length: what a message to the slave may occupy, header included.
+    pub fn write_size(&self) -> usize {
+        self.tx.len()
+    }
+
+    /// SM1 length: what a message from the slave may occupy, header included.
+    pub fn read_size(&self) -> usize {
+        usize::from(self.shared.config.read.len)
+    }
+
+    /// Starts a transaction that must end by `deadline`; `cancelled` is the caller's flag.
+    pub fn begin(&mut self, deadline: Instant, cancelled: Option<Arc<AtomicBool>>) {
+        self.deadline = deadline;
+        self.cancelled = cancelled;
+    }
+
+    /// Ends the transaction; answers nobody took are counted as unexpected.
+    pub fn end(&mut self) {
+        self.cancelled = None;
+        for _ in self.stash.drain(..) {
+            inc(&self.shared.stats.unexpected);
+        }
+    }
+
+    /// Whether the caller went away.
+    pub fn cancelled(&self) -> bool {
+        self.cancelled
+            .as_ref()
+            .is_some_and(|flag| flag.load(Ordering::Relaxed))
+    }
+
+    /// Whether the transaction's deadline has passed.
+    pub fn expired(&self) -> bool {
+        Instant::now() >= self.deadline
+    }
+
+    /// A timeout error for this slave.
+    pub fn timeout(&self, waiting_for: &'static str) -> MailboxError {
+        MailboxError::Timeout {
+            station: self.station(),
+            waiting_for,
+        }
+    }
+
+    /// A protocol violation by this slave.
+    pub fn violation(&self, reason: &'static str) -> MailboxError {
+        MailboxError::Protocol {
+            station: self.station(),
+            reason,
+        }
+    }
+
+    /// The slave's counters.
+    pub(crate) fn stats(&self) -> &super::stats::Stats {
+        &self.shared.stats
+    }
+
+    /// An answer of the right type that belongs to no request (a late answer to one that
+    /// timed out): dropped and counted.
+    pub(crate) fn count_unexpected(&self) {
+        inc(&self.shared.stats.unexpected);
+    }
+
+    pub(crate) fn count_failed(&self) {
+        inc(&self.shared.stats.failed);
+    }
+
+    pub(crate) fn count_cancelled(&self) {
+        inc(&self.shared.stats.cancelled);
+    }
+
+    /// Writes one message of `mailbox_type` into SM0. `emit` writes the mailbox data into
+    /// the buffer it is given (SM0 length − 6 bytes) and returns its length; the header
+    /// (length, counter, type) is added here. A full SM0 is written again until the
+    /// deadline, reading SM1 in between (a slave may hold SM0 until its answers are read).
+    pub async fn send(
+        &mut self,
+        mailbox_type: MailboxType,
+        emit: impl FnOnce(&mut [u8]) -> core::result::Result<usize, WireError>,
+    ) -> Result<()> {
+        if self.tx.len() <= HEADER_LEN {
+            return Err(self.violation("the receive mailbox is too small"));
+        }
+        self.tx.fill(0);
+        let (head, body) = self.tx.split_at_mut(HEADER_LEN);
+        let length = emit(body).map_err(MailboxError::Invalid)?;
+        let header = MailboxHeader {
+            // At most the SM0 length − 6: `emit` wrote no more than `body` holds.
+            length: u16::try_from(length).unwrap_or(u16::MAX),
+            address: 0,
+            channel: 0,
+            priority: 0,
+            mailbox_type,
+            counter: self.counters.next_tx(),
+        };
+        header
+            .emit(&mut Mailbox::new_unchecked(head))
+            .map_err(MailboxError::Invalid)?;
+        let station = self.station();
+        let start = self.shared.config.write.start;
+        let want = Some(Want::Reply(mailbox_type));
+        loop {
+            let data = DatagramData::from_slice(&self.tx);
+            let response = self.bus.fpwr(station, start, data).await?;
+            if response.wkc == 1 {
+                inc(&self.shared.stats.writes);
+                return Ok(());
+            }
+            inc(&self.shared.stats.write_full);
+            if self.expired() {
+                return Err(self.timeout("room in the receive mailbox"));
+            }
+            if self.read_one(want).await? == Read::Answer {
+                if self.stash.len() >= STASH_LEN {
+                    inc(&self.shared.stats.unexpected);
+                } else {
+                    self.stash.push_back(self.rx.clone());
+                }
+            }
+            tokio::time::sleep(self.shared.engine.full_retry_interval).await;
+        }
+    }
+
+    /// Waits for the answer of `mailbox_type` (or a mailbox error reply) to the message
+    /// just sent, routing everything else read meanwhile.
+    pub async fn receive(&mut self, mailbox_type: MailboxType) -> Result<Reply<'_>> {
+        let want = Want::Reply(mailbox_type);
+        let mut reads = 0u32;
+        loop {
+            if let Some(message) = self.stash.pop_front() {
+                self.rx = message;
+                break;
+            }
+            if self.read_one(Some(want)).await? == Read::Answer {
+                break;
+            }
+            if self.expired() {
+                return Err(self.timeout(want.describe()));
+            }
+            reads += 1;
+            if reads >= self.shared.engine.eager_polls {
+                self.pause().await;
+            }
+        }
+        let header = Mailbox::new_checked(&self.rx[..])
+            .and_then(|m| MailboxHeader::parse(&m))
+            .map_err(|_| self.violation("an answer without a valid header"))?;
+        let end = HEADER_LEN + usize::from(header.length);
+        Ok(Reply {
+            station: self.shared.config.station,
+            header,
+            message: &self.rx[..end],
+            data: &self.rx[HEADER_LEN..end],
+        })
+    }
+
+    /// Waits for the next poll (or a "mailbox full" notification), not beyond the deadline.
+    async fn pause(&self) {
+        let now = Instant::now();
+        let wait = self
+            .shared
+            .engine
+            .poll_interval
+            .min(self.deadline.saturating_duration_since(now));
+        tokio::select! {
+            _ = tokio::time::sleep(wait) => {}
+            _ = self.shared.mail.notified() => {}
+        }
+    }
+
+    /// Reads SM1 while it holds messages, with nobody waiting for an answer.
+    pub async fn poll_idle(&mut self) -> Result<()> {
+        self.deadline = Instant::now() + self.shared.engine.timeout;
+        if self.eoe_rx.expire(Instant::now()) {
+            inc(&self.shared.stats.eoe_reassembly_errors);
+        }
+        for _ in 0..IDLE_DRAIN {
+            if self.read_one(None).await? == Read::Nothing {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads SM1 once and routes what it held.
+    async fn read_one(&mut self, want: Option<Want>) -> Result<Read> {
+        let station = self.station();
+        let area = self.shared.config.read;
+        let request = DatagramRequest::fprd(station, area.start, usize::from(area.len));
+        let response = match self.bus.submit_once(request).await {
+            Ok(response) => response,
+            Err(BusError::Timeout { .. }) => {
+                inc(&self.shared.stats.lost_reads);
+                let deadline = self
+                    .deadline
+                    .max(Instant::now() + self.shared.engine.timeout);
+                let interval = self.shared.engine.poll_interval;
+                request_repeat(&self.bus, station, deadline, interval).await?;
+                inc(&self.shared.stats.repeats);
+                return Ok(Read::Nothing);
+            }
+            Err(err) => return Err(err.into()),
+        };
+        if response.wkc != 1 {
+            return Ok(Read::Nothing);
+        }
+        inc(&self.shared.stats.reads);
+        let bytes = response.data.as_slice();
+        let Ok(header) = Mailbox::new_checked(bytes).and_then(|m| MailboxHeader::parse(&m)) else {
+            inc(&self.shared.stats.malformed);
+            return Ok(Read::Routed);
+        };
+        if !self.counters.accept_rx(header.counter) {
+            inc(&self.shared.stats.duplicates);
+            return Ok(Read::Routed);
+        }
+        let end = HEADER_LEN + usize::from(header.length);
+        // `new_checked` guaranteed that the declared length fits the buffer.
+        let data = bytes.get(HEADER_LEN..end).unwrap_or_default();
+        let shared = &*self.shared;
+        match route(header.mailbox_type, data, want) {
+            Route::Request => {
+                self.rx.clear();
+                self.rx
+                    .extend_from_slice(bytes.get(..end).unwrap_or_default());
+                return Ok(Read::Answer);
+            }
+            Route::Emergency(repr) => shared.events.emergency(station, &repr, &shared.stats),
+            Route::EoeFrame => {
+                let now = Instant::now();
+                if self.eoe_rx.expire(now) {
+                    inc(&shared.stats.eoe_reassembly_errors);
+                }
+                match self.eoe_rx.push(data, now) {
+                    Pushed::Frame(frame) => {
+                        shared
+                            .events
+                            .eoe_frame(EoeFrame { station, frame }, &shared.stats);
+                    }
+                    Pushed::Dropped => inc(&shared.stats.eoe_reassembly_errors),
+                    Pushed::Partial | Pushed::Ignored => {}
+                }
+            }
+            Route::SoeNotification => shared.events.soe_notification(
+                SoeNotification {
+                    station,
+                    message: data.to_vec(),
+                },
+                &shared.stats,
+            ),
+            Route::Unexpected => inc(&shared.stats.unexpected),
+            Route::Malformed => inc(&shared.stats.malformed),
+        }
+        Ok(Read::Routed)
+    }
+}

@@ -1,0 +1,105 @@
+//! A request on its way from a caller to a slave's owner task, and back.
+//!
+//! The caller packs the protocol work into a [`Job`] (a closure that runs against the
+//! slave's [`Exchange`] inside the engine), queues it on the slave's bounded channel and
+//! awaits a oneshot. Only the engine's runtime ever touches the mailbox, so the public async
+//! functions work from any executor.
+//!
+//! Cancellation: dropping the caller's future sets the job's `cancelled` flag (through
+//! [`CancelOnDrop`]). The owner skips a job not started yet; a job under way sees the flag
+//! at its next safe point and leaves the slave's mailbox clean (it waits for the answer
+//! already asked for, and aborts an open multi-message transfer the protocol's way).
+
+use std::future::Future;
+use std::pin::Pin;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use tokio::sync::{mpsc, oneshot};
+
+use crate::mailbox::error::{MailboxError, Result};
+use crate::wire::mailbox::MailboxType;
+
+use super::exchange::Exchange;
+use super::slave::SlaveMailbox;
+
+/// A boxed future borrowing the exchange.
+pub(crate) type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + Send + 'a>>;
+
+type Work = Box<dyn for<'a> FnOnce(&'a mut Exchange) -> BoxFuture<'a, ()> + Send>;
+
+/// One queued request.
+pub(crate) struct Job {
+    /// The request fails with a timeout once this passes.
+    pub deadline: Instant,
+    /// Set when the caller went away.
+    pub cancelled: Arc<AtomicBool>,
+    work: Work,
+}
+
+impl Job {
+    /// Runs the job against the exchange (the owner has set the deadline up).
+    pub fn run(self, exchange: &mut Exchange) -> BoxFuture<'_, ()> {
+        (self.work)(exchange)
+    }
+}
+
+/// Sets the flag when dropped unless disarmed: the caller's future was dropped.
+struct CancelOnDrop(Option<Arc<AtomicBool>>);
+
+impl Drop for CancelOnDrop {
+    fn drop(&mut self) {
+        if let Some(flag) = self.0.take() {
+            flag.store(true, Ordering::Relaxed);
+        }
+    }
+}
+
+/// Runs `work` on the slave's owner task and returns its result. `protocol` is checked
+/// against the slave's announced protocols first.
+pub(crate) async fn call<T, F>(
+    slave: &SlaveMailbox,
+    protocol: Option<MailboxType>,
+    work: F,
+) -> Result<T>
+where
+    T: Send + 'static,
+    F: for<'a> FnOnce(&'a mut Exchange) -> BoxFuture<'a, Result<T>> + Send + 'static,
+{
+    let shared = slave.shared();
+    if let Some(protocol) = protocol
+        && !shared.config.protocols.supports(protocol)
+    {
+        return Err(MailboxError::Unsupported {
+            station: shared.config.station,
+            protocol,
+        });
+    }
+    let (reply, answer) = oneshot::channel();
+    let cancelled = Arc::new(AtomicBool::new(false));
+    let job = Job {
+        deadline: Instant::now() + slave.timeout(),
+        cancelled: Arc::clone(&cancelled),
+        work: Box::new(move |exchange: &mut Exchange| {
+            Box::pin(async move {
+                let result = work(&mut *exchange).await;
+                if result.is_err() {
+                    exchange.count_failed();
+                }
+                let _ = reply.send(result);
+            })
+        }),
+    };
+    match shared.requests.try_send(job) {
+        Ok(()) => {}
+        Err(mpsc::error::TrySendError::Full(_)) => {
+            return Err(MailboxError::QueueFull(shared.config.station));
+        }
+        Err(mpsc::error::TrySendError::Closed(_)) => return Err(MailboxError::Shutdown),
+    }
+    let mut guard = CancelOnDrop(Some(cancelled));
+    let result = answer.await;
+    guard.0 = None;
+    result.unwrap_or(Err(MailboxError::Shutdown))
+}

@@ -1,0 +1,100 @@
+//! The task that owns one slave's mailbox: takes requests from the slave's queue one at a
+//! time, sends EoE frames when no request waits (so EoE never starves CoE), and reads the
+//! send mailbox while idle for what the slave sends on its own.
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use tokio::sync::{mpsc, watch};
+
+use crate::bus::BusHandle;
+use crate::mailbox::eoe::{EoeSend, EoeTx};
+
+use super::exchange::Exchange;
+use super::job::Job;
+use super::slave::SlaveShared;
+use super::stats::inc;
+
+/// What the owner task receives.
+pub(crate) struct Inputs {
+    pub requests: mpsc::Receiver<Job>,
+    pub eoe: mpsc::Receiver<EoeSend>,
+    pub stop: watch::Receiver<bool>,
+    pub engine_stop: watch::Receiver<bool>,
+}
+
+/// Runs until the slave is removed or the engine stops. Requests still queued then are
+/// dropped, which their callers see as [`MailboxError::Shutdown`](crate::mailbox::MailboxError::Shutdown).
+pub(crate) async fn run(shared: Arc<SlaveShared>, bus: BusHandle, mut inputs: Inputs) {
+    let mut exchange = Exchange::new(Arc::clone(&shared), bus);
+    let mut eoe = EoeTx::default();
+    let idle_poll = shared.engine.idle_poll;
+    let mut next_poll = Instant::now();
+    loop {
+        if *inputs.stop.borrow() || *inputs.engine_stop.borrow() {
+            break;
+        }
+        match inputs.requests.try_recv() {
+            Ok(job) => {
+                run_job(&mut exchange, job).await;
+                continue;
+            }
+            Err(mpsc::error::TryRecvError::Disconnected) => break,
+            Err(mpsc::error::TryRecvError::Empty) => {}
+        }
+        if !eoe.busy()
+            && let Ok(send) = inputs.eoe.try_recv()
+        {
+            eoe.start(send);
+        }
+        if eoe.busy() {
+            // One fragment, then the request queue is looked at again.
+            eoe.step(&mut exchange).await;
+            continue;
+        }
+        let now = Instant::now();
+        if let Some(interval) = idle_poll
+            && now >= next_poll
+        {
+            // A failed idle read (the slave unplugged, say) is retried at the next poll.
+            let _ = exchange.poll_idle().await;
+            next_poll = Instant::now() + interval;
+            continue;
+        }
+        let sleep = tokio::time::sleep_until(next_poll.into());
+        tokio::select! {
+            biased;
+            changed = inputs.stop.changed() => if changed.is_err() { break },
+            changed = inputs.engine_stop.changed() => if changed.is_err() { break },
+            job = inputs.requests.recv() => match job {
+                Some(job) => run_job(&mut exchange, job).await,
+                None => break,
+            },
+            send = inputs.eoe.recv(), if !eoe.busy() => if let Some(send) = send {
+                eoe.start(send);
+            },
+            () = shared.mail.notified() => {
+                let _ = exchange.poll_idle().await;
+            },
+            () = sleep, if idle_poll.is_some() => {}
+        }
+    }
+    inputs.requests.close();
+    inputs.eoe.close();
+}
+
+async fn run_job(exchange: &mut Exchange, job: Job) {
+    inc(&exchange.stats().requests);
+    if job.cancelled.load(Ordering::Relaxed) {
+        // Not started: nothing to clean up. Dropping the job drops its reply channel.
+        exchange.count_cancelled();
+        return;
+    }
+    exchange.begin(job.deadline, Some(Arc::clone(&job.cancelled)));
+    job.run(exchange).await;
+    if exchange.cancelled() {
+        exchange.count_cancelled();
+    }
+    exchange.end();
+}

@@ -1,0 +1,69 @@
+//! The repeat procedure (digest §5.6): getting back a message whose read was lost.
+//!
+//! Reading SM1 empties it, so when the frame carrying the read does not come back, the
+//! message it read is gone — unless the master toggles the repeat request bit (SM1 activate
+//! byte 0x080E, bit 1) and the slave re-posts its last message, acknowledging in 0x080F
+//! bit 1. The frame may also have been lost before it reached the slave; the slave then
+//! re-posts a message the master already has, which the slave's counter reveals
+//! ([`super::counter::Counters::accept_rx`]).
+
+use std::time::{Duration, Instant};
+
+use crate::bus::{BusError, BusHandle};
+use crate::mailbox::error::{MailboxError, Result};
+use crate::wire::register::sync_manager::{SmActivate, SmPdiControl};
+
+/// SM1 status (0x080D) and activate (0x080E).
+const SM1_STATUS: u16 = 0x080D;
+/// SM1 activate: bit 1 is the repeat request.
+const SM1_ACTIVATE: u16 = 0x080E;
+/// SM1 PDI control: bit 1 is the repeat acknowledge.
+const SM1_PDI_CONTROL: u16 = 0x080F;
+
+/// Toggles the repeat request of slave `station` and waits until the slave acknowledges
+/// it (or `deadline`, checking every `interval`).
+pub(crate) async fn request_repeat(
+    bus: &BusHandle,
+    station: u16,
+    deadline: Instant,
+    interval: Duration,
+) -> Result<()> {
+    let registers = checked(bus.fprd(station, SM1_STATUS, 2).await, station)?;
+    let raw = registers.get(1).copied().unwrap_or(0);
+    let mut activate = SmActivate::decode(raw);
+    activate.repeat_request = !activate.repeat_request;
+    // An absolute value, so a bus retry of this write cannot toggle twice.
+    checked(
+        bus.fpwr(station, SM1_ACTIVATE, [activate.encode()]).await,
+        station,
+    )?;
+    loop {
+        let pdi = checked(bus.fprd(station, SM1_PDI_CONTROL, 1).await, station)?;
+        let ack = SmPdiControl::decode(pdi.first().copied().unwrap_or(0)).repeat_ack;
+        if ack == activate.repeat_request {
+            return Ok(());
+        }
+        if Instant::now() >= deadline {
+            return Err(MailboxError::Timeout {
+                station,
+                waiting_for: "the repeat acknowledge",
+            });
+        }
+        tokio::time::sleep(interval).await;
+    }
+}
+
+/// The data of a register access that the slave answered (working counter 1).
+fn checked(
+    result: core::result::Result<crate::bus::DatagramResponse, BusError>,
+    station: u16,
+) -> Result<Vec<u8>> {
+    let response = result?;
+    if response.wkc != 1 {
+        return Err(MailboxError::Protocol {
+            station,
+            reason: "the slave did not answer a SyncManager register access",
+        });
+    }
+    Ok(response.data.to_vec())
+}

@@ -1,0 +1,115 @@
+//! What the engine and the handles share about one slave, and the public handle.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::sync::{Notify, broadcast, mpsc, watch};
+
+use crate::mailbox::config::{MailboxConfig, SlaveMailboxConfig};
+
+use super::events::{Emergency, EoeFrame, Events, SoeNotification};
+use super::job::Job;
+use super::stats::{MailboxStats, Stats};
+use crate::mailbox::eoe::EoeSend;
+
+/// Shared between the slave's owner task and every handle.
+pub(crate) struct SlaveShared {
+    pub config: SlaveMailboxConfig,
+    pub engine: MailboxConfig,
+    pub requests: mpsc::Sender<Job>,
+    pub eoe_tx: mpsc::Sender<EoeSend>,
+    pub events: Events,
+    pub stats: Stats,
+    /// Wakes the owner to read the send mailbox now (a "mailbox full" seen elsewhere).
+    pub mail: Notify,
+    /// Tells the owner to stop (the slave was removed).
+    pub stop: watch::Sender<bool>,
+}
+
+/// A handle on one slave's mailbox: the entry point of every protocol client
+/// (`sdo_upload`, `soe_read`, `foe_write`, `voe`, `eoe_send`, `raw`, ...).
+///
+/// Cheap to clone; usable from any thread and any executor. Every request goes through the
+/// slave's bounded queue to the task that owns its mailbox, which works on one request at
+/// a time; requests to different slaves proceed in parallel.
+#[derive(Clone)]
+pub struct SlaveMailbox {
+    shared: Arc<SlaveShared>,
+    timeout: Duration,
+}
+
+impl std::fmt::Debug for SlaveMailbox {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SlaveMailbox")
+            .field("config", &self.shared.config)
+            .field("timeout", &self.timeout)
+            .finish()
+    }
+}
+
+impl SlaveMailbox {
+    pub(crate) fn new(shared: Arc<SlaveShared>) -> SlaveMailbox {
+        let timeout = shared.engine.timeout;
+        SlaveMailbox { shared, timeout }
+    }
+
+    pub(crate) fn shared(&self) -> &SlaveShared {
+        &self.shared
+    }
+
+    /// The same handle with another deadline for its requests (counted from each call,
+    /// covering queueing and the whole transfer).
+    pub fn with_timeout(&self, timeout: Duration) -> SlaveMailbox {
+        SlaveMailbox {
+            shared: Arc::clone(&self.shared),
+            timeout,
+        }
+    }
+
+    /// The deadline requests through this handle get.
+    pub fn timeout(&self) -> Duration {
+        self.timeout
+    }
+
+    /// The slave's station address.
+    pub fn station(&self) -> u16 {
+        self.shared.config.station
+    }
+
+    /// The slave's mailbox configuration.
+    pub fn config(&self) -> &SlaveMailboxConfig {
+        &self.shared.config
+    }
+
+    /// The slave's mailbox counters.
+    pub fn stats(&self) -> MailboxStats {
+        self.shared.stats.snapshot()
+    }
+
+    /// The CoE emergencies kept (the last [`MailboxConfig::emergency_history`]), oldest
+    /// first.
+    pub fn emergencies(&self) -> Vec<Emergency> {
+        self.shared.events.emergencies()
+    }
+
+    /// Emergencies from now on, as they are read.
+    pub fn subscribe_emergencies(&self) -> broadcast::Receiver<Emergency> {
+        self.shared.events.emergencies.subscribe()
+    }
+
+    /// Ethernet frames the slave sends over EoE from now on, reassembled.
+    pub fn subscribe_eoe(&self) -> broadcast::Receiver<EoeFrame> {
+        self.shared.events.eoe_frames.subscribe()
+    }
+
+    /// SoE notifications from now on.
+    pub fn subscribe_soe_notifications(&self) -> broadcast::Receiver<SoeNotification> {
+        self.shared.events.soe_notifications.subscribe()
+    }
+
+    /// Reads the send mailbox now instead of at the next poll (the process-data path saw
+    /// the "mailbox full" bit of SM1).
+    pub fn notify_mailbox_full(&self) {
+        self.shared.mail.notify_one();
+    }
+}

@@ -1,0 +1,78 @@
+//! Sending Ethernet frames over EoE: one fragment per turn of the owner task, so a request
+//! that arrives meanwhile goes first (EoE uses the mailbox only when nothing else waits).
+
+use std::time::Instant;
+
+use tokio::sync::oneshot;
+
+use crate::mailbox::engine::exchange::Exchange;
+use crate::mailbox::engine::stats::inc;
+use crate::mailbox::error::{MailboxError, Result};
+use crate::wire::eoe::{EoePacket, EoeRepr, Fragmenter};
+use crate::wire::mailbox::MailboxType;
+
+/// A frame queued for sending, and who to tell when it is out.
+pub(crate) struct EoeSend {
+    pub frame: Vec<u8>,
+    pub port: u8,
+    pub done: oneshot::Sender<Result<()>>,
+}
+
+/// The frame being sent and the EoE frame number (4 bits, per slave).
+#[derive(Default)]
+pub(crate) struct EoeTx {
+    current: Option<(EoeSend, usize)>,
+    frame_number: u8,
+}
+
+impl EoeTx {
+    /// Whether a frame is being sent.
+    pub fn busy(&self) -> bool {
+        self.current.is_some()
+    }
+
+    /// Starts sending `send`.
+    pub fn start(&mut self, send: EoeSend) {
+        self.current = Some((send, 0));
+    }
+
+    /// Writes the next fragment of the current frame.
+    pub async fn step(&mut self, exchange: &mut Exchange) {
+        let Some((send, index)) = self.current.take() else {
+            return;
+        };
+        let deadline = Instant::now() + exchange.config().timeout;
+        exchange.begin(deadline, None);
+        let size = exchange.write_size();
+        let fragment = Fragmenter::new(&send.frame, size, self.frame_number)
+            .map(|f| f.with_port(send.port).nth(index));
+        let result = match fragment {
+            Err(err) => Err(MailboxError::Invalid(err)),
+            Ok(None) => Err(exchange.violation("no fragment left")),
+            Ok(Some(fragment)) => {
+                let last = fragment.last;
+                let repr = EoeRepr::Fragment(fragment);
+                let sent = exchange
+                    .send(MailboxType::Eoe, |buf| {
+                        repr.emit(&mut EoePacket::new_unchecked(&mut *buf))
+                            .map(|()| repr.buffer_len())
+                    })
+                    .await;
+                match sent {
+                    Ok(()) if !last => {
+                        exchange.end();
+                        self.current = Some((send, index + 1));
+                        return;
+                    }
+                    other => other,
+                }
+            }
+        };
+        exchange.end();
+        self.frame_number = (self.frame_number + 1) % 16;
+        if result.is_ok() {
+            inc(&exchange.stats().eoe_frames_out);
+        }
+        let _ = send.done.send(result);
+    }
+}

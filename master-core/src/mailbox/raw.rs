@@ -1,0 +1,61 @@
+//! Raw mailbox transactions for the ETG.8200 gateway (digest §11): one message in, the
+//! slave's answer out, with the engine's counter and all the guards of any other request.
+
+use crate::mailbox::engine::exchange::Exchange;
+use crate::mailbox::engine::job::{BoxFuture, call};
+use crate::mailbox::engine::slave::SlaveMailbox;
+use crate::mailbox::error::{MailboxError, Result};
+use crate::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
+
+/// The type and data of a complete mailbox message.
+fn split(message: &[u8]) -> Result<(MailboxType, Vec<u8>)> {
+    let header = Mailbox::new_checked(message)
+        .and_then(|m| MailboxHeader::parse(&m))
+        .map_err(MailboxError::Invalid)?;
+    let end = HEADER_LEN + usize::from(header.length);
+    Ok((header.mailbox_type, message[HEADER_LEN..end].to_vec()))
+}
+
+async fn write(x: &mut Exchange, mailbox_type: MailboxType, data: &[u8]) -> Result<()> {
+    let room = x.write_size().saturating_sub(HEADER_LEN);
+    if data.len() > room {
+        return Err(MailboxError::TooLarge {
+            what: "mailbox message",
+            size: data.len(),
+            limit: room,
+        });
+    }
+    x.send(mailbox_type, |buf| {
+        buf[..data.len()].copy_from_slice(data);
+        Ok(data.len())
+    })
+    .await
+}
+
+impl SlaveMailbox {
+    /// Writes one complete mailbox message (header and data; the header's counter is
+    /// replaced by the engine's, its address and priority by the master's) and returns
+    /// the slave's answer: the next message of the same type that is not unsolicited
+    /// (emergencies and EoE frames still go to their own queues), or a mailbox error reply.
+    pub async fn raw(&self, message: &[u8]) -> Result<Vec<u8>> {
+        let (mailbox_type, data) = split(message)?;
+        call(self, None, move |x| -> BoxFuture<'_, _> {
+            Box::pin(async move {
+                write(x, mailbox_type, &data).await?;
+                let reply = x.receive(mailbox_type).await?;
+                Ok(reply.message.to_vec())
+            })
+        })
+        .await
+    }
+
+    /// Writes one complete mailbox message that gets no answer (an EoE fragment, an SDO
+    /// abort).
+    pub async fn raw_send(&self, message: &[u8]) -> Result<()> {
+        let (mailbox_type, data) = split(message)?;
+        call(self, None, move |x| -> BoxFuture<'_, _> {
+            Box::pin(async move { write(x, mailbox_type, &data).await })
+        })
+        .await
+    }
+}

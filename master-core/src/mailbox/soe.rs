@@ -1,0 +1,148 @@
+//! SoE client (digest §7): reading and writing IDN elements of a servo drive, in
+//! fragments when a value does not fit one mailbox message.
+
+use crate::mailbox::engine::exchange::Exchange;
+use crate::mailbox::engine::job::{BoxFuture, call};
+use crate::mailbox::engine::slave::SlaveMailbox;
+use crate::mailbox::error::{MailboxError, Result};
+use crate::wire::mailbox::MailboxType;
+use crate::wire::soe::{self, ElementFlags, Idn, IdnOrFragments, SoeOpcode, SoePacket, SoeRepr};
+
+async fn send_soe(x: &mut Exchange, repr: &SoeRepr<'_>) -> Result<()> {
+    x.send(MailboxType::Soe, |buf| {
+        repr.emit(&mut SoePacket::new_unchecked(&mut *buf))
+            .map(|()| repr.buffer_len())
+    })
+    .await
+}
+
+fn check_drive(drive: u8) -> Result<()> {
+    if drive > 7 {
+        return Err(MailboxError::Invalid(crate::wire::WireError::Invalid {
+            what: "SoE request",
+            reason: "drive number above 7",
+        }));
+    }
+    Ok(())
+}
+
+async fn read(x: &mut Exchange, drive: u8, idn: Idn, elements: ElementFlags) -> Result<Vec<u8>> {
+    let request = SoeRepr {
+        opcode: SoeOpcode::ReadRequest,
+        drive,
+        elements,
+        idn_or_fragments: IdnOrFragments::Idn(idn),
+        error: None,
+        data: &[],
+    };
+    send_soe(x, &request).await?;
+    let limit = x.config().max_value_len;
+    let mut value = Vec::new();
+    loop {
+        let reply = x.receive(MailboxType::Soe).await?;
+        let parsed = SoePacket::new_checked(reply.data()?).and_then(|p| SoeRepr::parse(&p));
+        let answer = match parsed {
+            Ok(answer) if answer.opcode == SoeOpcode::ReadResponse && answer.drive == drive => {
+                answer
+            }
+            _ => {
+                x.count_unexpected();
+                continue;
+            }
+        };
+        if let Some(code) = answer.error {
+            return Err(MailboxError::Soe { drive, idn, code });
+        }
+        let size = value.len() + answer.data.len();
+        if size > limit {
+            return Err(MailboxError::TooLarge {
+                what: "SoE value",
+                size,
+                limit,
+            });
+        }
+        match answer.idn_or_fragments {
+            IdnOrFragments::FragmentsLeft(_) => value.extend_from_slice(answer.data),
+            IdnOrFragments::Idn(answered) if answered == idn => {
+                value.extend_from_slice(answer.data);
+                return Ok(value);
+            }
+            IdnOrFragments::Idn(_) => x.count_unexpected(),
+        }
+    }
+}
+
+async fn write(
+    x: &mut Exchange,
+    drive: u8,
+    idn: Idn,
+    elements: ElementFlags,
+    data: &[u8],
+) -> Result<()> {
+    let capacity = soe::fragment_capacity(x.write_size());
+    let fragments = soe::fragments(data.len(), capacity).map_err(MailboxError::Invalid)?;
+    for fragment in fragments {
+        if x.cancelled() {
+            // The slave drops the partial value when the next write starts over.
+            return Err(MailboxError::Cancelled);
+        }
+        let request = SoeRepr {
+            opcode: SoeOpcode::WriteRequest,
+            drive,
+            elements,
+            idn_or_fragments: match fragment.fragments_left {
+                Some(left) => IdnOrFragments::FragmentsLeft(left),
+                None => IdnOrFragments::Idn(idn),
+            },
+            error: None,
+            data: data.get(fragment.range).unwrap_or_default(),
+        };
+        send_soe(x, &request).await?;
+    }
+    loop {
+        let reply = x.receive(MailboxType::Soe).await?;
+        let parsed = SoePacket::new_checked(reply.data()?).and_then(|p| SoeRepr::parse(&p));
+        match parsed {
+            Ok(answer)
+                if answer.opcode == SoeOpcode::WriteResponse
+                    && answer.drive == drive
+                    && answer.idn_or_fragments == IdnOrFragments::Idn(idn) =>
+            {
+                return match answer.error {
+                    Some(code) => Err(MailboxError::Soe { drive, idn, code }),
+                    None => Ok(()),
+                };
+            }
+            _ => x.count_unexpected(),
+        }
+    }
+}
+
+impl SlaveMailbox {
+    /// Reads the `elements` of IDN `idn` of drive `drive` (0..=7); the slave's data for
+    /// them, put together from every fragment. Usually [`ElementFlags::VALUE`].
+    pub async fn soe_read(&self, drive: u8, idn: Idn, elements: ElementFlags) -> Result<Vec<u8>> {
+        check_drive(drive)?;
+        call(self, Some(MailboxType::Soe), move |x| -> BoxFuture<'_, _> {
+            Box::pin(read(x, drive, idn, elements))
+        })
+        .await
+    }
+
+    /// Writes `data` to the `elements` of IDN `idn` of drive `drive`, in as many fragments
+    /// as the slave's receive mailbox needs.
+    pub async fn soe_write(
+        &self,
+        drive: u8,
+        idn: Idn,
+        elements: ElementFlags,
+        data: &[u8],
+    ) -> Result<()> {
+        check_drive(drive)?;
+        let data = data.to_vec();
+        call(self, Some(MailboxType::Soe), move |x| -> BoxFuture<'_, _> {
+            Box::pin(async move { write(x, drive, idn, elements, &data).await })
+        })
+        .await
+    }
+}
