@@ -2,8 +2,6 @@
 
 use std::time::Duration;
 
-use crate::wire::mailbox::MailboxType;
-
 /// One mailbox SyncManager area in the slave's memory.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MailboxArea {
@@ -13,34 +11,9 @@ pub struct MailboxArea {
     pub len: u16,
 }
 
-/// The mailbox protocols a slave supports: the SII word 0x1C bits (digest §4.1):
-/// AoE 0x01, EoE 0x02, CoE 0x04, FoE 0x08, SoE 0x10, VoE 0x20.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct MailboxProtocols(pub u16);
-
-impl MailboxProtocols {
-    /// Every protocol (for a slave whose SII was not read).
-    pub const ALL: MailboxProtocols = MailboxProtocols(0x3F);
-
-    /// The bit of `protocol` in SII word 0x1C; 0 for the error type and unknown types.
-    pub const fn bit(protocol: MailboxType) -> u16 {
-        match protocol {
-            MailboxType::Aoe => 0x01,
-            MailboxType::Eoe => 0x02,
-            MailboxType::Coe => 0x04,
-            MailboxType::Foe => 0x08,
-            MailboxType::Soe => 0x10,
-            MailboxType::Voe => 0x20,
-            MailboxType::Error | MailboxType::Unknown(_) => 0,
-        }
-    }
-
-    /// Whether the slave announces `protocol`.
-    pub const fn supports(self, protocol: MailboxType) -> bool {
-        let bit = Self::bit(protocol);
-        bit != 0 && self.0 & bit == bit
-    }
-}
+/// The mailbox protocols a slave supports (SII word 0x1C); one type for the SII codec, the
+/// master and the engine.
+pub use crate::wire::sii::MailboxProtocols;
 
 /// A slave's mailbox as the master's bring-up found it: where SM0 and SM1 are and which
 /// protocols the slave speaks. The bring-up produces one per mailbox slave (from the SII and

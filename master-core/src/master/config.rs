@@ -2,6 +2,7 @@
 
 use std::time::Duration;
 
+use crate::mailbox::MailboxConfig;
 use crate::wire::register::AlState;
 
 /// Settings of a [`Master`](super::Master).
@@ -36,6 +37,8 @@ pub struct MasterConfig {
     /// Events kept for a subscriber that falls behind (older ones are dropped for it, and it
     /// is told how many). Default 256.
     pub event_capacity: usize,
+    /// Settings of the mailbox engine that owns the slaves' mailboxes.
+    pub mailbox: MailboxConfig,
 }
 
 impl Default for MasterConfig {
@@ -52,6 +55,7 @@ impl Default for MasterConfig {
             cycle_period: crate::bus::DEFAULT_PERIOD,
             watch_interval: Some(Duration::from_millis(100)),
             event_capacity: 256,
+            mailbox: MailboxConfig::default(),
         }
     }
 }

@@ -23,6 +23,7 @@ use super::error::MasterError;
 use super::event::MasterEvent;
 use super::info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
 use super::layout::ProcessDataLayout;
+use super::mailboxes;
 
 /// How many completed cycles the master waits for after SAFEOP, so that every output
 /// SyncManager has been written before OP is requested (a slave refuses OP without valid
@@ -299,6 +300,7 @@ pub(crate) async fn bring_to(
                     r.info.al_error = false;
                     r.info.al_status_code = status.code;
                 });
+                mailboxes::follow(ctx, info, current, step);
                 ctx.emit(MasterEvent::StateChanged {
                     position: info.position,
                     station: info.station,

@@ -5,6 +5,7 @@ use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use tokio::sync::broadcast;
 
 use crate::bus::BusHandle;
+use crate::mailbox::MailboxEngine;
 
 use super::address::{self, SlaveAddress};
 use super::config::MasterConfig;
@@ -65,6 +66,8 @@ pub(crate) struct Context {
     pub events: broadcast::Sender<MasterEvent>,
     pub image: Arc<Image>,
     pub layout_source: Box<dyn LayoutSource>,
+    /// Owns the mailbox of every slave in PREOP or above (see `mailboxes`).
+    pub mailboxes: MailboxEngine,
     /// Serialises scans and the watch's repairs, so they never configure the same slave at
     /// once (a tokio mutex: it is held across the awaits of a whole scan).
     pub topology: tokio::sync::Mutex<()>,

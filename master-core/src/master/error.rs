@@ -87,6 +87,14 @@ pub enum MasterError {
         /// Configured base.
         base: u16,
     },
+    /// The slave has no mailbox, or it is not served in the slave's state (INIT).
+    #[error("slave {position} has no mailbox in {state}")]
+    NoMailbox {
+        /// Ring position.
+        position: u16,
+        /// The slave's AL state.
+        state: AlState,
+    },
     /// A value the caller passed cannot be used.
     #[error("invalid argument: {0}")]
     InvalidArgument(&'static str),

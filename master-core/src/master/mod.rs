@@ -33,6 +33,7 @@ mod event;
 mod image;
 mod info;
 mod layout;
+mod mailboxes;
 mod reset;
 mod scan;
 mod tools;
@@ -47,6 +48,7 @@ use std::time::Duration;
 use tokio::sync::{broadcast, oneshot};
 
 use crate::bus::BusHandle;
+use crate::mailbox::{MailboxEngine, SlaveMailbox};
 use crate::wire::register::AlState;
 
 pub use address::SlaveAddress;
@@ -97,6 +99,7 @@ impl Master {
             image: Arc::clone(&image),
             period: config.cycle_period,
         })));
+        let mailboxes = MailboxEngine::start(bus.clone(), config.mailbox)?;
         let (events, _) = broadcast::channel(config.event_capacity.max(1));
         let ctx = Arc::new(Context {
             bus,
@@ -105,6 +108,7 @@ impl Master {
             events,
             image,
             layout_source: source,
+            mailboxes,
             topology: tokio::sync::Mutex::new(()),
         });
         let (stop, stopped) = oneshot::channel::<()>();
@@ -217,6 +221,25 @@ impl Master {
     /// [`Master::read_sii`] for a fresh read.
     pub fn sii_image(&self, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
         self.ctx.resolve(address).map(|r| r.sii)
+    }
+
+    /// The mailbox of the slave at `address`, with every protocol client on it (CoE, SoE,
+    /// FoE, VoE, EoE, raw messages). A slave's mailbox is served from PREOP on; in INIT, or
+    /// for a slave without a mailbox, this fails with [`MasterError::NoMailbox`].
+    pub fn mailbox(&self, address: SlaveAddress) -> Result<SlaveMailbox, MasterError> {
+        let info = self.ctx.resolve(address)?.info;
+        self.ctx
+            .mailboxes
+            .slave(info.station)
+            .map_err(|_| MasterError::NoMailbox {
+                position: info.position,
+                state: info.al_state,
+            })
+    }
+
+    /// The engine that owns every slave's mailbox (statistics, the mailbox-full hook).
+    pub fn mailbox_engine(&self) -> &MailboxEngine {
+        &self.ctx.mailboxes
     }
 
     /// The mailboxes of every slave that has one, for the mailbox engine.

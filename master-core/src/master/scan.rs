@@ -15,6 +15,7 @@ use super::context::{Context, SlaveRecord};
 use super::error::MasterError;
 use super::event::MasterEvent;
 use super::info::{ProcessDataInfo, SlaveInfo};
+use super::mailboxes;
 use super::reset::reset_all;
 
 /// What a scan found and did.
@@ -77,6 +78,7 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
         });
     }
     ctx.lock().list.clear();
+    mailboxes::release_all(&ctx);
     ctx.image.resize(0, 0);
     if count == 0 {
         return Ok(ScanReport {

@@ -21,6 +21,7 @@ use super::configure::{bring_to, identify};
 use super::context::{Context, SlaveRecord};
 use super::error::MasterError;
 use super::event::MasterEvent;
+use super::mailboxes;
 use super::reset::reset_one;
 
 /// Looks at the segment every `interval` until the master's runtime stops.
@@ -107,6 +108,7 @@ async fn one(
 
 fn lost(ctx: &Context, record: &SlaveRecord) {
     let info = &record.info;
+    mailboxes::release(ctx, info.station);
     ctx.update(info.position, |r| r.info.present = false);
     ctx.emit(MasterEvent::SlaveLost {
         position: info.position,
@@ -181,6 +183,7 @@ async fn come_back(ctx: &Context, old: SlaveRecord) -> Result<(), MasterError> {
         "station address",
     )
     .await?;
+    mailboxes::release(ctx, info.station);
     reset_one(&ctx.bus, info.station).await?;
     let mut record = identify(ctx, info.position, Some(&old)).await?;
     let new = &record.info;

@@ -15,6 +15,7 @@ use core::fmt;
 use super::checksum::{self, CHECKSUM_OFFSET};
 use crate::wire::error::{Result, need, room};
 use crate::wire::field::{self, Field};
+use crate::wire::mailbox::MailboxType;
 
 mod fields {
     use super::Field;
@@ -105,6 +106,29 @@ impl MailboxProtocols {
     /// VoE supported.
     pub fn voe(self) -> bool {
         self.contains(Self::VOE)
+    }
+
+    /// Every protocol (for a slave whose SII was not read).
+    pub const ALL: MailboxProtocols = MailboxProtocols(0x3F);
+
+    /// The bit of the mailbox type `protocol` in this word; 0 for the error type and unknown
+    /// types.
+    pub const fn bit(protocol: MailboxType) -> u16 {
+        match protocol {
+            MailboxType::Aoe => Self::AOE,
+            MailboxType::Eoe => Self::EOE,
+            MailboxType::Coe => Self::COE,
+            MailboxType::Foe => Self::FOE,
+            MailboxType::Soe => Self::SOE,
+            MailboxType::Voe => Self::VOE,
+            MailboxType::Error | MailboxType::Unknown(_) => 0,
+        }
+    }
+
+    /// Whether the slave announces the mailbox type `protocol`.
+    pub const fn supports(self, protocol: MailboxType) -> bool {
+        let bit = Self::bit(protocol);
+        bit != 0 && self.0 & bit == bit
     }
 }
 
