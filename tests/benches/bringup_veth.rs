@@ -17,10 +17,11 @@
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
+use ecat_tests::rig::{Rig, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
-use master_core::bus::{Bus, BusConfig, BusHandle};
-use master_core::link::{RawSocket, RawSocketOptions};
+use ecat_tests::veth_master;
+use master_core::bus::{BusConfig, BusHandle};
+use master_core::link::RawSocket;
 use master_core::master::{Master, MasterConfig};
 use master_core::wire::register::AlState;
 
@@ -28,10 +29,6 @@ const SIZES: [usize; 3] = [16, 128, 512];
 const ROUND_TRIPS: usize = 5_000;
 
 fn open_bus(rig: &Rig) -> (BusHandle, JoinHandle<RawSocket>) {
-    let socket = rig
-        .master
-        .run_inside(|| RawSocket::open(MASTER_IFACE, RawSocketOptions::default()))
-        .expect("raw socket on the master's end");
     // A simulated segment of hundreds of slaves takes about a millisecond per frame (every
     // emulated ESC sees every datagram), so with four frames in flight the bus's default
     // 10 ms would count frames queued in the simulator as lost.
@@ -39,7 +36,7 @@ fn open_bus(rig: &Rig) -> (BusHandle, JoinHandle<RawSocket>) {
         response_timeout: Duration::from_millis(100),
         ..BusConfig::default()
     };
-    Bus::start(socket, config).expect("bus starts")
+    veth_master::open_bus(rig, config)
 }
 
 fn stop(bus: BusHandle, thread: JoinHandle<RawSocket>) {

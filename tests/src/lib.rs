@@ -16,3 +16,4 @@ pub mod pysoem_session;
 pub mod python;
 pub mod rig;
 pub mod sim_process;
+pub mod veth_master;

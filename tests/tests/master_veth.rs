@@ -4,66 +4,19 @@
 //!
 //! Needs root (namespaces, raw sockets) and `ip`; see tests/README.md.
 
-use std::thread::JoinHandle;
-
-use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
+use ecat_tests::rig::{Rig, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
-use master_core::bus::{Bus, BusConfig};
-use master_core::link::{RawSocket, RawSocketOptions};
-use master_core::master::{Master, MasterConfig, ScanReport};
+use ecat_tests::veth_master::VethMaster;
+use master_core::master::MasterConfig;
 use master_core::wire::register::{AlState, AlStatusCode};
 use sim::topology::Topology;
-
-/// A master on the master's end of the rig, with its bus thread.
-struct VethMaster {
-    master: Option<Master>,
-    bus_thread: Option<JoinHandle<RawSocket>>,
-}
-
-impl VethMaster {
-    fn start(rig: &Rig) -> VethMaster {
-        // The socket belongs to the namespace of the thread that opens it.
-        let socket = rig
-            .master
-            .run_inside(|| RawSocket::open(MASTER_IFACE, RawSocketOptions::default()))
-            .expect("raw socket on the master's end");
-        let (bus, bus_thread) = Bus::start(socket, BusConfig::default()).expect("bus starts");
-        let master = Master::start(bus, MasterConfig::default()).expect("master starts");
-        VethMaster {
-            master: Some(master),
-            bus_thread: Some(bus_thread),
-        }
-    }
-
-    fn scan(&self) -> ScanReport {
-        let runtime = tokio::runtime::Builder::new_current_thread()
-            .build()
-            .expect("runtime");
-        runtime
-            .block_on(self.master.as_ref().expect("running").scan())
-            .expect("scan")
-    }
-}
-
-impl Drop for VethMaster {
-    fn drop(&mut self) {
-        if let Some(master) = self.master.take() {
-            let bus = master.bus().clone();
-            drop(master);
-            bus.shutdown();
-        }
-        if let Some(thread) = self.bus_thread.take() {
-            let _ = thread.join();
-        }
-    }
-}
 
 #[test]
 fn the_default_segment_comes_up_over_veth_as_the_topology_describes_it() {
     let topology = Topology::default_segment();
     let rig = Rig::new();
     let _sim = SimProcess::start(&rig.sim, SIM_IFACE, &[]);
-    let master = VethMaster::start(&rig);
+    let master = VethMaster::start(&rig, MasterConfig::default());
     let report = master.scan();
     assert!(report.failures.is_empty(), "{:?}", report.failures);
     assert_eq!(report.slaves.len(), topology.slaves.len());
@@ -105,7 +58,7 @@ fn a_broken_slave_over_veth_is_reported_by_code_and_name() {
         &["--topology", file.to_str().expect("utf-8 path")],
     );
     let _ = std::fs::remove_file(&file);
-    let master = VethMaster::start(&rig);
+    let master = VethMaster::start(&rig, MasterConfig::default());
     let report = master.scan();
     drop(sim);
     assert_eq!(report.failures.len(), 1, "{:?}", report.failures);

@@ -1,0 +1,96 @@
+//! ecatd's own master on the master's end of a [`Rig`]: a raw socket opened inside the
+//! master's namespace, the bus thread on it, and a [`Master`] over the bus.
+
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use master_core::bus::{Bus, BusConfig, BusHandle};
+use master_core::link::{RawSocket, RawSocketOptions};
+use master_core::master::{Master, MasterConfig, ScanReport};
+
+use crate::rig::{MASTER_IFACE, Rig};
+
+/// Starts a bus on the master's end of `rig`.
+///
+/// # Panics
+/// If the raw socket or the bus thread cannot be made.
+pub fn open_bus(rig: &Rig, config: BusConfig) -> (BusHandle, JoinHandle<RawSocket>) {
+    // The socket belongs to the namespace of the thread that opens it.
+    let socket = rig
+        .master
+        .run_inside(|| RawSocket::open(MASTER_IFACE, RawSocketOptions::default()))
+        .expect("raw socket on the master's end");
+    Bus::start(socket, config).expect("bus starts")
+}
+
+/// A master over veth; dropping it stops the master and its bus.
+pub struct VethMaster {
+    master: Option<Master>,
+    bus_thread: Option<JoinHandle<RawSocket>>,
+    runtime: tokio::runtime::Runtime,
+}
+
+impl VethMaster {
+    /// A master (not yet scanned) on `rig`, with the default bus settings.
+    pub fn start(rig: &Rig, config: MasterConfig) -> VethMaster {
+        VethMaster::with_bus(rig, BusConfig::default(), config)
+    }
+
+    /// A master on `rig` with the given bus settings.
+    pub fn with_bus(rig: &Rig, bus: BusConfig, config: MasterConfig) -> VethMaster {
+        let (bus, bus_thread) = open_bus(rig, bus);
+        let master = Master::start(bus, config).expect("master starts");
+        VethMaster {
+            master: Some(master),
+            bus_thread: Some(bus_thread),
+            // Any executor can await the master; the tests drive it with this one.
+            runtime: tokio::runtime::Builder::new_current_thread()
+                .enable_time()
+                .build()
+                .expect("runtime"),
+        }
+    }
+
+    /// The master.
+    pub fn master(&self) -> &Master {
+        self.master.as_ref().expect("running")
+    }
+
+    /// Runs `future` to completion (the master's calls, a mailbox request).
+    pub fn block_on<F: std::future::Future>(&self, future: F) -> F::Output {
+        self.runtime.block_on(future)
+    }
+
+    /// Runs `future` with a deadline, failing the test if it is not met.
+    ///
+    /// # Panics
+    /// When `patience` runs out.
+    pub fn within<F: std::future::Future>(&self, patience: Duration, future: F) -> F::Output {
+        self.runtime.block_on(async {
+            tokio::time::timeout(patience, future)
+                .await
+                .expect("finished in time")
+        })
+    }
+
+    /// Scans the segment.
+    ///
+    /// # Panics
+    /// If the scan fails as a whole (slaves refusing states are in the report).
+    pub fn scan(&self) -> ScanReport {
+        self.block_on(self.master().scan()).expect("scan")
+    }
+}
+
+impl Drop for VethMaster {
+    fn drop(&mut self) {
+        if let Some(master) = self.master.take() {
+            let bus = master.bus().clone();
+            drop(master);
+            bus.shutdown();
+        }
+        if let Some(thread) = self.bus_thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
