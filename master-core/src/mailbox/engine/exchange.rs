@@ -248,6 +248,11 @@ impl Exchange {
         let want = Want::Reply(mailbox_type);
         let mut reads = 0u32;
         loop {
+            // Checked first as well: a slave answering with a stream of messages the
+            // caller skips must not keep the request beyond its deadline.
+            if self.expired() && self.stash.is_empty() {
+                return Err(self.timeout(want.describe()));
+            }
             if let Some(message) = self.stash.pop_front() {
                 self.rx = message;
                 break;

@@ -84,7 +84,7 @@ where
         work: Box::new(move |exchange: &mut Exchange| {
             Box::pin(async move {
                 let result = work(&mut *exchange).await;
-                if result.is_err() {
+                if matches!(&result, Err(err) if *err != MailboxError::Cancelled) {
                     exchange.count_failed();
                 }
                 let _ = reply.send(result);
