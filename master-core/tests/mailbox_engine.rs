@@ -58,10 +58,11 @@ async fn a_mailbox_full_notification_replaces_polling() {
     PacketBuilder::ethernet2([2, 0, 0, 0, 0, 1], me.mac.unwrap())
         .ipv4([192, 168, 100, 1], me.ip.unwrap().octets(), 64)
         .icmpv4_echo_request(1, 1)
-        .write(&mut ping, b"hook")
+        .write(&mut ping, &[0x5A; 1000])
         .unwrap();
     slave.eoe_send(&ping).await.unwrap();
-    // The slave's answer waits in its send mailbox: nobody polls.
+    // The answer's first fragment was read right behind the request's last one; the rest
+    // wait in the slave's send mailbox: nobody polls.
     assert_eq!(slave.stats().eoe_frames_in, 0);
     rig.engine.notify_mailbox_full(station(EOE_PORT));
     let reply = tokio::time::timeout(Duration::from_secs(5), frames.recv())
