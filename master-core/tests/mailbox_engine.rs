@@ -276,3 +276,62 @@ async fn a_full_receive_mailbox_is_written_again_until_the_slave_takes_the_reque
     engine.shutdown();
     bus.shutdown();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_full_request_queue_refuses_at_once() {
+    let built = build_with_handles(&Topology::default_segment()).unwrap();
+    let stalls = Arc::new(AtomicUsize::new(0));
+    let link = StalledSm0 {
+        inner: InProcessLink::new(built.segment),
+        station: station(COE_STORE),
+        sm0: 0x1000,
+        stalls: Arc::clone(&stalls),
+        restore: None,
+    };
+    let (bus, _thread) = Bus::start(link, bus_config()).unwrap();
+    let slaves = mailbox_support::bring_up(&bus, 5);
+    let config = MailboxConfig {
+        queue_len: 1,
+        idle_poll: None,
+        ..MailboxConfig::default()
+    };
+    let engine = MailboxEngine::start(bus.clone(), config).unwrap();
+    let (_, slave_config) = slaves.iter().find(|(p, _)| *p == COE_STORE).unwrap();
+    let store = engine
+        .add_slave(*slave_config)
+        .with_timeout(Duration::from_secs(1));
+    // The first request is taken up and stuck writing; the second waits in the queue.
+    stalls.store(usize::MAX, Ordering::Relaxed);
+    let first = tokio::spawn({
+        let store = store.clone();
+        async move { store.sdo_upload(0x2001, 0).await }
+    });
+    mailbox_support::wait_until("the first request taken", Duration::from_secs(5), || {
+        store.stats().requests == 1
+    });
+    let second = tokio::spawn({
+        let store = store.clone();
+        async move { store.sdo_upload(0x2001, 0).await }
+    });
+    mailbox_support::wait_until("the second request queued", Duration::from_secs(5), || {
+        store.queued() == 1
+    });
+    let third = store.sdo_upload(0x2001, 0).await.unwrap_err();
+    assert_eq!(third, MailboxError::QueueFull(station(COE_STORE)));
+    assert!(matches!(
+        first.await.unwrap(),
+        Err(MailboxError::Timeout { .. })
+    ));
+    stalls.store(0, Ordering::Relaxed);
+    // The queued one runs after the first gave up (its own deadline may have passed too).
+    let _ = second.await.unwrap();
+    assert!(
+        store
+            .with_timeout(Duration::from_secs(5))
+            .sdo_upload(0x2001, 0)
+            .await
+            .is_ok()
+    );
+    engine.shutdown();
+    bus.shutdown();
+}
