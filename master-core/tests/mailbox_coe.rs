@@ -381,3 +381,35 @@ async fn emergencies_go_to_history_and_subscribers_never_to_a_transfer() {
     assert_eq!(stats.emergencies, 40);
     assert_eq!((stats.unexpected, stats.failed), (0, 0));
 }
+
+#[tokio::test]
+async fn a_transfer_cancelled_at_any_point_leaves_the_mailbox_clean() {
+    let rig = Rig::default_segment();
+    let store = rig.slave(COE_STORE);
+    let dict = dictionary(&rig, COE_STORE);
+    let big = pattern(4096, 77);
+    lock_dictionary(&dict).set(0x2000, 0, &big[..]).unwrap();
+    // Drop segmented uploads after ever longer times: before they start, after a few
+    // segments, after they finished. Whatever point the cancellation hits, the next
+    // request gets its own answer, never a leftover of the cancelled one.
+    for step in 0..40u64 {
+        let cancelled = tokio::time::timeout(
+            Duration::from_micros(step * 50),
+            store.sdo_upload(0x2000, 0),
+        )
+        .await;
+        if let Ok(done) = cancelled {
+            assert_eq!(done.unwrap(), big);
+        }
+        assert_eq!(
+            store.sdo_upload(0x2001, 0).await.unwrap(),
+            bytes(&dict, 0x2001, 0),
+            "after cancelling at {} µs",
+            step * 50
+        );
+        assert_eq!(store.sdo_upload(0x2000, 0).await.unwrap(), big);
+    }
+    let stats = store.stats();
+    assert!(stats.cancelled > 0, "{stats:?}");
+    assert_eq!((stats.unexpected, stats.failed), (0, 0), "{stats:?}");
+}

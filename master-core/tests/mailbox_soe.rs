@@ -140,3 +140,31 @@ async fn the_drives_error_codes_reach_the_caller() {
     ));
     assert_eq!(drive.station(), station(DRIVE));
 }
+
+#[tokio::test]
+async fn each_drive_of_a_multi_axis_slave_has_its_own_idns() {
+    let mut topology = Topology::default_segment();
+    topology.slaves[DRIVE].soe_drives = 2;
+    let rig = Rig::start(
+        &topology,
+        Default::default(),
+        4,
+        mailbox_support::bus_config(),
+    );
+    let drive = rig.slave(DRIVE);
+    let mode = Idn::from_raw(32);
+    let before = drive.soe_read(0, mode, ElementFlags::VALUE).await.unwrap();
+    drive
+        .soe_write(1, mode, ElementFlags::VALUE, &0x0007u16.to_le_bytes())
+        .await
+        .unwrap();
+    assert_eq!(
+        drive.soe_read(1, mode, ElementFlags::VALUE).await.unwrap(),
+        0x0007u16.to_le_bytes()
+    );
+    assert_eq!(
+        drive.soe_read(0, mode, ElementFlags::VALUE).await.unwrap(),
+        before,
+        "drive 0 untouched"
+    );
+}

@@ -39,8 +39,9 @@ pub struct MailboxConfig {
     /// 1 MiB FoE transfer needs a longer one ([`SlaveMailbox::with_timeout`](super::SlaveMailbox::with_timeout)).
     /// Default 3 s (IgH waits 1-3 s for CoE/FoE answers).
     pub timeout: Duration,
-    /// Requests one slave queues while it works on another; further callers wait for room
-    /// (within their deadline). Default 32.
+    /// Requests one slave queues while it works on another; a request to a full queue
+    /// fails at once with [`MailboxError::QueueFull`](super::MailboxError::QueueFull), as
+    /// the bus does. Default 64.
     pub queue_len: usize,
     /// Ethernet frames queued for sending over EoE per slave; sending to a full queue fails
     /// at once, as a network interface drops. Default 16.
@@ -77,7 +78,7 @@ impl Default for MailboxConfig {
     fn default() -> MailboxConfig {
         MailboxConfig {
             timeout: Duration::from_secs(3),
-            queue_len: 32,
+            queue_len: 64,
             eoe_tx_queue_len: 16,
             idle_poll: Some(Duration::from_millis(10)),
             poll_interval: Duration::from_millis(1),

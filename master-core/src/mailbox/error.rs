@@ -26,7 +26,7 @@ pub enum MailboxError {
         /// The protocol asked for.
         protocol: MailboxType,
     },
-    /// The slave's request queue is full and stayed full until the request's deadline.
+    /// The slave's request queue is full ([`MailboxConfig::queue_len`](super::MailboxConfig::queue_len)).
     #[error("the request queue of slave {0:#06x} is full")]
     QueueFull(u16),
     /// The caller went away before the request completed (only the engine sees this).

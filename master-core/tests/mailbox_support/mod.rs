@@ -174,7 +174,7 @@ pub fn wait_until(what: &str, timeout: Duration, mut condition: impl FnMut() -> 
 }
 
 /// Station addresses, mailbox SyncManagers from the SII, PREOP: returns the mailbox slaves.
-fn bring_up(bus: &BusHandle, count: usize) -> Vec<(usize, SlaveMailboxConfig)> {
+pub fn bring_up(bus: &BusHandle, count: usize) -> Vec<(usize, SlaveMailboxConfig)> {
     let mut slaves = Vec::new();
     for position in 0..count {
         let station = station(position);

@@ -11,13 +11,18 @@
 //!   (which could swallow the next message) but recovered with the repeat procedure, and a
 //!   message re-posted by it that the master already has is recognised by the slave's
 //!   counter and dropped (§5.6).
+//!
+//! The first read of an answer is sent right behind the write (usually in the same frame),
+//! so a slave that answers at once is read one round trip earlier; it is always settled —
+//! routed like any other read — before the next write or read, so no message it brings is
+//! lost.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use crate::bus::{BusError, BusHandle, DatagramData, DatagramRequest};
+use crate::bus::{BusError, BusHandle, DatagramData, DatagramRequest, DatagramResult, Pending};
 use crate::mailbox::config::MailboxConfig;
 use crate::mailbox::eoe::rx::{EoeRx, Pushed};
 use crate::mailbox::error::{MailboxError, Result};
@@ -89,6 +94,9 @@ pub(crate) struct Exchange {
     eoe_rx: EoeRx,
     deadline: Instant,
     cancelled: Option<Arc<AtomicBool>>,
+    /// A read of SM1 sent right behind the last write, with what it was sent for; it must
+    /// be settled before anything else is read or written.
+    ahead: Option<(Pending, Option<Want>)>,
 }
 
 impl Exchange {
@@ -106,6 +114,7 @@ impl Exchange {
             eoe_rx: EoeRx::new(eoe_timeout),
             deadline: Instant::now(),
             cancelled: None,
+            ahead: None,
         }
     }
 
@@ -135,8 +144,12 @@ impl Exchange {
         self.cancelled = cancelled;
     }
 
-    /// Ends the transaction; answers nobody took are counted as unexpected.
-    pub fn end(&mut self) {
+    /// Ends the transaction: the read sent ahead is settled (a bus error there is seen
+    /// again by the next read); answers nobody took are counted as unexpected.
+    pub async fn end(&mut self) {
+        if let Ok(Read::Answer) = self.settle().await {
+            inc(&self.shared.stats.unexpected);
+        }
         self.cancelled = None;
         for _ in self.stash.drain(..) {
             inc(&self.shared.stats.unexpected);
@@ -220,25 +233,52 @@ impl Exchange {
         let station = self.station();
         let start = self.shared.config.write.start;
         let want = Some(Want::Reply(mailbox_type));
+        if self.settle().await? == Read::Answer {
+            self.keep_answer();
+        }
         loop {
-            let data = DatagramData::from_slice(&self.tx);
-            let response = self.bus.fpwr(station, start, data).await?;
-            if response.wkc == 1 {
+            let write = self
+                .bus
+                .fpwr(station, start, DatagramData::from_slice(&self.tx));
+            // The first read of the answer goes right behind the write, usually in the same
+            // frame: a slave that answers at once (as the simulator does) is read one
+            // round trip earlier, and one that does not just returns an empty read.
+            let read = self.submit_read();
+            let written = write.await;
+            if let Ok(response) = &written
+                && response.wkc == 1
+            {
                 inc(&self.shared.stats.writes);
+                self.ahead = Some((read, want));
                 return Ok(());
             }
+            // Never drop a read that may have emptied SM1: route what it brought first.
+            if self.finish_read(read.await, want).await? == Read::Answer {
+                self.keep_answer();
+            }
+            written?;
             inc(&self.shared.stats.write_full);
             if self.expired() {
                 return Err(self.timeout("room in the receive mailbox"));
             }
-            if self.read_one(want).await? == Read::Answer {
-                if self.stash.len() >= STASH_LEN {
-                    inc(&self.shared.stats.unexpected);
-                } else {
-                    self.stash.push_back(self.rx.clone());
-                }
-            }
             tokio::time::sleep(self.shared.engine.full_retry_interval).await;
+        }
+    }
+
+    /// Keeps the answer just read (in `rx`) for the next [`Self::receive`].
+    fn keep_answer(&mut self) {
+        if self.stash.len() >= STASH_LEN {
+            inc(&self.shared.stats.unexpected);
+        } else {
+            self.stash.push_back(self.rx.clone());
+        }
+    }
+
+    /// Finishes the read sent ahead, if any.
+    async fn settle(&mut self) -> Result<Read> {
+        match self.ahead.take() {
+            Some((read, want)) => self.finish_read(read.await, want).await,
+            None => Ok(Read::Nothing),
         }
     }
 
@@ -248,8 +288,16 @@ impl Exchange {
         let want = Want::Reply(mailbox_type);
         let mut reads = 0u32;
         loop {
+            // Checked first as well: a slave answering with a stream of messages the
+            // caller skips must not keep the request beyond its deadline.
+            if self.expired() && self.stash.is_empty() {
+                return Err(self.timeout(want.describe()));
+            }
             if let Some(message) = self.stash.pop_front() {
                 self.rx = message;
+                break;
+            }
+            if self.settle().await? == Read::Answer {
                 break;
             }
             if self.read_one(Some(want)).await? == Read::Answer {
@@ -295,6 +343,9 @@ impl Exchange {
         if self.eoe_rx.expire(Instant::now()) {
             inc(&self.shared.stats.eoe_reassembly_errors);
         }
+        if self.settle().await? == Read::Answer {
+            inc(&self.shared.stats.unexpected);
+        }
         for _ in 0..IDLE_DRAIN {
             if self.read_one(None).await? == Read::Nothing {
                 break;
@@ -303,12 +354,23 @@ impl Exchange {
         Ok(())
     }
 
+    /// Sends one read of the whole SM1, never to be resent by the bus.
+    fn submit_read(&self) -> Pending {
+        let area = self.shared.config.read;
+        let request = DatagramRequest::fprd(self.station(), area.start, usize::from(area.len));
+        self.bus.submit_once(request)
+    }
+
     /// Reads SM1 once and routes what it held.
     async fn read_one(&mut self, want: Option<Want>) -> Result<Read> {
+        let read = self.submit_read();
+        self.finish_read(read.await, want).await
+    }
+
+    /// Routes what a read of SM1 brought; a lost read is recovered with a repeat request.
+    async fn finish_read(&mut self, result: DatagramResult, want: Option<Want>) -> Result<Read> {
         let station = self.station();
-        let area = self.shared.config.read;
-        let request = DatagramRequest::fprd(station, area.start, usize::from(area.len));
-        let response = match self.bus.submit_once(request).await {
+        let response = match result {
             Ok(response) => response,
             Err(BusError::Timeout { .. }) => {
                 inc(&self.shared.stats.lost_reads);

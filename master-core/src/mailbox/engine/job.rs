@@ -83,8 +83,14 @@ where
         cancelled: Arc::clone(&cancelled),
         work: Box::new(move |exchange: &mut Exchange| {
             Box::pin(async move {
-                let result = work(&mut *exchange).await;
-                if result.is_err() {
+                // A request whose deadline passed while it waited in the queue is not
+                // started: its answer could only arrive after the caller gave up.
+                let result = if exchange.expired() {
+                    Err(exchange.timeout("its turn at the mailbox"))
+                } else {
+                    work(&mut *exchange).await
+                };
+                if matches!(&result, Err(err) if *err != MailboxError::Cancelled) {
                     exchange.count_failed();
                 }
                 let _ = reply.send(result);

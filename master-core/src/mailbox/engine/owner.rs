@@ -96,5 +96,5 @@ async fn run_job(exchange: &mut Exchange, job: Job) {
     if exchange.cancelled() {
         exchange.count_cancelled();
     }
-    exchange.end();
+    exchange.end().await;
 }

@@ -81,6 +81,11 @@ impl SlaveMailbox {
         &self.shared.config
     }
 
+    /// Requests waiting in the slave's queue (not counting the one under way).
+    pub fn queued(&self) -> usize {
+        self.shared.requests.max_capacity() - self.shared.requests.capacity()
+    }
+
     /// The slave's mailbox counters.
     pub fn stats(&self) -> MailboxStats {
         self.shared.stats.snapshot()

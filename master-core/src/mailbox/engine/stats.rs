@@ -37,7 +37,7 @@ pub(crate) fn inc(counter: &AtomicU64) {
 pub struct MailboxStats {
     /// Requests taken from the queue.
     pub requests: u64,
-    /// Requests that ended with an error.
+    /// Requests that ended with an error (other than their caller going away).
     pub failed: u64,
     /// Requests whose caller went away before they completed.
     pub cancelled: u64,

@@ -60,7 +60,7 @@ impl EoeTx {
                     .await;
                 match sent {
                     Ok(()) if !last => {
-                        exchange.end();
+                        exchange.end().await;
                         self.current = Some((send, index + 1));
                         return;
                     }
@@ -68,7 +68,7 @@ impl EoeTx {
                 }
             }
         };
-        exchange.end();
+        exchange.end().await;
         self.frame_number = (self.frame_number + 1) % 16;
         if result.is_ok() {
             inc(&exchange.stats().eoe_frames_out);
