@@ -284,7 +284,7 @@ async fn a_protocol_the_slave_does_not_announce_is_refused_by_the_master() {
         }
     );
     assert_eq!(
-        rig.engine.slave(0x0999).unwrap_err(),
+        rig.engine().slave(0x0999).unwrap_err(),
         MailboxError::UnknownSlave(0x0999)
     );
 }

@@ -11,7 +11,6 @@ use mailbox_support::{COE_STORE, DRIVE, EOE_PORT, Rig, bus_config, station};
 use master_core::bus::Bus;
 use master_core::link::FaultConfig;
 use master_core::link::{Link, Wait};
-use master_core::mailbox::MailboxEngine;
 use master_core::mailbox::{IpSettings, MailboxConfig, MailboxError};
 use master_core::wire::command::Command;
 use master_core::wire::datagram::Datagram;
@@ -75,7 +74,7 @@ async fn a_mailbox_full_notification_replaces_polling() {
     // The answer's first fragment was read right behind the request's last one; the rest
     // wait in the slave's send mailbox: nobody polls.
     assert_eq!(slave.stats().eoe_frames_in, 0);
-    rig.engine.notify_mailbox_full(station(EOE_PORT));
+    rig.engine().notify_mailbox_full(station(EOE_PORT));
     let reply = tokio::time::timeout(Duration::from_secs(5), frames.recv())
         .await
         .expect("read on notification")
@@ -89,20 +88,20 @@ async fn removed_slaves_and_a_stopped_engine_refuse_requests() {
     let rig = Rig::default_segment();
     let drive = rig.slave(DRIVE);
     assert_eq!(
-        rig.engine.stations(),
+        rig.engine().stations(),
         vec![station(DRIVE), station(COE_STORE), station(EOE_PORT)]
     );
-    assert!(rig.engine.remove_slave(station(DRIVE)));
-    assert!(!rig.engine.remove_slave(station(DRIVE)));
+    assert!(rig.engine().remove_slave(station(DRIVE)));
+    assert!(!rig.engine().remove_slave(station(DRIVE)));
     assert_eq!(
-        rig.engine.slave(station(DRIVE)).unwrap_err(),
+        rig.engine().slave(station(DRIVE)).unwrap_err(),
         MailboxError::UnknownSlave(station(DRIVE))
     );
     let err = drive.sdo_upload(0x1018, 1).await.unwrap_err();
     assert_eq!(err, MailboxError::Shutdown, "the old handle");
     let store = rig.slave(COE_STORE);
     assert!(store.sdo_upload(0x2001, 0).await.is_ok());
-    rig.engine.shutdown();
+    rig.engine().shutdown();
     assert_eq!(
         store.sdo_upload(0x2001, 0).await.unwrap_err(),
         MailboxError::Shutdown
@@ -178,16 +177,15 @@ struct StalledSm0<L: Link> {
     station: u16,
     sm0: u16,
     stalls: Arc<AtomicUsize>,
-    /// Offsets to restore in the next returned frame.
-    restore: Option<Vec<usize>>,
 }
 
 impl<L: Link> StalledSm0<L> {
-    fn sm0_writes(&self, frame: &[u8]) -> Vec<usize> {
+    /// Offsets of the datagrams with `command` to the store's SM0.
+    fn sm0_datagrams(&self, frame: &[u8], command: Command) -> Vec<usize> {
         let mut found = Vec::new();
         let mut at = 16;
         while let Ok(datagram) = Datagram::new_checked(&frame[at.min(frame.len())..]) {
-            if datagram.command() == Command::Fpwr
+            if datagram.command() == command
                 && datagram.adp() == self.station
                 && datagram.ado() == self.sm0
             {
@@ -206,7 +204,7 @@ impl<L: Link> StalledSm0<L> {
 impl<L: Link> Link for StalledSm0<L> {
     fn send(&mut self, frame: &[u8]) -> std::io::Result<()> {
         let mut frame = frame.to_vec();
-        let mut writes = self.sm0_writes(&frame);
+        let mut writes = self.sm0_datagrams(&frame, Command::Fpwr);
         writes.retain(|_| {
             self.stalls
                 .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| n.checked_sub(1))
@@ -215,16 +213,15 @@ impl<L: Link> Link for StalledSm0<L> {
         for &at in &writes {
             Datagram::new_unchecked(&mut frame[at..]).set_command(Command::Nop);
         }
-        self.restore = Some(writes);
         self.inner.send(&frame)
     }
 
     fn recv(&mut self, buf: &mut [u8], wait: Wait) -> std::io::Result<Option<usize>> {
+        // Whichever frame comes back: the stalled writes return as writes with WKC 0, what a
+        // full mailbox answers, so the bus matches them to what it sent.
         let got = self.inner.recv(buf, wait)?;
-        if got.is_some()
-            && let Some(writes) = self.restore.take()
-        {
-            for at in writes {
+        if let Some(len) = got {
+            for at in self.sm0_datagrams(&buf[..len], Command::Nop) {
                 Datagram::new_unchecked(&mut buf[at..]).set_command(Command::Fpwr);
             }
         }
@@ -242,11 +239,10 @@ async fn a_full_receive_mailbox_is_written_again_until_the_slave_takes_the_reque
         station: station(COE_STORE),
         sm0: 0x1000,
         stalls: Arc::clone(&stalls),
-        restore: None,
     };
     let (bus, _thread) = Bus::start(link, bus_config()).unwrap();
-    let slaves = mailbox_support::bring_up(&bus, 5);
-    let engine = MailboxEngine::start(bus.clone(), MailboxConfig::default()).unwrap();
+    let (master, slaves) = mailbox_support::scan_to_preop(&bus, MailboxConfig::default());
+    let engine = master.mailbox_engine();
     let (_, config) = slaves.iter().find(|(p, _)| *p == COE_STORE).unwrap();
     assert_eq!(config.write.start, 0x1000);
     let store = engine.add_slave(*config);
@@ -286,16 +282,15 @@ async fn a_full_request_queue_refuses_at_once() {
         station: station(COE_STORE),
         sm0: 0x1000,
         stalls: Arc::clone(&stalls),
-        restore: None,
     };
     let (bus, _thread) = Bus::start(link, bus_config()).unwrap();
-    let slaves = mailbox_support::bring_up(&bus, 5);
     let config = MailboxConfig {
         queue_len: 1,
         idle_poll: None,
         ..MailboxConfig::default()
     };
-    let engine = MailboxEngine::start(bus.clone(), config).unwrap();
+    let (master, slaves) = mailbox_support::scan_to_preop(&bus, config);
+    let engine = master.mailbox_engine();
     let (_, slave_config) = slaves.iter().find(|(p, _)| *p == COE_STORE).unwrap();
     let store = engine
         .add_slave(*slave_config)

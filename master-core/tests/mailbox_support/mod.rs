@@ -1,28 +1,26 @@
-//! A simulated segment with its mailbox slaves in PREOP, driven through the real bus and
-//! the mailbox engine.
-//!
-//! Until the master's bring-up (`Master::scan`) lands, [`Rig::start`] does the few steps a
-//! mailbox needs by hand, with bus datagrams: station address, the mailbox SyncManagers
-//! from each slave's SII (words 0x18-0x1C), AL control → PREOP.
+//! A simulated segment brought to PREOP by the master (`Master::scan`), whose mailbox
+//! engine then serves every mailbox slave: the real bus, bring-up and engine, with faults
+//! injected only into the mailbox traffic.
 
 #![allow(dead_code)]
+
+// The master's `block_on`: no runtime of our own, so it also works inside a tokio test.
+#[path = "../master_support/mod.rs"]
+mod master_support;
 
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use master_core::bus::{Bus, BusConfig, BusHandle};
 use master_core::link::{FaultConfig, FaultCounts, FaultInjector, Link};
-use master_core::mailbox::{
-    MailboxArea, MailboxConfig, MailboxEngine, MailboxProtocols, SlaveMailbox, SlaveMailboxConfig,
-};
-use master_core::wire::register::address::{AL_CONTROL, AL_STATUS, STATION_ADDRESS};
-use master_core::wire::register::eeprom::{
-    EepromControl, EepromRequest, EepromRequestRepr, data_words,
-};
-use master_core::wire::register::sync_manager::{SyncManager, SyncManagerRepr};
+use master_core::mailbox::{MailboxConfig, MailboxEngine, SlaveMailbox, SlaveMailboxConfig};
+use master_core::master::{Master, MasterConfig, SlaveAddress};
+use master_core::wire::register::AlState;
 use sim::link::{InProcessLink, SharedSegment};
 use sim::segment::Segment;
 use sim::topology::{SlaveHandles, Topology, build_with_handles};
+
+use master_support::block_on;
 
 /// Station address of the slave at ring position `position`.
 pub fn station(position: usize) -> u16 {
@@ -33,10 +31,6 @@ pub fn station(position: usize) -> u16 {
 pub const DRIVE: usize = 0;
 pub const COE_STORE: usize = 3;
 pub const EOE_PORT: usize = 4;
-
-/// EEPROM control/status (0x0502), address (0x0504), data (0x0508).
-const EEPROM_CONTROL: u16 = 0x0502;
-const EEPROM_DATA: u16 = 0x0508;
 
 /// A link whose fault counts stay readable while the bus owns it.
 pub struct Shared<L: Link>(Arc<Mutex<L>>);
@@ -62,7 +56,7 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 /// The running rig.
 pub struct Rig {
     pub bus: BusHandle,
-    pub engine: MailboxEngine,
+    pub master: Master,
     pub segment: SharedSegment,
     pub handles: Vec<SlaveHandles>,
     pub slaves: Vec<(usize, SlaveMailboxConfig)>,
@@ -113,15 +107,11 @@ impl Rig {
             seed,
         )));
         let (bus, _thread) = Bus::start(Shared(Arc::clone(&injector)), bus).expect("bus starts");
-        let slaves = bring_up(&bus, topology.slaves.len());
+        let (master, slaves) = scan_to_preop(&bus, mailbox);
         lock(&injector).set_config(faults);
-        let engine = MailboxEngine::start(bus.clone(), mailbox).expect("engine starts");
-        for (_, config) in &slaves {
-            engine.add_slave(*config);
-        }
         Rig {
             bus,
-            engine,
+            master,
             segment,
             handles: built.slaves,
             slaves,
@@ -129,10 +119,15 @@ impl Rig {
         }
     }
 
+    /// The mailbox engine the master runs.
+    pub fn engine(&self) -> &MailboxEngine {
+        self.master.mailbox_engine()
+    }
+
     /// The mailbox of the slave at `position`.
     pub fn slave(&self, position: usize) -> SlaveMailbox {
-        self.engine
-            .slave(station(position))
+        self.master
+            .mailbox(SlaveAddress::Position(position as u16))
             .expect("a mailbox slave")
     }
 
@@ -149,7 +144,7 @@ impl Rig {
 
 impl Drop for Rig {
     fn drop(&mut self) {
-        self.engine.shutdown();
+        self.engine().shutdown();
         self.bus.shutdown();
     }
 }
@@ -173,94 +168,29 @@ pub fn wait_until(what: &str, timeout: Duration, mut condition: impl FnMut() -> 
     }
 }
 
-/// Station addresses, mailbox SyncManagers from the SII, PREOP: returns the mailbox slaves.
-pub fn bring_up(bus: &BusHandle, count: usize) -> Vec<(usize, SlaveMailboxConfig)> {
-    let mut slaves = Vec::new();
-    for position in 0..count {
-        let station = station(position);
-        let reply = bus
-            .apwr(position as u16, STATION_ADDRESS, station.to_le_bytes())
-            .wait()
-            .unwrap();
-        assert_eq!(reply.wkc, 1, "slave {position} takes its station address");
-        let words = read_sii(bus, station, 0x18, 5);
-        let (write, read) = (
-            MailboxArea {
-                start: words[0],
-                len: words[1],
-            },
-            MailboxArea {
-                start: words[2],
-                len: words[3],
-            },
-        );
-        if write.len == 0 {
-            continue;
-        }
-        let mut sms = [0u8; 16];
-        SyncManagerRepr::mailbox_out(write.start, write.len)
-            .emit(&mut SyncManager::new_unchecked(&mut sms[..8]))
-            .unwrap();
-        SyncManagerRepr::mailbox_in(read.start, read.len)
-            .emit(&mut SyncManager::new_unchecked(&mut sms[8..]))
-            .unwrap();
-        assert_eq!(bus.fpwr(station, 0x0800, sms).wait().unwrap().wkc, 1);
-        assert_eq!(
-            bus.fpwr(station, AL_CONTROL, 0x0002u16.to_le_bytes())
-                .wait()
-                .unwrap()
-                .wkc,
-            1
-        );
-        let status = bus.fprd(station, AL_STATUS, 2).wait().unwrap();
-        assert_eq!(
-            status.data.as_slice()[0] & 0x1F,
-            0x02,
-            "slave {position} in PREOP"
-        );
-        slaves.push((
-            position,
-            SlaveMailboxConfig {
-                station,
-                write,
-                read,
-                protocols: MailboxProtocols(words[4]),
-            },
-        ));
-    }
-    slaves
-}
-
-/// `n` SII words from `word` on, through the EEPROM interface.
-fn read_sii(bus: &BusHandle, station: u16, word: u16, n: usize) -> Vec<u16> {
-    let mut words = Vec::new();
-    while words.len() < n {
-        let address = word + words.len() as u16;
-        let mut request = [0u8; 6];
-        EepromRequestRepr::read(address)
-            .emit(&mut EepromRequest::new_unchecked(&mut request[..]))
-            .unwrap();
-        assert_eq!(
-            bus.fpwr(station, EEPROM_CONTROL, request)
-                .wait()
-                .unwrap()
-                .wkc,
-            1
-        );
-        let control = (0..100)
-            .map(|_| {
-                let raw = bus.fprd(station, EEPROM_CONTROL, 2).wait().unwrap();
-                EepromControl::parse(raw.data.as_slice()).unwrap()
-            })
-            .find(|control| !control.busy)
-            .expect("the EEPROM read finishes");
-        assert!(!control.has_error());
-        let data = bus
-            .fprd(station, EEPROM_DATA, control.read_size())
-            .wait()
-            .unwrap();
-        words.extend(data_words(data.data.as_slice()));
-    }
-    words.truncate(n);
-    words
+/// A master on `bus` that brings the segment to PREOP (stations from [`station`]`(0)`), and
+/// the mailbox slaves its engine then serves, by position.
+pub fn scan_to_preop(
+    bus: &BusHandle,
+    mailbox: MailboxConfig,
+) -> (Master, Vec<(usize, SlaveMailboxConfig)>) {
+    let config = MasterConfig {
+        station_base: station(0),
+        target_state: AlState::PreOp,
+        watch_interval: None,
+        mailbox,
+        ..MasterConfig::default()
+    };
+    let master = Master::start(bus.clone(), config).expect("master starts");
+    let report = block_on(master.scan()).expect("scan");
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    let slaves = report
+        .slaves
+        .iter()
+        .filter_map(|info| {
+            let mailbox = master.mailbox(SlaveAddress::Position(info.position)).ok()?;
+            Some((usize::from(info.position), *mailbox.config()))
+        })
+        .collect();
+    (master, slaves)
 }
