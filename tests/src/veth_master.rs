@@ -5,7 +5,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use master_core::bus::{Bus, BusConfig, BusHandle};
-use master_core::link::{RawSocket, RawSocketOptions};
+use master_core::link::{Link, RawSocket, RawSocketOptions};
 use master_core::master::{Master, MasterConfig, ScanReport};
 
 use crate::rig::{MASTER_IFACE, Rig};
@@ -15,18 +15,24 @@ use crate::rig::{MASTER_IFACE, Rig};
 /// # Panics
 /// If the raw socket or the bus thread cannot be made.
 pub fn open_bus(rig: &Rig, config: BusConfig) -> (BusHandle, JoinHandle<RawSocket>) {
+    Bus::start(open_socket(rig), config).expect("bus starts")
+}
+
+/// A raw socket on the master's end of `rig`.
+///
+/// # Panics
+/// If it cannot be opened (no root).
+pub fn open_socket(rig: &Rig) -> RawSocket {
     // The socket belongs to the namespace of the thread that opens it.
-    let socket = rig
-        .master
+    rig.master
         .run_inside(|| RawSocket::open(MASTER_IFACE, RawSocketOptions::default()))
-        .expect("raw socket on the master's end");
-    Bus::start(socket, config).expect("bus starts")
+        .expect("raw socket on the master's end")
 }
 
 /// A master over veth; dropping it stops the master and its bus.
 pub struct VethMaster {
     master: Option<Master>,
-    bus_thread: Option<JoinHandle<RawSocket>>,
+    bus_thread: Option<JoinHandle<Box<dyn Link>>>,
     runtime: tokio::runtime::Runtime,
 }
 
@@ -38,7 +44,12 @@ impl VethMaster {
 
     /// A master on `rig` with the given bus settings.
     pub fn with_bus(rig: &Rig, bus: BusConfig, config: MasterConfig) -> VethMaster {
-        let (bus, bus_thread) = open_bus(rig, bus);
+        VethMaster::on_link(Box::new(open_socket(rig)), bus, config)
+    }
+
+    /// A master on `link` (the rig's raw socket in a wrapper, such as a fault injector).
+    pub fn on_link(link: Box<dyn Link>, bus: BusConfig, config: MasterConfig) -> VethMaster {
+        let (bus, bus_thread) = Bus::start(link, bus).expect("bus starts");
         let master = Master::start(bus, config).expect("master starts");
         VethMaster {
             master: Some(master),

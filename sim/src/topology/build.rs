@@ -25,7 +25,7 @@ use thiserror::Error;
 use crate::device::coe::{CoeService, SharedDictionary};
 use crate::device::dio::{DigitalInputs, DigitalOutputs, InputDriver, OutputProbe};
 use crate::device::eoe::{EoeService, IpConfig};
-use crate::device::foe::{FileStore, FoeFile, FoeService};
+use crate::device::foe::{BusyPhase, FileStore, FoeFile, FoeService};
 use crate::device::voe::VoeEcho;
 use crate::device::{Drive, MailboxStack, SlaveDevice};
 use crate::esc::{DcConfig, Esc, EscConfig, ManualTime};
@@ -161,7 +161,16 @@ fn build_slave(position: usize, spec: &SlaveSpec) -> Result<SlaveParts, BuildErr
                 store.insert(&file.name, f);
             }
             handles.files = Some(store.clone());
-            stack = stack.with(FoeService::new(store));
+            let mut service = FoeService::new(store);
+            if let Some(busy) = &spec.foe_busy {
+                service = service.with_busy(BusyPhase {
+                    after_write_request: busy.after_write_request,
+                    after_last_packet: busy.after_last_packet,
+                    file_suffix: busy.file_suffix.clone(),
+                    ..BusyPhase::default()
+                });
+            }
+            stack = stack.with(service);
         }
         if has(Protocol::Eoe) {
             let config = IpConfig {

@@ -54,6 +54,7 @@ fn base(name: &str, product_code: u32) -> SlaveSpec {
         foe_files: Vec::new(),
         eoe: None,
         voe_vendor_id: None,
+        foe_busy: None,
     }
 }
 

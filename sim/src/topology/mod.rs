@@ -16,6 +16,6 @@ mod soe;
 pub use build::{BuildError, Built, SlaveHandles, build, build_with_handles};
 pub use default::SIM_VENDOR_ID;
 pub use model::{
-    Application, CoeObject, EoeSpec, EscSpec, FoeFileSpec, IdnSpec, MailboxSpec, PdoEntrySpec,
-    PdoSpec, Protocol, SlaveSpec, Topology,
+    Application, CoeObject, EoeSpec, EscSpec, FoeBusySpec, FoeFileSpec, IdnSpec, MailboxSpec,
+    PdoEntrySpec, PdoSpec, Protocol, SlaveSpec, Topology,
 };

@@ -96,6 +96,10 @@ pub struct SlaveSpec {
     /// VoE vendor ID (default: the slave's own vendor ID).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub voe_vendor_id: Option<u32>,
+    /// FoE BUSY phases while "flashing" written files (none by default: some masters, such
+    /// as pysoem, do not handle BUSY on writes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub foe_busy: Option<FoeBusySpec>,
 }
 
 fn one() -> u8 {
@@ -317,6 +321,21 @@ pub struct FoeFileSpec {
     /// FoE password (0 = none).
     #[serde(default)]
     pub password: u32,
+}
+
+/// FoE BUSY answers around file writes, as a slave gives while erasing and programming.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FoeBusySpec {
+    /// BUSY answers before the ACK 0 of a write request (erasing).
+    #[serde(default)]
+    pub after_write_request: u16,
+    /// BUSY answers before the ACK of the last DATA packet (programming).
+    #[serde(default)]
+    pub after_last_packet: u16,
+    /// Only files whose names end with this get the phases (absent: every file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file_suffix: Option<String>,
 }
 
 /// EoE settings.
