@@ -109,6 +109,7 @@ impl<L: Link> Engine<L> {
                     self.change_cyclic(change);
                 }
             }
+            self.drain_before_expiry(Instant::now());
             self.expire(Instant::now());
             self.run_cycle_if_due();
             self.send_acyclic();
@@ -191,6 +192,21 @@ impl<L: Link> Engine<L> {
     }
 
     // --- deadlines ----------------------------------------------------------------------
+
+    /// When a deadline has passed, first takes what already arrived: on a loaded machine
+    /// the bus thread can be scheduled late, and a reply waiting in the link must not be
+    /// counted lost (and its frame sent again) just because nobody read it yet.
+    fn drain_before_expiry(&mut self, now: Instant) {
+        let due = self.records.iter().any(|r| r.active && r.deadline <= now);
+        if !due {
+            return;
+        }
+        for _ in 0..IDLE_DRAIN {
+            if self.receive_one(Wait::NoWait) != Received::Frame {
+                break;
+            }
+        }
+    }
 
     /// Resends or gives up every frame whose deadline has passed.
     fn expire(&mut self, now: Instant) {
