@@ -183,7 +183,12 @@ impl Esc {
             {
                 if sm1.is_full() {
                     sm1.reset(&mut self.mem);
-                    if let Some(newer) = self.mailbox.in_sm1.take() {
+                    // A newer message goes back to the queue; the backup itself (posted by
+                    // a repeat just before, whose read was lost again) is posted anew
+                    // below and must not be queued a second time.
+                    if let Some(newer) = self.mailbox.in_sm1.take()
+                        && self.mailbox.backup.as_ref() != Some(&newer)
+                    {
                         self.mailbox.held.push_front(newer);
                     }
                 }
@@ -345,6 +350,35 @@ mod tests {
         assert_eq!(esc.read_u8(0x080F) & 0x02, 0);
         let r = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
         assert_eq!((r.wkc, r.data[6]), (1, 0xB));
+    }
+
+    #[test]
+    fn two_repeat_requests_in_a_row_post_the_lost_message_once() {
+        let (mut esc, mut dev) = slave();
+        bring_to_preop(&mut esc, &mut dev);
+        for marker in [0xA, 0xB] {
+            exec(
+                &mut esc,
+                &mut dev,
+                Command::Fpwr,
+                0,
+                0x1000,
+                &request_bytes(4, marker),
+            );
+        }
+        // A is read and lost; B moves into SM1.
+        exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        // Two repeat requests without a read between them (the first one's answer lost);
+        // bit 0 of 0x080E keeps SM1 enabled, bit 1 toggles.
+        exec(&mut esc, &mut dev, Command::Fpwr, 0, 0x080E, &[0x03]);
+        exec(&mut esc, &mut dev, Command::Fpwr, 0, 0x080E, &[0x01]);
+        assert_eq!(esc.read_u8(0x080F) & 0x02, 0, "both acknowledged");
+        let r = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert_eq!((r.wkc, r.data[6]), (1, 0xA), "A again");
+        let r = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert_eq!((r.wkc, r.data[6]), (1, 0xB), "then B, not A a second time");
+        let r = exec(&mut esc, &mut dev, Command::Fprd, 0, 0x1080, &[0; 128]);
+        assert_eq!(r.wkc, 0, "nothing more");
     }
 
     #[test]
