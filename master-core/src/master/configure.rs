@@ -355,6 +355,7 @@ mod tests {
         };
         ProcessDataLayout {
             sync_managers: vec![sm(2, 0x1100, 6, true), sm(3, 0x1400, 4, false)],
+            pdos: Vec::new(),
         }
     }
 

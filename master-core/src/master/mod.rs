@@ -12,7 +12,7 @@
 //! (`station_base + position`), read its ESC information, alias and whole SII, DL status,
 //! configure the mailbox SyncManagers from the SII, and move it INIT → PREOP → SAFEOP → OP,
 //! with the process-data SyncManagers and FMMUs set from the layout a [`LayoutSource`]
-//! gives (the SII's PDO categories by default) and the cyclic LRW running before OP. A
+//! gives (CoE through the mailbox by default, the SII for slaves without CoE) and the cyclic LRW running before OP. A
 //! slave that refuses a state is reported with its AL status code, and the others go on.
 //!
 //! Files: `config`, `error`, `address` (naming slaves), `info` (the snapshot type),
@@ -24,6 +24,7 @@
 mod access;
 mod address;
 mod al;
+mod coe_layout;
 mod config;
 mod configure;
 mod context;
@@ -52,12 +53,15 @@ use crate::mailbox::{MailboxEngine, SlaveMailbox};
 use crate::wire::register::AlState;
 
 pub use address::SlaveAddress;
+pub use coe_layout::CoeLayout;
 pub use config::MasterConfig;
 pub use error::MasterError;
 pub use event::MasterEvent;
 pub use image::CycleStats;
 pub use info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
-pub use layout::{LayoutFuture, LayoutSource, PdSyncManager, ProcessDataLayout, SiiLayout};
+pub use layout::{
+    LayoutFuture, LayoutSource, PdSyncManager, PdoEntryInfo, PdoInfo, ProcessDataLayout, SiiLayout,
+};
 pub use scan::ScanReport;
 
 use context::{Context, Slaves};
@@ -76,15 +80,16 @@ pub struct Master {
 }
 
 impl Master {
-    /// Starts a master on `bus` that takes process-data layouts from the SII.
+    /// Starts a master on `bus` that reads process-data layouts through CoE
+    /// ([`CoeLayout`]; the SII for slaves without CoE).
     ///
     /// Fails only if the master's thread or runtime cannot be created.
     pub fn start(bus: BusHandle, config: MasterConfig) -> io::Result<Master> {
-        Master::with_layout_source(bus, config, Box::new(SiiLayout))
+        Master::with_layout_source(bus, config, Box::new(CoeLayout))
     }
 
-    /// Starts a master whose process-data layouts come from `source` (CoE, once the mailbox
-    /// engine provides it).
+    /// Starts a master whose process-data layouts come from `source` (e.g. [`SiiLayout`]
+    /// to trust the SII even for CoE slaves).
     pub fn with_layout_source(
         bus: BusHandle,
         config: MasterConfig,

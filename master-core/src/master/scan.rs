@@ -165,7 +165,11 @@ async fn lay_out(ctx: &Context, positions: &[u16]) -> Result<(), MasterError> {
             what: "SII",
             source,
         })?;
-        let layout = ctx.layout_source.layout(&record.info, &sii).await?;
+        let mailbox = ctx.mailboxes.slave(record.info.station).ok();
+        let layout = ctx
+            .layout_source
+            .layout(&record.info, &sii, mailbox.as_ref())
+            .await?;
         let outputs = layout.outputs_len();
         let inputs = layout.inputs_len();
         let pd = ProcessDataInfo {
