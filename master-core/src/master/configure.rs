@@ -24,6 +24,7 @@ use super::event::MasterEvent;
 use super::info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
 use super::layout::ProcessDataLayout;
 use super::mailboxes;
+use super::pdo_config;
 
 /// How many completed cycles the master waits for after SAFEOP, so that every output
 /// SyncManager has been written before OP is requested (a slave refuses OP without valid
@@ -134,6 +135,7 @@ pub(crate) async fn identify(
         info,
         sii: image,
         layout,
+        pdo_written: false,
     })
 }
 
@@ -247,6 +249,17 @@ async fn configure_process_data(ctx: &Context, record: &SlaveRecord) -> Result<(
     Ok(())
 }
 
+/// Writes the configured PDO assignment unless the layout was made after writing it.
+async fn write_pdo_config(ctx: &Context, record: &SlaveRecord) -> Result<(), MasterError> {
+    if record.pdo_written {
+        return Ok(());
+    }
+    if pdo_config::apply(ctx, &record.info).await? {
+        ctx.update(record.info.position, |r| r.pdo_written = true);
+    }
+    Ok(())
+}
+
 /// Waits until the cyclic exchange has completed `cycles` more cycles.
 async fn wait_cycles(ctx: &Context, who: Who<'_>, cycles: u64) -> Result<(), MasterError> {
     let start = ctx.image.completed();
@@ -285,6 +298,7 @@ pub(crate) async fn bring_to(
             AlState::PreOp if current == AlState::Init => configure_mailbox(ctx, info, false).await,
             AlState::Boot => configure_mailbox(ctx, info, true).await,
             AlState::SafeOp if current == AlState::PreOp => {
+                write_pdo_config(ctx, record).await?;
                 configure_process_data(ctx, record).await
             }
             AlState::Op if !record.layout.sync_managers.is_empty() => {

@@ -35,6 +35,7 @@ mod image;
 mod info;
 mod layout;
 mod mailboxes;
+mod pdo_config;
 mod reset;
 mod scan;
 mod tools;
@@ -62,6 +63,7 @@ pub use info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
 pub use layout::{
     LayoutFuture, LayoutSource, PdSyncManager, PdoEntryInfo, PdoInfo, ProcessDataLayout, SiiLayout,
 };
+pub use pdo_config::{PdoAssignment, PdoMapping};
 pub use scan::ScanReport;
 
 use context::{Context, Slaves};
@@ -113,6 +115,7 @@ impl Master {
             events,
             image,
             layout_source: source,
+            pdo_configs: Mutex::new(Vec::new()),
             mailboxes,
             topology: tokio::sync::Mutex::new(()),
         });
@@ -220,6 +223,39 @@ impl Master {
         address: SlaveAddress,
     ) -> Result<ProcessDataLayout, MasterError> {
         self.ctx.resolve(address).map(|r| r.layout)
+    }
+
+    /// Configures the PDO assignment of the slave `address` names (by position, station
+    /// or alias): from the next scan on, and whenever the slave goes from PREOP to SAFEOP
+    /// after a power cycle, the master writes it through CoE in PREOP (clear 0x1C1n:00,
+    /// rewrite the mappings that come with entries, write the PDOs, write the count) and
+    /// lays the slave's process data out as the slave then reports it. An empty
+    /// `assignments` removes the configuration (the slave's own assignment is kept from
+    /// its next power cycle on).
+    pub fn set_pdo_assignment(&self, address: SlaveAddress, assignments: Vec<PdoAssignment>) {
+        let mut configs = self
+            .ctx
+            .pdo_configs
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        configs.retain(|c| c.address != address);
+        if !assignments.is_empty() {
+            configs.push(pdo_config::SlavePdoConfig {
+                address,
+                assignments,
+            });
+        }
+    }
+
+    /// The PDO assignment configured for `address` ([`Master::set_pdo_assignment`]).
+    pub fn pdo_assignment(&self, address: SlaveAddress) -> Option<Vec<PdoAssignment>> {
+        self.ctx
+            .pdo_configs
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .iter()
+            .find(|c| c.address == address)
+            .map(|c| c.assignments.clone())
     }
 
     /// The SII image of the slave at `address` as the scan (or the watch) read it; see
