@@ -81,6 +81,7 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
     ctx.lock().list.clear();
     mailboxes::release_all(&ctx);
     ctx.image.resize(0, 0);
+    ctx.image.reset_status(count);
     if count == 0 {
         return Ok(ScanReport {
             slaves: Vec::new(),
