@@ -39,6 +39,12 @@ pub struct MasterConfig {
     pub event_capacity: usize,
     /// Settings of the mailbox engine that owns the slaves' mailboxes.
     pub mailbox: MailboxConfig,
+    /// Map every mailbox slave's "mailbox full" bit (SM1 status 0x080D.3) into the cyclic
+    /// frame through an FMMU, and let the mailbox engine read a mailbox when its bit is set
+    /// instead of polling idle mailboxes: with this on, [`MailboxConfig::idle_poll`] is
+    /// ignored (taken as `None`). Slaves without an FMMU to spare are then read only
+    /// while a request waits for an answer. Default true.
+    pub map_mailbox_status: bool,
 }
 
 impl Default for MasterConfig {
@@ -56,6 +62,7 @@ impl Default for MasterConfig {
             watch_interval: Some(Duration::from_millis(100)),
             event_capacity: 256,
             mailbox: MailboxConfig::default(),
+            map_mailbox_status: true,
         }
     }
 }

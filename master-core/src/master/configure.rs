@@ -23,7 +23,9 @@ use super::error::MasterError;
 use super::event::MasterEvent;
 use super::info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
 use super::layout::ProcessDataLayout;
+use super::mailbox_status;
 use super::mailboxes;
+use super::pdo_config;
 
 /// How many completed cycles the master waits for after SAFEOP, so that every output
 /// SyncManager has been written before OP is requested (a slave refuses OP without valid
@@ -134,6 +136,7 @@ pub(crate) async fn identify(
         info,
         sii: image,
         layout,
+        pdo_written: false,
     })
 }
 
@@ -166,11 +169,26 @@ async fn configure_mailbox(ctx: &Context, info: &SlaveInfo, boot: bool) -> Resul
     .await
 }
 
+/// Maps the slave's "mailbox full" bit into the cyclic frame (see `mailbox_status`).
+async fn map_mailbox_status(ctx: &Context, record: &SlaveRecord) -> Result<(), MasterError> {
+    let sii = SiiImage::parse(&record.sii).map_err(malformed(record.info.position, "SII"))?;
+    mailbox_status::map(ctx, &record.info, &sii).await
+}
+
+/// The FMMU kept for the mailbox-status bit of the slave of `info`, if any.
+fn reserved_fmmu(ctx: &Context, info: &SlaveInfo, sii: &SiiImage<'_>) -> Option<u8> {
+    (ctx.config.map_mailbox_status && info.mailbox.is_some())
+        .then(|| mailbox_status::status_fmmu(sii, info.esc.fmmu_count))
+        .flatten()
+}
+
 /// Which FMMU serves each process-data SyncManager: the FMMUs the SII marks for outputs
-/// (inputs) in order, then any FMMU not used otherwise.
+/// (inputs) in order, then any FMMU not used otherwise; never `reserved` (the
+/// mailbox-status FMMU).
 fn fmmu_plan(
     sii: &SiiImage<'_>,
     fmmu_count: u8,
+    reserved: Option<u8>,
     layout: &ProcessDataLayout,
     pd: ProcessDataInfo,
 ) -> Vec<(u8, FmmuRepr)> {
@@ -180,6 +198,9 @@ fn fmmu_plan(
         n => n.min(16),
     };
     let mut taken = [false; 16];
+    if let Some(slot) = reserved.and_then(|r| taken.get_mut(usize::from(r))) {
+        *slot = true;
+    }
     let mut plan = Vec::new();
     let (mut out_at, mut in_at) = (pd.outputs_offset, pd.inputs_offset);
     for sm in &layout.sync_managers {
@@ -237,12 +258,31 @@ async fn configure_process_data(ctx: &Context, record: &SlaveRecord) -> Result<(
         )
         .await?;
     }
-    for (index, fmmu) in fmmu_plan(&sii, info.esc.fmmu_count, &record.layout, info.process_data) {
+    let reserved = reserved_fmmu(ctx, info, &sii);
+    let plan = fmmu_plan(
+        &sii,
+        info.esc.fmmu_count,
+        reserved,
+        &record.layout,
+        info.process_data,
+    );
+    for (index, fmmu) in plan {
         let mut bytes = [0u8; 16];
         fmmu.emit(&mut Fmmu::new_unchecked(&mut bytes[..]))
             .map_err(malformed(info.position, "FMMU"))?;
         let ado = fmmu_address(index).ok_or(MasterError::InvalidArgument("FMMU number"))?;
         fpwr(&ctx.bus, info.station, ado, bytes, "FMMU").await?;
+    }
+    Ok(())
+}
+
+/// Writes the configured PDO assignment unless the layout was made after writing it.
+async fn write_pdo_config(ctx: &Context, record: &SlaveRecord) -> Result<(), MasterError> {
+    if record.pdo_written {
+        return Ok(());
+    }
+    if pdo_config::apply(ctx, &record.info).await? {
+        ctx.update(record.info.position, |r| r.pdo_written = true);
     }
     Ok(())
 }
@@ -282,9 +322,13 @@ pub(crate) async fn bring_to(
     let mut current = al::read_status(&ctx.bus, who).await?.status.state;
     for step in al::path(current, to) {
         let prepared = match step {
-            AlState::PreOp if current == AlState::Init => configure_mailbox(ctx, info, false).await,
+            AlState::PreOp if current == AlState::Init => {
+                configure_mailbox(ctx, info, false).await?;
+                map_mailbox_status(ctx, record).await
+            }
             AlState::Boot => configure_mailbox(ctx, info, true).await,
             AlState::SafeOp if current == AlState::PreOp => {
+                write_pdo_config(ctx, record).await?;
                 configure_process_data(ctx, record).await
             }
             AlState::Op if !record.layout.sync_managers.is_empty() => {
@@ -355,6 +399,7 @@ mod tests {
         };
         ProcessDataLayout {
             sync_managers: vec![sm(2, 0x1100, 6, true), sm(3, 0x1400, 4, false)],
+            pdos: Vec::new(),
         }
     }
 
@@ -381,7 +426,7 @@ mod tests {
         ]);
         let sii = SiiImage::parse(&bytes).unwrap();
         assert_eq!(
-            fmmu_plan(&sii, 8, &layout(), PD),
+            fmmu_plan(&sii, 8, None, &layout(), PD),
             vec![
                 (1, FmmuRepr::outputs(0x20, 6, 0x1100)),
                 (0, FmmuRepr::inputs(0x26, 4, 0x1400)),
@@ -394,13 +439,13 @@ mod tests {
         let bytes = image(Vec::new());
         let sii = SiiImage::parse(&bytes).unwrap();
         assert_eq!(
-            fmmu_plan(&sii, 8, &layout(), PD),
+            fmmu_plan(&sii, 8, None, &layout(), PD),
             vec![
                 (0, FmmuRepr::outputs(0x20, 6, 0x1100)),
                 (1, FmmuRepr::inputs(0x26, 4, 0x1400)),
             ]
         );
         // An ESC with one FMMU maps what it can.
-        assert_eq!(fmmu_plan(&sii, 1, &layout(), PD).len(), 1);
+        assert_eq!(fmmu_plan(&sii, 1, None, &layout(), PD).len(), 1);
     }
 }

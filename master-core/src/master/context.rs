@@ -14,6 +14,7 @@ use super::event::MasterEvent;
 use super::image::Image;
 use super::info::{Identity, ProcessDataInfo, SlaveInfo};
 use super::layout::{LayoutSource, ProcessDataLayout};
+use super::pdo_config::{PdoAssignment, SlavePdoConfig};
 use crate::wire::register::{AlState, AlStatusCode, DlStatus, EscInfoRepr};
 
 /// One slave: the snapshot callers see, its SII image and its process-data layout.
@@ -22,6 +23,9 @@ pub(crate) struct SlaveRecord {
     pub info: SlaveInfo,
     pub sii: Vec<u8>,
     pub layout: ProcessDataLayout,
+    /// Whether the configured PDO assignment was written since the slave was identified
+    /// (a power cycle restores the slave's own).
+    pub pdo_written: bool,
 }
 
 impl SlaveRecord {
@@ -48,6 +52,7 @@ impl SlaveRecord {
             },
             sii: Vec::new(),
             layout: ProcessDataLayout::default(),
+            pdo_written: false,
         }
     }
 }
@@ -66,6 +71,8 @@ pub(crate) struct Context {
     pub events: broadcast::Sender<MasterEvent>,
     pub image: Arc<Image>,
     pub layout_source: Box<dyn LayoutSource>,
+    /// PDO assignments to write in PREOP, by slave.
+    pub pdo_configs: Mutex<Vec<SlavePdoConfig>>,
     /// Owns the mailbox of every slave in PREOP or above (see `mailboxes`).
     pub mailboxes: MailboxEngine,
     /// Serialises scans and the watch's repairs, so they never configure the same slave at
@@ -102,6 +109,16 @@ impl Context {
         if let Some(record) = self.lock().list.get_mut(usize::from(position)) {
             change(record);
         }
+    }
+
+    /// The configured PDO assignment of the slave of `info`, if any.
+    pub fn pdo_config_for(&self, info: &SlaveInfo) -> Option<Vec<PdoAssignment>> {
+        self.pdo_configs
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .iter()
+            .find(|c| c.names(info))
+            .map(|c| c.assignments.clone())
     }
 
     /// The record at `position`.

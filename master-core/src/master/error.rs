@@ -1,6 +1,7 @@
 //! What can go wrong when the master talks to its slaves.
 
 use crate::bus::BusError;
+use crate::mailbox::MailboxError;
 use crate::wire::WireError;
 use crate::wire::register::{AlState, AlStatusCode};
 
@@ -94,6 +95,17 @@ pub enum MasterError {
         position: u16,
         /// The slave's AL state.
         state: AlState,
+    },
+    /// A mailbox transfer the master needed (reading or writing the PDO configuration)
+    /// failed.
+    #[error("slave {position}: {what}: {source}")]
+    Mailbox {
+        /// Ring position.
+        position: u16,
+        /// What the master was doing.
+        what: &'static str,
+        /// The mailbox engine's error.
+        source: MailboxError,
     },
     /// A value the caller passed cannot be used.
     #[error("invalid argument: {0}")]

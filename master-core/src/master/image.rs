@@ -1,34 +1,32 @@
-//! The process image and the cyclic task that exchanges it with one LRW per cycle.
+//! The process image and the cyclic task that exchanges it, one frame per cycle:
 //!
-//! The image is one logical address space starting at 0: every slave's outputs, then its
-//! inputs, in ring order. The task runs on the bus thread; callers read and write the image
-//! through the master. The lock is held only to copy bytes.
+//! 1. an LRW of the whole image at logical [`LOGICAL_BASE`]: every slave's outputs, then
+//!    its inputs, in ring order;
+//! 2. an LRD of the mailbox-status bits at logical [`STATUS_BASE`] (the seed capture's
+//!    0x40000): bit *p* is bit 3 ("mailbox full") of SM1's status byte 0x080D of the slave
+//!    at position *p*, mapped by an FMMU of that slave (see `mailbox_status`). A set bit is
+//!    handed to the mailbox engine ([`MailboxEngine::notify_mailbox_full`]), which then
+//!    reads that slave's mailbox; the engine does not poll idle mailboxes.
+//!
+//! The task runs on the bus thread; callers read and write the image through the master.
+//! The lock is held only to copy bytes, and a reader sees the inputs of one whole cycle.
 
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crate::bus::{CyclicFrame, CyclicReply, CyclicTask};
+use crate::mailbox::MailboxEngine;
 use crate::wire::command::{Command, DatagramAddress};
+
+use super::bits::copy_bits;
+use super::cycle_stats::{CycleCounters, CycleStats};
+use super::pd_entry::{ImageSnapshot, PdEntry};
 
 /// Logical address of the first image byte.
 pub(crate) const LOGICAL_BASE: u32 = 0;
 
-/// Counters of the cyclic exchange.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct CycleStats {
-    /// Cycles whose frame came back.
-    pub completed: u64,
-    /// Cycles whose frame was lost.
-    pub lost: u64,
-    /// Working counter of the last returned LRW.
-    pub last_wkc: u16,
-    /// Working counter the LRW should have (2 per slave with outputs, 1 per slave with
-    /// inputs).
-    pub expected_wkc: u16,
-    /// Image size in bytes.
-    pub image_len: usize,
-}
+/// Logical address of the mailbox-status bits (bit *p* for ring position *p*).
+pub(crate) const STATUS_BASE: u32 = 0x0004_0000;
 
 #[derive(Debug, Default)]
 struct Buffers {
@@ -38,14 +36,26 @@ struct Buffers {
     inputs: Vec<u8>,
     expected_wkc: u16,
     last_wkc: u16,
+    /// Completed cycles; the inputs are from the last of them.
+    cycle: u64,
+    /// Station address behind each mailbox-status bit (`None`: bit not mapped).
+    status_stations: Vec<Option<u16>>,
+    /// Bytes of the status area (a bit per slave position).
+    status_len: usize,
+}
+
+impl Buffers {
+    fn status_wkc(&self) -> u16 {
+        let mapped = self.status_stations.iter().flatten().count();
+        u16::try_from(mapped).unwrap_or(u16::MAX)
+    }
 }
 
 /// The image shared by the cyclic task and the master.
 #[derive(Debug, Default)]
 pub(crate) struct Image {
     buffers: Mutex<Buffers>,
-    completed: AtomicU64,
-    lost: AtomicU64,
+    pub counters: CycleCounters,
 }
 
 impl Image {
@@ -61,6 +71,22 @@ impl Image {
         b.expected_wkc = expected_wkc;
     }
 
+    /// Sizes the mailbox-status area for `slaves` positions, none mapped yet.
+    pub fn reset_status(&self, slaves: u16) {
+        let mut b = self.lock();
+        b.status_stations.clear();
+        b.status_stations.resize(usize::from(slaves), None);
+        b.status_len = usize::from(slaves).div_ceil(8);
+    }
+
+    /// Bit `position` of the status area now reads `station`'s "mailbox full" bit (`None`:
+    /// no longer mapped).
+    pub fn map_status(&self, position: u16, station: Option<u16>) {
+        if let Some(slot) = self.lock().status_stations.get_mut(usize::from(position)) {
+            *slot = station;
+        }
+    }
+
     /// Writes `data` into the image at `offset`; false if it does not fit.
     pub fn write(&self, offset: usize, data: &[u8]) -> bool {
         let mut b = self.lock();
@@ -74,6 +100,29 @@ impl Image {
         }
     }
 
+    /// Writes each value into its entry's bits, all under one lock (so one cycle sends all
+    /// or none of them); false, and nothing written, if one does not fit.
+    pub fn write_entries(&self, values: &[(&PdEntry, &[u8])]) -> bool {
+        let mut b = self.lock();
+        let fits = values.iter().all(|(e, v)| {
+            let end = e.bit_offset as usize + usize::from(e.bit_length);
+            e.output && v.len() * 8 >= usize::from(e.bit_length) && end <= b.outputs.len() * 8
+        });
+        if !fits {
+            return false;
+        }
+        for (e, v) in values {
+            copy_bits(
+                v,
+                0,
+                &mut b.outputs,
+                e.bit_offset as usize,
+                usize::from(e.bit_length),
+            );
+        }
+        true
+    }
+
     /// `len` bytes at `offset` of what was sent (`outputs`) or received last.
     pub fn read(&self, offset: usize, len: usize, outputs: bool) -> Option<Vec<u8>> {
         let b = self.lock();
@@ -83,27 +132,66 @@ impl Image {
             .map(<[u8]>::to_vec)
     }
 
+    /// Copies the image as the last cycle left it into `snapshot` (reusing its buffers).
+    pub fn snapshot_into(&self, snapshot: &mut ImageSnapshot) {
+        let b = self.lock();
+        snapshot.cycle = b.cycle;
+        snapshot.wkc = b.last_wkc;
+        snapshot.expected_wkc = b.expected_wkc;
+        snapshot.inputs.clear();
+        snapshot.inputs.extend_from_slice(&b.inputs);
+        snapshot.outputs.clear();
+        snapshot.outputs.extend_from_slice(&b.outputs);
+    }
+
     pub fn stats(&self) -> CycleStats {
         let b = self.lock();
+        let c = &self.counters;
         CycleStats {
-            completed: self.completed.load(Ordering::Relaxed),
-            lost: self.lost.load(Ordering::Relaxed),
+            completed: b.cycle,
+            lost: CycleCounters::count(&c.lost),
             last_wkc: b.last_wkc,
             expected_wkc: b.expected_wkc,
+            wrong_wkc: CycleCounters::count(&c.wrong_wkc),
+            late: 0,
+            missed: CycleCounters::count(&c.missed),
             image_len: b.outputs.len(),
+            mailbox_status_slaves: b.status_wkc(),
+            mailbox_notices: CycleCounters::count(&c.mailbox_notices),
         }
     }
 
     /// Cycles completed so far.
     pub fn completed(&self) -> u64 {
-        self.completed.load(Ordering::Relaxed)
+        self.lock().cycle
     }
 }
 
-/// The bus's cyclic task: one LRW of the whole image per period.
+/// The bus's cyclic task; see the [module documentation](self).
 pub(crate) struct ProcessCycle {
     pub image: Arc<Image>,
     pub period: Duration,
+    pub mailboxes: MailboxEngine,
+    /// Frame positions of this cycle's process-data and status datagrams.
+    pd_at: Option<usize>,
+    status_at: Option<usize>,
+    last_start: Option<Instant>,
+    /// Stations whose bit was set in the last status read (kept to avoid allocating).
+    full: Vec<u16>,
+}
+
+impl ProcessCycle {
+    pub fn new(image: Arc<Image>, period: Duration, mailboxes: MailboxEngine) -> ProcessCycle {
+        ProcessCycle {
+            image,
+            period,
+            mailboxes,
+            pd_at: None,
+            status_at: None,
+            last_start: None,
+            full: Vec::new(),
+        }
+    }
 }
 
 impl CyclicTask for ProcessCycle {
@@ -112,31 +200,76 @@ impl CyclicTask for ProcessCycle {
     }
 
     fn build(&mut self, frame: &mut CyclicFrame<'_>) {
+        self.pd_at = None;
+        self.status_at = None;
         let b = self.image.lock();
-        if b.outputs.is_empty() {
-            return;
+        // A failure leaves the datagram out: the image size was checked against the frame
+        // when the layout was made.
+        if !b.outputs.is_empty() {
+            self.pd_at = frame
+                .push(
+                    Command::Lrw,
+                    DatagramAddress::Logical(LOGICAL_BASE),
+                    &b.outputs,
+                )
+                .ok();
         }
-        // A failure leaves the frame empty: the cycle is skipped, and the image size was
-        // checked against the frame when the layout was made.
-        let _ = frame.push(
-            Command::Lrw,
-            DatagramAddress::Logical(LOGICAL_BASE),
-            &b.outputs,
-        );
+        if b.status_len > 0 && b.status_wkc() > 0 {
+            self.status_at = frame
+                .push_zeroed(
+                    Command::Lrd,
+                    DatagramAddress::Logical(STATUS_BASE),
+                    b.status_len,
+                )
+                .ok();
+        }
+        drop(b);
+        if self.pd_at.is_some() || self.status_at.is_some() {
+            let now = Instant::now();
+            self.image
+                .counters
+                .started(now, self.last_start.replace(now), self.period);
+        }
     }
 
     fn complete(&mut self, reply: &CyclicReply<'_>) {
-        if let Some(datagram) = reply.datagram(0) {
+        self.full.clear();
+        let mut wrong = false;
+        {
             let mut b = self.image.lock();
-            if datagram.data.len() == b.inputs.len() {
-                b.inputs.copy_from_slice(datagram.data);
+            if let Some(datagram) = self.pd_at.and_then(|at| reply.datagram(at)) {
+                if datagram.data.len() == b.inputs.len() {
+                    b.inputs.copy_from_slice(datagram.data);
+                }
+                b.last_wkc = datagram.wkc;
+                wrong |= datagram.wkc != b.expected_wkc;
             }
-            b.last_wkc = datagram.wkc;
+            if let Some(datagram) = self.status_at.and_then(|at| reply.datagram(at)) {
+                wrong |= datagram.wkc != b.status_wkc();
+                for (position, station) in b.status_stations.iter().enumerate() {
+                    let set = datagram
+                        .data
+                        .get(position / 8)
+                        .is_some_and(|byte| byte & (1 << (position % 8)) != 0);
+                    if let (true, Some(station)) = (set, station) {
+                        self.full.push(*station);
+                    }
+                }
+            }
+            b.cycle += 1;
         }
-        self.image.completed.fetch_add(1, Ordering::Relaxed);
+        let counters = &self.image.counters;
+        counters.round_trip.record(reply.round_trip());
+        if wrong {
+            CycleCounters::bump(&counters.wrong_wkc, 1);
+        }
+        for &station in &self.full {
+            self.mailboxes.notify_mailbox_full(station);
+        }
+        CycleCounters::bump(&counters.mailbox_notices, self.full.len() as u64);
     }
 
     fn lost(&mut self) {
-        self.image.lost.fetch_add(1, Ordering::Relaxed);
+        CycleCounters::bump(&self.image.counters.lost, 1);
     }
 }

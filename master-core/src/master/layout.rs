@@ -1,11 +1,13 @@
-//! Where a slave's process data comes from: which SyncManagers carry it and how long they
-//! are. The SII's SYNCM and PDO categories are one source ([`SiiLayout`]); CoE (0x1C12,
-//! 0x1C13 and the mapped PDOs) is another, plugged in through [`LayoutSource`] once the
-//! mailbox engine exists.
+//! Where a slave's process data comes from: which SyncManagers carry it, how long they
+//! are, and which PDOs and entries they hold. The SII's SYNCM and PDO categories are one
+//! source ([`SiiLayout`]); CoE (0x1C1n and the mapped PDOs, read through the slave's
+//! mailbox) is the other ([`CoeLayout`](super::CoeLayout), the master's default).
 
 use std::future::Future;
 use std::pin::Pin;
 
+use crate::mailbox::SlaveMailbox;
+use crate::wire::coe::DataType;
 use crate::wire::register::SmControl;
 use crate::wire::sii::SiiImage;
 use crate::wire::sii::syncm::SyncmType;
@@ -28,11 +30,68 @@ pub struct PdSyncManager {
     pub outputs: bool,
 }
 
-/// A slave's process-data SyncManagers, in SyncManager order.
+/// One mapped entry of a PDO: `(index << 16) | (subindex << 8) | bit_length` in the
+/// mapping object (digest §6.10); index 0 is a gap.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct PdoEntryInfo {
+    /// Mapped object index (0: a gap of `bit_length` bits).
+    pub index: u16,
+    /// Mapped subindex.
+    pub subindex: u8,
+    /// Bits the entry takes in the PDO.
+    pub bit_length: u8,
+    /// The entry's data type, when the SII names it (CoE mapping objects do not say).
+    pub data_type: Option<DataType>,
+}
+
+impl PdoEntryInfo {
+    /// An entry mapping `index:subindex` with `bit_length` bits, data type unknown.
+    pub const fn new(index: u16, subindex: u8, bit_length: u8) -> PdoEntryInfo {
+        PdoEntryInfo {
+            index,
+            subindex,
+            bit_length,
+            data_type: None,
+        }
+    }
+
+    /// The entry as a mapping object stores it.
+    pub fn to_u32(self) -> u32 {
+        (u32::from(self.index) << 16) | (u32::from(self.subindex) << 8) | u32::from(self.bit_length)
+    }
+
+    /// The entry a mapping object's value describes.
+    pub fn from_u32(raw: u32) -> PdoEntryInfo {
+        PdoEntryInfo::new((raw >> 16) as u16, (raw >> 8) as u8, raw as u8)
+    }
+}
+
+/// One PDO assigned to a process-data SyncManager, with its entries in image order.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct PdoInfo {
+    /// PDO mapping object (0x1600.. outputs, 0x1A00.. inputs).
+    pub index: u16,
+    /// The SyncManager carrying it.
+    pub sync_manager: u8,
+    /// The mapped entries.
+    pub entries: Vec<PdoEntryInfo>,
+}
+
+impl PdoInfo {
+    /// Bits the PDO takes.
+    pub fn bit_length(&self) -> u32 {
+        self.entries.iter().map(|e| u32::from(e.bit_length)).sum()
+    }
+}
+
+/// A slave's process-data SyncManagers, in SyncManager order, and the PDOs they carry.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct ProcessDataLayout {
     /// The SyncManagers carrying process data (empty: none).
     pub sync_managers: Vec<PdSyncManager>,
+    /// The PDOs, by SyncManager and then in assignment order (empty when the source only
+    /// knows the lengths, e.g. a SYNCM entry without PDOs).
+    pub pdos: Vec<PdoInfo>,
 }
 
 impl ProcessDataLayout {
@@ -61,10 +120,16 @@ pub type LayoutFuture<'a> =
 
 /// Decides a slave's process-data layout while it is in PREOP.
 ///
-/// Runs on the master's runtime; a CoE implementation may await mailbox transfers.
+/// Runs on the master's runtime; a CoE implementation awaits mailbox transfers on
+/// `mailbox` (the slave's mailbox, `None` for a slave without one).
 pub trait LayoutSource: Send + Sync {
     /// The layout of `slave`, whose parsed SII image is `sii`.
-    fn layout<'a>(&'a self, slave: &'a SlaveInfo, sii: &'a SiiImage<'a>) -> LayoutFuture<'a>;
+    fn layout<'a>(
+        &'a self,
+        slave: &'a SlaveInfo,
+        sii: &'a SiiImage<'a>,
+        mailbox: Option<&'a SlaveMailbox>,
+    ) -> LayoutFuture<'a>;
 }
 
 /// The layout the SII describes: SYNCM entries of type outputs/inputs, each as long as the
@@ -77,51 +142,94 @@ impl SiiLayout {
     /// The layout of one image (synchronous; what [`LayoutSource::layout`] returns).
     pub fn of(sii: &SiiImage<'_>) -> ProcessDataLayout {
         let mut sync_managers = Vec::new();
-        for (index, entry) in sii.syncm.iter().enumerate() {
-            let Ok(index) = u8::try_from(index) else {
-                break;
-            };
-            let outputs = match entry.effective_type() {
-                SyncmType::Outputs => true,
-                SyncmType::Inputs => false,
-                _ => continue,
-            };
-            if entry.enable.virtual_sm() {
-                continue;
-            }
-            let pdos = if outputs { &sii.rxpdo } else { &sii.txpdo };
-            let assigned: Vec<_> = pdos
+        let mut pdos = Vec::new();
+        for sm in process_data_syncms(sii) {
+            let list = if sm.outputs { &sii.rxpdo } else { &sii.txpdo };
+            let assigned: Vec<_> = list
                 .iter()
-                .filter(|p| p.assigned_sm() == Some(index))
+                .filter(|p| p.assigned_sm() == Some(sm.index))
                 .collect();
             let length = if assigned.is_empty() {
-                entry.length
+                sm.length
             } else {
                 let bits: u32 = assigned.iter().map(|p| p.bit_length()).sum();
-                u16::try_from(bits.div_ceil(8)).unwrap_or(u16::MAX)
+                bytes_for(bits)
             };
             if length == 0 {
                 continue;
             }
-            let control = match entry.control {
-                0 if outputs => SmControl::OUTPUTS,
-                0 => SmControl::INPUTS,
-                raw => SmControl::decode(raw),
-            };
-            sync_managers.push(PdSyncManager {
-                index,
-                start: entry.start,
-                length,
-                control,
-                outputs,
-            });
+            pdos.extend(assigned.iter().map(|p| {
+                PdoInfo {
+                    index: p.index,
+                    sync_manager: sm.index,
+                    entries: p
+                        .entries
+                        .iter()
+                        .map(|e| PdoEntryInfo {
+                            index: e.index,
+                            subindex: e.subindex,
+                            bit_length: e.bit_length,
+                            data_type: sii_data_type(e.data_type),
+                        })
+                        .collect(),
+                }
+            }));
+            sync_managers.push(PdSyncManager { length, ..sm });
         }
-        ProcessDataLayout { sync_managers }
+        ProcessDataLayout {
+            sync_managers,
+            pdos,
+        }
     }
 }
 
+/// Bytes taken by `bits` bits of process data.
+pub(crate) fn bytes_for(bits: u32) -> u16 {
+    u16::try_from(bits.div_ceil(8)).unwrap_or(u16::MAX)
+}
+
+/// The process-data SyncManagers the SII's SYNCM category declares (type outputs or
+/// inputs, not virtual), with their SYNCM length, whatever it is.
+pub(crate) fn process_data_syncms<'s>(
+    sii: &'s SiiImage<'_>,
+) -> impl Iterator<Item = PdSyncManager> + 's {
+    sii.syncm.iter().enumerate().filter_map(|(index, entry)| {
+        let index = u8::try_from(index).ok()?;
+        let outputs = match entry.effective_type() {
+            SyncmType::Outputs => true,
+            SyncmType::Inputs => false,
+            _ => return None,
+        };
+        if entry.enable.virtual_sm() {
+            return None;
+        }
+        let control = match entry.control {
+            0 if outputs => SmControl::OUTPUTS,
+            0 => SmControl::INPUTS,
+            raw => SmControl::decode(raw),
+        };
+        Some(PdSyncManager {
+            index,
+            start: entry.start,
+            length: entry.length,
+            control,
+            outputs,
+        })
+    })
+}
+
+/// The data type an SII PDO entry names (its low byte; 0: not given).
+pub(crate) fn sii_data_type(raw: u8) -> Option<DataType> {
+    (raw != 0).then(|| DataType::from(u16::from(raw)))
+}
+
 impl LayoutSource for SiiLayout {
-    fn layout<'a>(&'a self, _slave: &'a SlaveInfo, sii: &'a SiiImage<'a>) -> LayoutFuture<'a> {
+    fn layout<'a>(
+        &'a self,
+        _slave: &'a SlaveInfo,
+        sii: &'a SiiImage<'a>,
+        _mailbox: Option<&'a SlaveMailbox>,
+    ) -> LayoutFuture<'a> {
         let layout = SiiLayout::of(sii);
         Box::pin(async move { Ok(layout) })
     }
@@ -204,5 +312,9 @@ mod tests {
             ]
         );
         assert_eq!((layout.outputs_len(), layout.inputs_len()), (3, 4));
+        // Only the PDO assigned to a SyncManager is listed; 0x1601 (no SM) is not.
+        assert_eq!(layout.pdos.len(), 1);
+        assert_eq!(layout.pdos[0].index, 0x1600);
+        assert_eq!(layout.pdos[0].bit_length(), 17);
     }
 }

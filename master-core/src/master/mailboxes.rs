@@ -53,6 +53,8 @@ pub(crate) fn follow(ctx: &Context, info: &SlaveInfo, from: AlState, to: AlState
 /// The slave of `info` left the segment (or is about to be reset): its mailbox is gone.
 pub(crate) fn release(ctx: &Context, station: u16) {
     ctx.mailboxes.remove_slave(station);
+    let position = station.wrapping_sub(ctx.config.station_base);
+    ctx.image.map_status(position, None);
 }
 
 /// A new scan resets every slave: no mailbox survives it.

@@ -12,7 +12,7 @@
 //! (`station_base + position`), read its ESC information, alias and whole SII, DL status,
 //! configure the mailbox SyncManagers from the SII, and move it INIT → PREOP → SAFEOP → OP,
 //! with the process-data SyncManagers and FMMUs set from the layout a [`LayoutSource`]
-//! gives (the SII's PDO categories by default) and the cyclic LRW running before OP. A
+//! gives (CoE through the mailbox by default, the SII for slaves without CoE) and the cyclic LRW running before OP. A
 //! slave that refuses a state is reported with its AL status code, and the others go on.
 //!
 //! Files: `config`, `error`, `address` (naming slaves), `info` (the snapshot type),
@@ -24,16 +24,22 @@
 mod access;
 mod address;
 mod al;
+mod bits;
+mod coe_layout;
 mod config;
 mod configure;
 mod context;
+mod cycle_stats;
 mod eeprom;
 mod error;
 mod event;
 mod image;
 mod info;
 mod layout;
+mod mailbox_status;
 mod mailboxes;
+mod pd_entry;
+mod pdo_config;
 mod reset;
 mod scan;
 mod tools;
@@ -52,12 +58,17 @@ use crate::mailbox::{MailboxEngine, SlaveMailbox};
 use crate::wire::register::AlState;
 
 pub use address::SlaveAddress;
+pub use coe_layout::CoeLayout;
 pub use config::MasterConfig;
+pub use cycle_stats::{CycleStats, CycleTiming};
 pub use error::MasterError;
 pub use event::MasterEvent;
-pub use image::CycleStats;
 pub use info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
-pub use layout::{LayoutFuture, LayoutSource, PdSyncManager, ProcessDataLayout, SiiLayout};
+pub use layout::{
+    LayoutFuture, LayoutSource, PdSyncManager, PdoEntryInfo, PdoInfo, ProcessDataLayout, SiiLayout,
+};
+pub use pd_entry::{ImageSnapshot, PdEntry};
+pub use pdo_config::{PdoAssignment, PdoMapping};
 pub use scan::ScanReport;
 
 use context::{Context, Slaves};
@@ -76,15 +87,16 @@ pub struct Master {
 }
 
 impl Master {
-    /// Starts a master on `bus` that takes process-data layouts from the SII.
+    /// Starts a master on `bus` that reads process-data layouts through CoE
+    /// ([`CoeLayout`]; the SII for slaves without CoE).
     ///
     /// Fails only if the master's thread or runtime cannot be created.
     pub fn start(bus: BusHandle, config: MasterConfig) -> io::Result<Master> {
-        Master::with_layout_source(bus, config, Box::new(SiiLayout))
+        Master::with_layout_source(bus, config, Box::new(CoeLayout))
     }
 
-    /// Starts a master whose process-data layouts come from `source` (CoE, once the mailbox
-    /// engine provides it).
+    /// Starts a master whose process-data layouts come from `source` (e.g. [`SiiLayout`]
+    /// to trust the SII even for CoE slaves).
     pub fn with_layout_source(
         bus: BusHandle,
         config: MasterConfig,
@@ -95,11 +107,17 @@ impl Master {
             .build()?;
         let handle = runtime.handle().clone();
         let image = Arc::new(Image::default());
-        bus.set_cyclic(Some(Box::new(ProcessCycle {
-            image: Arc::clone(&image),
-            period: config.cycle_period,
-        })));
-        let mailboxes = MailboxEngine::start(bus.clone(), config.mailbox)?;
+        let mut mailbox_config = config.mailbox;
+        if config.map_mailbox_status {
+            // The cyclic frame says which mailboxes have something to read.
+            mailbox_config.idle_poll = None;
+        }
+        let mailboxes = MailboxEngine::start(bus.clone(), mailbox_config)?;
+        bus.set_cyclic(Some(Box::new(ProcessCycle::new(
+            Arc::clone(&image),
+            config.cycle_period,
+            mailboxes.clone(),
+        ))));
         let (events, _) = broadcast::channel(config.event_capacity.max(1));
         let ctx = Arc::new(Context {
             bus,
@@ -108,6 +126,7 @@ impl Master {
             events,
             image,
             layout_source: source,
+            pdo_configs: Mutex::new(Vec::new()),
             mailboxes,
             topology: tokio::sync::Mutex::new(()),
         });
@@ -215,6 +234,39 @@ impl Master {
         address: SlaveAddress,
     ) -> Result<ProcessDataLayout, MasterError> {
         self.ctx.resolve(address).map(|r| r.layout)
+    }
+
+    /// Configures the PDO assignment of the slave `address` names (by position, station
+    /// or alias): from the next scan on, and whenever the slave goes from PREOP to SAFEOP
+    /// after a power cycle, the master writes it through CoE in PREOP (clear 0x1C1n:00,
+    /// rewrite the mappings that come with entries, write the PDOs, write the count) and
+    /// lays the slave's process data out as the slave then reports it. An empty
+    /// `assignments` removes the configuration (the slave's own assignment is kept from
+    /// its next power cycle on).
+    pub fn set_pdo_assignment(&self, address: SlaveAddress, assignments: Vec<PdoAssignment>) {
+        let mut configs = self
+            .ctx
+            .pdo_configs
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        configs.retain(|c| c.address != address);
+        if !assignments.is_empty() {
+            configs.push(pdo_config::SlavePdoConfig {
+                address,
+                assignments,
+            });
+        }
+    }
+
+    /// The PDO assignment configured for `address` ([`Master::set_pdo_assignment`]).
+    pub fn pdo_assignment(&self, address: SlaveAddress) -> Option<Vec<PdoAssignment>> {
+        self.ctx
+            .pdo_configs
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .iter()
+            .find(|c| c.address == address)
+            .map(|c| c.assignments.clone())
     }
 
     /// The SII image of the slave at `address` as the scan (or the watch) read it; see
@@ -390,7 +442,87 @@ impl Master {
 
     /// Counters of the cyclic exchange.
     pub fn cycle_stats(&self) -> CycleStats {
-        self.ctx.image.stats()
+        CycleStats {
+            late: self.ctx.bus.stats().cycles_late,
+            ..self.ctx.image.stats()
+        }
+    }
+
+    /// Distributions of the cyclic exchange's timing: cycle time, jitter, start delay,
+    /// round trip.
+    pub fn cycle_timing(&self) -> CycleTiming {
+        let c = &self.ctx.image.counters;
+        CycleTiming {
+            period: self.ctx.config.cycle_period,
+            cycle_time: c.cycle_time.snapshot(),
+            jitter: c.jitter.snapshot(),
+            start_delay: self.ctx.bus.stats().cycle_start_delay,
+            round_trip: c.round_trip.snapshot(),
+        }
+    }
+
+    /// The mapped entries of the slave at `address` (gaps left out), outputs first, in
+    /// image order, with their place in the image.
+    pub fn entries(&self, address: SlaveAddress) -> Result<Vec<PdEntry>, MasterError> {
+        self.ctx.resolve(address).map(|r| pd_entry::entries_of(&r))
+    }
+
+    /// The entry mapping `index:subindex` in the slave at `address`.
+    pub fn entry(
+        &self,
+        address: SlaveAddress,
+        index: u16,
+        subindex: u8,
+    ) -> Result<PdEntry, MasterError> {
+        self.entries(address)?
+            .into_iter()
+            .find(|e| e.index == index && e.subindex == subindex)
+            .ok_or(MasterError::InvalidArgument(
+                "the slave maps no such object into its process data",
+            ))
+    }
+
+    /// Writes `value` (little-endian, at least [`PdEntry::byte_len`] bytes) into the
+    /// output `entry`; the next cycle sends it.
+    pub fn write_entry(&self, entry: &PdEntry, value: &[u8]) -> Result<(), MasterError> {
+        self.write_entries(&[(entry, value)])
+    }
+
+    /// Writes several outputs at once: the same cycle sends all of them. Nothing is
+    /// written if one entry is not an output, lies outside the image or gets a value too
+    /// short for it.
+    pub fn write_entries(&self, values: &[(&PdEntry, &[u8])]) -> Result<(), MasterError> {
+        if self.ctx.image.write_entries(values) {
+            Ok(())
+        } else {
+            Err(MasterError::InvalidArgument(
+                "not an output of the image, or a value shorter than the entry",
+            ))
+        }
+    }
+
+    /// The current value of `entry`: an input as the last cycle brought it, an output as
+    /// it will be sent.
+    pub fn read_entry(&self, entry: &PdEntry) -> Result<Vec<u8>, MasterError> {
+        self.snapshot()
+            .get(entry)
+            .ok_or(MasterError::InvalidArgument(
+                "entry outside the process image",
+            ))
+    }
+
+    /// The whole image as the last completed cycle left it (inputs and outputs of one
+    /// cycle together).
+    pub fn snapshot(&self) -> ImageSnapshot {
+        let mut snapshot = ImageSnapshot::default();
+        self.ctx.image.snapshot_into(&mut snapshot);
+        snapshot
+    }
+
+    /// [`Master::snapshot`] into an existing snapshot, reusing its buffers (no allocation
+    /// once they are large enough).
+    pub fn snapshot_into(&self, snapshot: &mut ImageSnapshot) {
+        self.ctx.image.snapshot_into(snapshot);
     }
 
     /// The bus the master runs on.

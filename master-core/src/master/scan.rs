@@ -16,6 +16,7 @@ use super::error::MasterError;
 use super::event::MasterEvent;
 use super::info::{ProcessDataInfo, SlaveInfo};
 use super::mailboxes;
+use super::pdo_config;
 use super::reset::reset_all;
 
 /// What a scan found and did.
@@ -80,6 +81,7 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
     ctx.lock().list.clear();
     mailboxes::release_all(&ctx);
     ctx.image.resize(0, 0);
+    ctx.image.reset_status(count);
     if count == 0 {
         return Ok(ScanReport {
             slaves: Vec::new(),
@@ -135,7 +137,7 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
     }
 
     if first == AlState::PreOp {
-        lay_out(&ctx, &ready).await?;
+        let ready = lay_out(&ctx, &ready, &mut failures).await?;
         let records: Vec<SlaveRecord> = ready.iter().filter_map(|&p| ctx.record(p)).collect();
         for (_, result) in for_each(&ctx, records, move |ctx, record| async move {
             bring_to(&ctx, &record, target).await
@@ -151,21 +153,43 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
     Ok(ScanReport { slaves, failures })
 }
 
-/// Decides the process-data layout of the slaves at `positions` (in PREOP), gives each its
-/// place in the image, and sizes the image.
-async fn lay_out(ctx: &Context, positions: &[u16]) -> Result<(), MasterError> {
-    let mut offset: u32 = 0;
-    let mut expected_wkc: u16 = 0;
-    for &position in positions {
-        let Some(record) = ctx.record(position) else {
-            continue;
-        };
+/// Writes the configured PDO assignments and decides the process-data layout of the
+/// slaves at `positions` (in PREOP), gives each its place in the image, and sizes the
+/// image. Returns the slaves laid out; the others' errors go to `failures`.
+async fn lay_out(
+    ctx: &Arc<Context>,
+    positions: &[u16],
+    failures: &mut Vec<MasterError>,
+) -> Result<Vec<u16>, MasterError> {
+    let records: Vec<SlaveRecord> = positions.iter().filter_map(|&p| ctx.record(p)).collect();
+    // Mailbox transfers of different slaves share frames: all slaves at once.
+    let layouts = for_each(ctx, records, |ctx, record| async move {
+        let written = pdo_config::apply(&ctx, &record.info).await?;
+        let position = record.info.position;
         let sii = SiiImage::parse(&record.sii).map_err(|source| MasterError::Malformed {
             position,
             what: "SII",
             source,
         })?;
-        let layout = ctx.layout_source.layout(&record.info, &sii).await?;
+        let mailbox = ctx.mailboxes.slave(record.info.station).ok();
+        let layout = ctx
+            .layout_source
+            .layout(&record.info, &sii, mailbox.as_ref())
+            .await?;
+        Ok((layout, written))
+    })
+    .await;
+    let mut offset: u32 = 0;
+    let mut expected_wkc: u16 = 0;
+    let mut ready = Vec::new();
+    for (position, result) in layouts {
+        let (layout, written) = match result {
+            Ok(done) => done,
+            Err(err) => {
+                failures.push(err);
+                continue;
+            }
+        };
         let outputs = layout.outputs_len();
         let inputs = layout.inputs_len();
         let pd = ProcessDataInfo {
@@ -179,7 +203,9 @@ async fn lay_out(ctx: &Context, positions: &[u16]) -> Result<(), MasterError> {
         ctx.update(position, |r| {
             r.layout = layout;
             r.info.process_data = pd;
+            r.pdo_written = written;
         });
+        ready.push(position);
     }
     let room = ctx.bus.config().max_data_len();
     let need = offset as usize;
@@ -187,5 +213,5 @@ async fn lay_out(ctx: &Context, positions: &[u16]) -> Result<(), MasterError> {
         return Err(MasterError::ImageTooLarge { need, room });
     }
     ctx.image.resize(need, expected_wkc);
-    Ok(())
+    Ok(ready)
 }
