@@ -112,6 +112,7 @@ pub use cyclic::{CyclicFrame, CyclicReply, CyclicTask, DEFAULT_PERIOD, MIN_PERIO
 pub use data::{DatagramData, INLINE_LEN};
 pub use error::BusError;
 pub use handle::BusHandle;
+pub(crate) use histogram::Histogram;
 pub use histogram::HistogramSnapshot;
 pub use request::{DatagramRequest, DatagramResponse, WkcCheck};
 pub use stats::BusStatsSnapshot;
