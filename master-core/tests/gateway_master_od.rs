@@ -134,7 +134,7 @@ fn values_describe_the_master_and_the_segment() {
             u32_of(client.upload(MASTER, 0x9000 + n16, 8).unwrap()),
             spec.serial
         );
-        let mailbox = spec.mailbox.as_ref().map_or(0, |m| m.rx_size as u16);
+        let mailbox = spec.mailbox.as_ref().map_or(0, |m| m.rx_size);
         assert_eq!(
             u16_of(client.upload(MASTER, 0x8000 + n16, 0x21).unwrap()),
             mailbox
