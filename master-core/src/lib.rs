@@ -13,10 +13,16 @@
 //!
 //! - [`master`]: bring-up, slave addressing, AL states, topology watch, events.
 //! - [`mailbox`]: one owner per slave mailbox, and the protocol clients on top.
+//! - [`master_od`]: the master's own ETG.1510 object dictionary (mailbox address 0), served
+//!   by the [`od`] SDO server from the master's live state.
+//! - [`gateway`]: the ETG.8200 mailbox gateway — UDP in, slaves' mailboxes (through
+//!   [`mailbox`]) or [`master_od`] out.
 
 pub mod bus;
+pub mod gateway;
 pub mod link;
 pub mod mailbox;
 pub mod master;
+pub mod master_od;
 pub mod od;
 pub mod wire;

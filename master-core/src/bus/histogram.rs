@@ -65,6 +65,14 @@ impl Histogram {
         self.counts[bucket_of(nanos)].fetch_add(1, Ordering::Relaxed);
     }
 
+    /// Sets every counter back to zero (not atomic as a whole: a value recorded meanwhile
+    /// may survive).
+    pub(crate) fn reset(&self) {
+        for count in &self.counts {
+            count.store(0, Ordering::Relaxed);
+        }
+    }
+
     /// Copies the counters.
     pub fn snapshot(&self) -> HistogramSnapshot {
         HistogramSnapshot {

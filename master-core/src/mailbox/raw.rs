@@ -49,6 +49,34 @@ impl SlaveMailbox {
         .await
     }
 
+    /// Like [`Self::raw`], for services where the slave answers one message with several
+    /// (SDO Information fragments, SoE read fragments): returns the answer and every
+    /// message that follows it, in order, while `follows` says of the last one's mailbox
+    /// data that another comes (at most `limit` messages in all).
+    pub async fn raw_replies(
+        &self,
+        message: &[u8],
+        follows: fn(&[u8]) -> bool,
+        limit: usize,
+    ) -> Result<Vec<Vec<u8>>> {
+        let (mailbox_type, data) = split(message)?;
+        call(self, None, move |x| -> BoxFuture<'_, _> {
+            Box::pin(async move {
+                write(x, mailbox_type, &data).await?;
+                let mut replies = Vec::new();
+                loop {
+                    let reply = x.receive(mailbox_type).await?;
+                    let more = reply.header.mailbox_type == mailbox_type && follows(reply.data);
+                    replies.push(reply.message.to_vec());
+                    if !more || replies.len() >= limit.max(1) {
+                        return Ok(replies);
+                    }
+                }
+            })
+        })
+        .await
+    }
+
     /// Writes one complete mailbox message that gets no answer (an EoE fragment, an SDO
     /// abort).
     pub async fn raw_send(&self, message: &[u8]) -> Result<()> {

@@ -1,0 +1,238 @@
+//! The gateway's own error answers (the seed's error table, docs/gateway.md): what a client
+//! gets when its request never reached a slave, in the protocol it spoke.
+//!
+//! | fault | CoE | SoE | FoE | other types |
+//! |---|---|---|---|---|
+//! | unknown address | abort 0x06020000 | error 0x1001 (no IDN) | error 0x8001 (not found) | mailbox error 0x0002 |
+//! | protocol not served | abort 0x06010000 | error 0x1009 | error 0x8002 (access denied) | mailbox error 0x0002 |
+//! | mailbox not running (INIT) | abort 0x08000022 | error 0x1009 | error 0x8002 | mailbox error 0x0002 |
+//! | timeout | abort 0x05040000 | — | error 0x8000 "timeout" | — |
+//! | busy | mailbox error 0x0009 | same | same | same |
+//! | larger than the mailbox | mailbox error 0x0008 | same | same | same |
+//! | other failure | abort 0x08000000 | — | error 0x8000 | — |
+//!
+//! CoE aborts name the request's index and subindex; an SDO Information request gets an
+//! SDO Information error with the same code. "—": no answer (the protocol has no way to say
+//! it), the failure is only counted.
+
+use crate::wire::coe::info::{SdoInfoFrame, SdoInfoRepr, SdoInfoService};
+use crate::wire::coe::{AbortCode, CoeFrame, CoeService, SdoFrame, SdoResponse};
+use crate::wire::foe::{FoeError, FoePacket, FoeRepr};
+use crate::wire::mailbox::{ErrorReply, ErrorReplyRepr, MailboxErrorCode, MailboxType};
+use crate::wire::soe::{IdnOrFragments, SoeError, SoeOpcode, SoePacket, SoeRepr};
+
+use super::stats::FailureReason;
+
+/// Why the gateway answers a request itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Fault {
+    /// No slave at the address.
+    UnknownAddress,
+    /// The protocol is not served at the address.
+    Unsupported,
+    /// The slave's mailbox is not running in its state.
+    NotRunning,
+    /// The slave did not answer in time.
+    Timeout,
+    /// Too many requests in flight.
+    Busy,
+    /// Larger than the slave's receive mailbox.
+    Oversized,
+    /// Anything else.
+    Other,
+}
+
+impl Fault {
+    /// The statistics reason this fault counts under.
+    pub fn reason(self) -> FailureReason {
+        match self {
+            Fault::UnknownAddress => FailureReason::UnknownAddress,
+            Fault::Unsupported | Fault::NotRunning => FailureReason::UnsupportedProtocol,
+            Fault::Timeout => FailureReason::Timeout,
+            Fault::Busy => FailureReason::Busy,
+            Fault::Oversized => FailureReason::Oversized,
+            Fault::Other => FailureReason::Other,
+        }
+    }
+}
+
+/// The answer to a request of `mailbox_type` with mailbox data `request` that failed with
+/// `fault`: the type and data of the reply message, or `None` if the protocol cannot say it.
+pub(crate) fn answer(
+    mailbox_type: MailboxType,
+    request: &[u8],
+    fault: Fault,
+) -> Option<(MailboxType, Vec<u8>)> {
+    match fault {
+        Fault::Busy => return Some(mailbox_error(MailboxErrorCode::ServiceInWork)),
+        Fault::Oversized => return Some(mailbox_error(MailboxErrorCode::InvalidSize)),
+        _ => {}
+    }
+    match mailbox_type {
+        MailboxType::Coe => coe(request, fault),
+        MailboxType::Soe => soe(request, fault),
+        MailboxType::Foe => foe(fault),
+        _ => match fault {
+            Fault::UnknownAddress | Fault::Unsupported | Fault::NotRunning => {
+                Some(mailbox_error(MailboxErrorCode::UnsupportedProtocol))
+            }
+            _ => None,
+        },
+    }
+}
+
+/// A mailbox error reply (type 0).
+pub(crate) fn mailbox_error(code: MailboxErrorCode) -> (MailboxType, Vec<u8>) {
+    let repr = ErrorReplyRepr { detail: code };
+    let mut data = vec![0u8; repr.buffer_len()];
+    // The buffer has exactly the room the reply needs.
+    let _ = repr.emit(&mut ErrorReply::new_unchecked(&mut data[..]));
+    (MailboxType::Error, data)
+}
+
+fn coe(request: &[u8], fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
+    let code = match fault {
+        Fault::UnknownAddress => AbortCode::ObjectDoesNotExist,
+        Fault::Unsupported => AbortCode::UnsupportedAccess,
+        Fault::NotRunning => AbortCode::DeviceState,
+        Fault::Timeout => AbortCode::Timeout,
+        Fault::Busy | Fault::Oversized | Fault::Other => AbortCode::GeneralError,
+    };
+    let service = CoeFrame::new_checked(request)
+        .map(|f| f.service())
+        .unwrap_or(CoeService::SdoRequest);
+    if service == CoeService::SdoInfo {
+        return Some((MailboxType::Coe, sdo_info_error(code)));
+    }
+    let (index, subindex) = SdoFrame::new_checked(request)
+        .map(|f| (f.index(), f.subindex()))
+        .unwrap_or((0, 0));
+    Some((MailboxType::Coe, sdo_abort(index, subindex, code)))
+}
+
+/// An SDO abort (CoE data) for `index:subindex`.
+pub(crate) fn sdo_abort(index: u16, subindex: u8, code: AbortCode) -> Vec<u8> {
+    let response = SdoResponse::Abort {
+        index,
+        subindex,
+        code,
+    };
+    let mut data = vec![0u8; response.buffer_len()];
+    // The buffer has exactly the room an abort needs.
+    let _ = response.emit(&mut SdoFrame::new_unchecked(&mut data[..]));
+    data
+}
+
+fn sdo_info_error(code: AbortCode) -> Vec<u8> {
+    let repr = SdoInfoRepr {
+        incomplete: false,
+        fragments_left: 0,
+        service: SdoInfoService::Error { code },
+    };
+    let mut data = vec![0u8; repr.buffer_len()];
+    let _ = repr.emit(&mut SdoInfoFrame::new_unchecked(&mut data[..]));
+    data
+}
+
+fn soe(request: &[u8], fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
+    let code = match fault {
+        Fault::UnknownAddress => SoeError::NoIdn,
+        Fault::Unsupported | Fault::NotRunning => SoeError::InvalidAccessElement1,
+        _ => return None,
+    };
+    let packet = SoePacket::new_checked(request).ok()?;
+    let opcode = match packet.opcode() {
+        SoeOpcode::WriteRequest => SoeOpcode::WriteResponse,
+        _ => SoeOpcode::ReadResponse,
+    };
+    let repr = SoeRepr {
+        opcode,
+        drive: packet.drive(),
+        elements: packet.elements(),
+        idn_or_fragments: IdnOrFragments::Idn(crate::wire::soe::Idn::from_raw(
+            packet.idn_or_fragments(),
+        )),
+        error: Some(code),
+        data: &[],
+    };
+    let mut data = vec![0u8; repr.buffer_len()];
+    repr.emit(&mut SoePacket::new_unchecked(&mut data[..]))
+        .ok()?;
+    Some((MailboxType::Soe, data))
+}
+
+fn foe(fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
+    let (code, text): (FoeError, &[u8]) = match fault {
+        Fault::UnknownAddress => (FoeError::NotFound, b""),
+        Fault::Unsupported | Fault::NotRunning => (FoeError::AccessDenied, b""),
+        Fault::Timeout => (FoeError::NotDefined, b"timeout"),
+        _ => (FoeError::NotDefined, b""),
+    };
+    let repr = FoeRepr::Error { code, text };
+    let mut data = vec![0u8; repr.buffer_len()];
+    repr.emit(&mut FoePacket::new_unchecked(&mut data[..]))
+        .ok()?;
+    Some((MailboxType::Foe, data))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wire::coe::SdoRequest;
+
+    fn upload(index: u16, subindex: u8) -> Vec<u8> {
+        let req = SdoRequest::InitiateUpload {
+            index,
+            subindex,
+            complete_access: false,
+        };
+        let mut data = vec![0u8; req.buffer_len()];
+        req.emit(&mut SdoFrame::new_unchecked(&mut data[..]))
+            .unwrap();
+        data
+    }
+
+    #[test]
+    fn coe_faults_are_aborts_naming_the_object() {
+        let (ty, data) =
+            answer(MailboxType::Coe, &upload(0x6040, 2), Fault::UnknownAddress).unwrap();
+        assert_eq!(ty, MailboxType::Coe);
+        let frame = SdoFrame::new_checked(&data[..]).unwrap();
+        assert_eq!(
+            SdoResponse::parse(&frame).unwrap(),
+            SdoResponse::Abort {
+                index: 0x6040,
+                subindex: 2,
+                code: AbortCode::ObjectDoesNotExist
+            }
+        );
+    }
+
+    #[test]
+    fn busy_is_a_mailbox_error_and_voe_timeouts_are_silent() {
+        let (ty, data) = answer(MailboxType::Voe, &[], Fault::Busy).unwrap();
+        assert_eq!(ty, MailboxType::Error);
+        let reply = ErrorReplyRepr::parse(&ErrorReply::new_checked(&data[..]).unwrap()).unwrap();
+        assert_eq!(reply.detail, MailboxErrorCode::ServiceInWork);
+        assert_eq!(answer(MailboxType::Voe, &[], Fault::Timeout), None);
+    }
+
+    #[test]
+    fn foe_and_soe_use_their_own_errors() {
+        let (_, data) = answer(MailboxType::Foe, &[], Fault::Unsupported).unwrap();
+        let packet = FoePacket::new_checked(&data[..]).unwrap();
+        assert_eq!(
+            FoeRepr::parse(&packet).unwrap(),
+            FoeRepr::Error {
+                code: FoeError::AccessDenied,
+                text: b""
+            }
+        );
+        let read = [0x01, 0x40, 0x20, 0x00];
+        let (_, data) = answer(MailboxType::Soe, &read, Fault::Unsupported).unwrap();
+        let packet = SoePacket::new_checked(&data[..]).unwrap();
+        let repr = SoeRepr::parse(&packet).unwrap();
+        assert_eq!(repr.opcode, SoeOpcode::ReadResponse);
+        assert_eq!(repr.error, Some(SoeError::from(0x1009)));
+    }
+}

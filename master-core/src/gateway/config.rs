@@ -1,0 +1,115 @@
+//! How the gateway is set up: where it listens, who may talk to it, how much it takes on.
+
+use std::net::{IpAddr, Ipv4Addr};
+use std::time::Duration;
+
+use crate::master_od::MasterIdentity;
+
+use super::allow::ClientNet;
+
+/// The ETG.8200 UDP port, 0x88A4.
+pub const DEFAULT_PORT: u16 = 0x88A4;
+
+/// The port of master number `master_number` (1-based): 34980 for master 1, 34981 for
+/// master 2, and so on (0 counts as 1; saturating at 65535).
+pub fn port_for_master(master_number: u16) -> u16 {
+    DEFAULT_PORT.saturating_add(master_number.saturating_sub(1))
+}
+
+/// Settings of a [`MailboxGateway`](super::MailboxGateway). Changes take effect at the next
+/// start.
+///
+/// Use struct update syntax: `GatewayConfig { strict: true, ..GatewayConfig::default() }`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct GatewayConfig {
+    /// Address the UDP socket binds to. Default `0.0.0.0` (every interface; who may talk is
+    /// decided by [`Self::allow`]).
+    pub bind: IpAddr,
+    /// Port to bind; `None`: [`port_for_master`] of [`Self::master_number`]. `Some(0)` lets
+    /// the system choose.
+    pub port: Option<u16>,
+    /// This master's number (1-based) when several run on one host. Default 1.
+    pub master_number: u16,
+    /// If the port is taken, bind a free one chosen by the system instead of failing (the
+    /// port actually bound is reported by [`MailboxGateway::port`](super::MailboxGateway::port)).
+    /// Default true.
+    pub fallback: bool,
+    /// Clients allowed to send requests; datagrams from others are dropped and counted.
+    /// Default: loopback only.
+    pub allow: Vec<ClientNet>,
+    /// Strict ETG.8200: the gateway itself never answers with an error (unknown slave,
+    /// unsupported protocol, busy, timeout); such requests get no reply. Errors from the
+    /// slaves and from the master's dictionary still reach the client. Default false.
+    pub strict: bool,
+    /// Requests being worked on at once, over all clients; beyond it a request is answered
+    /// "busy". Default 256.
+    pub max_in_flight: usize,
+    /// Requests being worked on at once for one client (IP address and port). Default 16.
+    pub max_in_flight_per_client: usize,
+    /// Longest a forwarded request may take (queueing at the slave and its whole exchange).
+    /// Default 5 s.
+    pub request_timeout: Duration,
+    /// How long a client's multi-message transfer (segmented SDO, FoE, fragmented SoE write)
+    /// holds a slave for it after its last message; other clients' requests to that slave
+    /// wait meanwhile. Default 3 s (the usual client timeout).
+    pub session_timeout: Duration,
+    /// Mailbox size the master's own dictionary (address 0) answers with: replies longer
+    /// than this are segmented. Default 1024 bytes (header included).
+    pub master_mailbox_size: u16,
+    /// Identity the master's dictionary reports (0x1000-0x1018).
+    pub identity: MasterIdentity,
+}
+
+impl Default for GatewayConfig {
+    fn default() -> GatewayConfig {
+        GatewayConfig {
+            bind: IpAddr::V4(Ipv4Addr::UNSPECIFIED),
+            port: None,
+            master_number: 1,
+            fallback: true,
+            allow: ClientNet::loopback(),
+            strict: false,
+            max_in_flight: 256,
+            max_in_flight_per_client: 16,
+            request_timeout: Duration::from_secs(5),
+            session_timeout: Duration::from_secs(3),
+            master_mailbox_size: 1024,
+            identity: MasterIdentity::default(),
+        }
+    }
+}
+
+impl GatewayConfig {
+    /// The port the gateway asks for first.
+    pub fn wanted_port(&self) -> u16 {
+        self.port
+            .unwrap_or_else(|| port_for_master(self.master_number))
+    }
+
+    /// Whether a client at `ip` may use the gateway.
+    pub fn allows(&self, ip: IpAddr) -> bool {
+        self.allow.iter().any(|net| net.contains(ip))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ports_follow_the_master_number() {
+        assert_eq!(port_for_master(1), 34980);
+        assert_eq!(port_for_master(0), 34980);
+        assert_eq!(port_for_master(3), 34982);
+        let config = GatewayConfig {
+            master_number: 2,
+            ..GatewayConfig::default()
+        };
+        assert_eq!(config.wanted_port(), 34981);
+        let explicit = GatewayConfig {
+            port: Some(4000),
+            ..config
+        };
+        assert_eq!(explicit.wanted_port(), 4000);
+    }
+}

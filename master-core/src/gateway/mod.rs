@@ -1,0 +1,225 @@
+//! The ETG.8200 mailbox gateway (digest §11, docs/gateway.md): configuration and diagnosis
+//! tools send raw mailbox messages over UDP, the gateway relays them to the slaves'
+//! mailboxes (or to the master's own dictionary at address 0) and sends the answers back.
+//!
+//! ```no_run
+//! # use std::sync::Arc;
+//! # use master_core::gateway::{GatewayConfig, MailboxGateway};
+//! # fn demo(master: Arc<master_core::master::Master>) -> std::io::Result<()> {
+//! let mut gateway = MailboxGateway::new(master, GatewayConfig::default());
+//! gateway.start()?;
+//! println!("mailbox gateway on port {}", gateway.port());
+//! let stats = gateway.stats();
+//! println!("{} requests, {} failed", stats.total_requests, stats.failed_requests);
+//! gateway.stop();
+//! # Ok(()) }
+//! ```
+//!
+//! The service runs on its own thread (`ecat-gateway`, a current-thread runtime), beside
+//! the bus and the master, and reaches the slaves only through the mailbox engine, whose
+//! per-slave queues it shares with every other user: the cyclic exchange is never touched.
+//!
+//! Files: `config`, `allow` (client networks), `bind` (port and fallback), `serve` (the
+//! loop and the request tasks), `route` (addresses), `forward` (one slave), `plan` (what
+//! a message makes the slave do), `session` (multi-message transfers), `normalize`
+//! (tolerated short SDO requests), `answer` (the gateway's own error answers), `reply`
+//! (datagrams back), `admission` (in-flight caps), `stats`.
+
+mod admission;
+mod allow;
+mod answer;
+mod bind;
+mod config;
+mod forward;
+mod normalize;
+mod plan;
+mod reply;
+mod route;
+mod serve;
+mod session;
+mod stats;
+
+use std::io;
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::thread::JoinHandle;
+
+use tokio::sync::watch;
+
+use crate::master::Master;
+use crate::master_od::MasterDictionary;
+
+pub use allow::{ClientNet, ClientNetError};
+pub use config::{DEFAULT_PORT, GatewayConfig, port_for_master};
+pub use route::{BROADCAST_ADDRESS, MASTER_ADDRESS, POSITION_BASE};
+pub use stats::{FailureCounts, FailureReason, MailboxGatewayStats};
+
+pub(crate) use answer::{mailbox_error, sdo_abort};
+
+use admission::Admission;
+use serve::Shared;
+use session::Sessions;
+use stats::Stats;
+
+/// A running service: its address, how to stop it, its thread.
+struct Running {
+    local: SocketAddr,
+    stop: watch::Sender<bool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+/// The ETG.8200 mailbox gateway of one master. See the [module documentation](self).
+///
+/// Dropping it stops the service.
+pub struct MailboxGateway {
+    master: Arc<Master>,
+    config: GatewayConfig,
+    stats: Arc<Stats>,
+    running: Option<Running>,
+}
+
+impl std::fmt::Debug for MailboxGateway {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MailboxGateway")
+            .field("config", &self.config)
+            .field("local", &self.local_addr())
+            .finish()
+    }
+}
+
+impl MailboxGateway {
+    /// A gateway for `master`, not started.
+    pub fn new(master: Arc<Master>, config: GatewayConfig) -> MailboxGateway {
+        MailboxGateway {
+            master,
+            config,
+            stats: Arc::default(),
+            running: None,
+        }
+    }
+
+    /// The settings (changes made with [`Self::config_mut`] apply at the next start).
+    pub fn config(&self) -> &GatewayConfig {
+        &self.config
+    }
+
+    /// The settings, to change before a start.
+    pub fn config_mut(&mut self) -> &mut GatewayConfig {
+        &mut self.config
+    }
+
+    /// The port: the one bound while running (after a fallback, the fallback port), else
+    /// the one the next start asks for.
+    pub fn port(&self) -> u16 {
+        self.running
+            .as_ref()
+            .map_or_else(|| self.config.wanted_port(), |r| r.local.port())
+    }
+
+    /// Sets the port the next start asks for (0: any free port).
+    pub fn set_port(&mut self, port: u16) {
+        self.config.port = Some(port);
+    }
+
+    /// The address bound, while running.
+    pub fn local_addr(&self) -> Option<SocketAddr> {
+        self.running.as_ref().map(|r| r.local)
+    }
+
+    /// Whether the service is running.
+    pub fn is_running(&self) -> bool {
+        self.running
+            .as_ref()
+            .and_then(|r| r.thread.as_ref())
+            .is_some_and(|t| !t.is_finished())
+    }
+
+    /// Statistics since the last start (lock-free; any thread, any time).
+    pub fn stats(&self) -> MailboxGatewayStats {
+        self.stats.snapshot()
+    }
+
+    /// Binds the socket and starts serving; returns the address bound. If the wanted port
+    /// is taken and [`GatewayConfig::fallback`] is set, a free port is bound instead (see
+    /// [`Self::port`]). Starting a running gateway returns its address. Counters start
+    /// from zero.
+    pub fn start(&mut self) -> io::Result<SocketAddr> {
+        if let Some(local) = self.local_addr()
+            && self.is_running()
+        {
+            return Ok(local);
+        }
+        self.stop();
+        let (std_socket, fell_back) = bind::bind(
+            self.config.bind,
+            self.config.wanted_port(),
+            self.config.fallback,
+        )?;
+        std_socket.set_nonblocking(true)?;
+        let local = std_socket.local_addr()?;
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()?;
+        let socket = {
+            let _inside = runtime.enter();
+            tokio::net::UdpSocket::from_std(std_socket)?
+        };
+        if fell_back {
+            eprintln!(
+                "ecat-gateway: port {} is taken, serving on {}",
+                self.config.wanted_port(),
+                local.port()
+            );
+        }
+        self.stats.start(local.port());
+        let shared = Arc::new(Shared {
+            dictionary: MasterDictionary::new(
+                Arc::clone(&self.master),
+                self.config.identity.clone(),
+                usize::from(self.config.master_mailbox_size),
+            ),
+            master: Arc::clone(&self.master),
+            config: self.config.clone(),
+            stats: Arc::clone(&self.stats),
+            sessions: Sessions::default(),
+            admission: Arc::new(Admission::new(
+                self.config.max_in_flight,
+                self.config.max_in_flight_per_client,
+                Arc::clone(&self.stats),
+            )),
+            socket,
+        });
+        let (stop, stopped) = watch::channel(false);
+        let thread = std::thread::Builder::new()
+            .name("ecat-gateway".into())
+            .spawn(move || {
+                runtime.block_on(serve::run(shared, stopped));
+                // Dropping the runtime drops the request tasks still running, which
+                // cancels their mailbox requests.
+            })?;
+        self.running = Some(Running {
+            local,
+            stop,
+            thread: Some(thread),
+        });
+        Ok(local)
+    }
+
+    /// Stops serving and releases the port (requests under way are cancelled). A stopped
+    /// gateway can be started again.
+    pub fn stop(&mut self) {
+        if let Some(mut running) = self.running.take() {
+            let _ = running.stop.send(true);
+            if let Some(thread) = running.thread.take() {
+                let _ = thread.join();
+            }
+            self.stats.stop();
+        }
+    }
+}
+
+impl Drop for MailboxGateway {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}

@@ -1,0 +1,324 @@
+//! What a forwarded message makes the slave do, read from the protocol headers: how many
+//! messages it answers with, and whether the client is in the middle of a multi-message
+//! transfer afterwards (so the slave stays reserved for it, see `session`).
+//!
+//! The gateway forwards bytes; it looks into them only this far:
+//! - CoE SDO: segmented uploads and downloads span several requests; an abort from the
+//!   client gets no answer. SDO Information: the slave may answer with several fragments.
+//! - SoE: a read may be answered in fragments; a write fragment with "incomplete" set gets
+//!   no answer (only the last does).
+//! - FoE: a read or write spans many requests; the client's last ACK of a read and any
+//!   ERROR from the client get no answer.
+//! - EoE: frame fragments get no answer; the IP and filter services do.
+//! - Everything else: one answer.
+
+use crate::wire::coe::info::SdoInfoFrame;
+use crate::wire::coe::{CoeFrame, CoeService, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
+use crate::wire::eoe::{EoeFrameType, EoePacket};
+use crate::wire::foe::{self, FoePacket, FoeRepr};
+use crate::wire::mailbox::{HEADER_LEN, MailboxType};
+use crate::wire::soe::{SoeOpcode, SoePacket};
+
+/// How the slave answers a message.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Expect {
+    /// One message.
+    Reply,
+    /// One message and those that follow while the function says so of the last one's
+    /// mailbox data.
+    Replies(fn(&[u8]) -> bool),
+    /// Nothing.
+    Nothing,
+}
+
+/// A multi-message transfer a client is in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Transfer {
+    /// A segmented SDO upload or download.
+    Sdo,
+    /// An FoE read; `last` once the slave sent the short packet (the client's ACK of it
+    /// ends the transfer and gets no answer).
+    FoeRead { last: bool },
+    /// An FoE write.
+    FoeWrite,
+    /// An SoE write sent in fragments.
+    SoeWrite,
+}
+
+/// What the slave will answer to `data` (mailbox data of `ty`), given the client's transfer
+/// in progress.
+pub(crate) fn expect(ty: MailboxType, data: &[u8], transfer: Option<Transfer>) -> Expect {
+    match ty {
+        MailboxType::Coe => match CoeFrame::new_checked(data).map(|f| f.service()) {
+            Ok(CoeService::SdoInfo) => Expect::Replies(sdo_info_follows),
+            Ok(CoeService::SdoRequest) if is_sdo_abort(data) => Expect::Nothing,
+            _ => Expect::Reply,
+        },
+        MailboxType::Soe => match SoePacket::new_checked(data) {
+            Ok(p) if p.opcode() == SoeOpcode::WriteRequest && p.incomplete() => Expect::Nothing,
+            Ok(p) if p.opcode() == SoeOpcode::ReadRequest => Expect::Replies(soe_follows),
+            _ => Expect::Reply,
+        },
+        MailboxType::Foe => match foe_repr(data) {
+            Some(FoeRepr::Error { .. }) => Expect::Nothing,
+            Some(FoeRepr::Ack { .. }) if transfer == Some(Transfer::FoeRead { last: true }) => {
+                Expect::Nothing
+            }
+            _ => Expect::Reply,
+        },
+        MailboxType::Eoe => match EoePacket::new_checked(data).map(|p| p.frame_type()) {
+            Ok(EoeFrameType::Fragment) | Err(_) => Expect::Nothing,
+            Ok(_) => Expect::Reply,
+        },
+        _ => Expect::Reply,
+    }
+}
+
+/// Mailbox sizes of the slave (SM0, SM1), for FoE's "short packet ends the file".
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Sizes {
+    pub write: usize,
+    pub read: usize,
+}
+
+/// The transfer the client is in after `request` (mailbox data of `ty`) was answered with
+/// `reply` (mailbox data of the first answer, if any; `reply_ty` its type).
+pub(crate) fn after(
+    ty: MailboxType,
+    request: &[u8],
+    reply: Option<(MailboxType, &[u8])>,
+    transfer: Option<Transfer>,
+    sizes: Sizes,
+) -> Option<Transfer> {
+    let reply = reply
+        .filter(|(reply_ty, _)| *reply_ty == ty)
+        .map(|(_, d)| d);
+    match ty {
+        MailboxType::Coe => sdo_after(request, reply?).then_some(Transfer::Sdo),
+        MailboxType::Soe => {
+            let p = SoePacket::new_checked(request).ok()?;
+            (p.opcode() == SoeOpcode::WriteRequest && p.incomplete()).then_some(Transfer::SoeWrite)
+        }
+        MailboxType::Foe => foe_after(request, reply, transfer, sizes),
+        _ => None,
+    }
+}
+
+fn foe_repr(data: &[u8]) -> Option<FoeRepr<'_>> {
+    FoePacket::new_checked(data)
+        .and_then(|p| FoeRepr::parse(&p))
+        .ok()
+}
+
+fn foe_after(
+    request: &[u8],
+    reply: Option<&[u8]>,
+    transfer: Option<Transfer>,
+    sizes: Sizes,
+) -> Option<Transfer> {
+    let request = foe_repr(request)?;
+    let reply = reply.and_then(foe_repr);
+    let full_read = foe::max_data(sizes.read);
+    match (request, reply) {
+        (FoeRepr::Error { .. }, _) | (_, Some(FoeRepr::Error { .. })) => None,
+        (FoeRepr::ReadRequest { .. } | FoeRepr::Ack { .. }, Some(FoeRepr::Data { data, .. })) => {
+            Some(Transfer::FoeRead {
+                last: data.len() < full_read,
+            })
+        }
+        (FoeRepr::Ack { .. }, None) => None,
+        (FoeRepr::WriteRequest { .. }, Some(FoeRepr::Ack { .. } | FoeRepr::Busy { .. })) => {
+            Some(Transfer::FoeWrite)
+        }
+        (FoeRepr::Data { data, .. }, Some(FoeRepr::Ack { .. })) => {
+            // A packet shorter than the slave's receive mailbox holds is the last.
+            let full_write = foe::max_data(sizes.write);
+            (data.len() >= full_write).then_some(Transfer::FoeWrite)
+        }
+        // A BUSY: the client sends the same packet again.
+        (_, Some(FoeRepr::Busy { .. })) => transfer,
+        _ => None,
+    }
+}
+
+/// Whether a CoE request/answer pair leaves a segmented transfer open.
+fn sdo_after(request: &[u8], reply: &[u8]) -> bool {
+    let (Ok(req_frame), Ok(resp_frame)) =
+        (SdoFrame::new_checked(request), SdoFrame::new_checked(reply))
+    else {
+        return false;
+    };
+    let (Ok(req), Ok(resp)) = (
+        SdoRequest::parse(&req_frame),
+        SdoResponse::parse(&resp_frame),
+    ) else {
+        return false;
+    };
+    match (req, resp) {
+        (
+            SdoRequest::InitiateUpload { .. },
+            SdoResponse::InitiateUpload {
+                payload:
+                    SdoPayload::Normal {
+                        complete_size,
+                        data,
+                    },
+                ..
+            },
+        ) => (data.len() as u64) < u64::from(complete_size),
+        (SdoRequest::UploadSegment { .. }, SdoResponse::UploadSegment { last, .. }) => !last,
+        (
+            SdoRequest::InitiateDownload {
+                payload:
+                    SdoPayload::Normal {
+                        complete_size,
+                        data,
+                    },
+                ..
+            },
+            SdoResponse::InitiateDownload { .. },
+        ) => (data.len() as u64) < u64::from(complete_size),
+        (SdoRequest::DownloadSegment { last, .. }, SdoResponse::DownloadSegment { .. }) => !last,
+        _ => false,
+    }
+}
+
+fn is_sdo_abort(data: &[u8]) -> bool {
+    SdoFrame::new_checked(data).is_ok_and(|f| f.specifier() == 4)
+}
+
+fn sdo_info_follows(data: &[u8]) -> bool {
+    SdoInfoFrame::new_checked(data).is_ok_and(|f| f.incomplete())
+}
+
+fn soe_follows(data: &[u8]) -> bool {
+    SoePacket::new_checked(data).is_ok_and(|p| p.incomplete())
+}
+
+/// The mailbox data of a whole mailbox message (empty if it is shorter than its header).
+pub(crate) fn data_of(message: &[u8]) -> &[u8] {
+    message.get(HEADER_LEN..).unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn foe(repr: FoeRepr<'_>) -> Vec<u8> {
+        let mut data = vec![0u8; repr.buffer_len()];
+        repr.emit(&mut FoePacket::new_unchecked(&mut data[..]))
+            .unwrap();
+        data
+    }
+
+    const SIZES: Sizes = Sizes {
+        write: 128,
+        read: 128,
+    };
+
+    #[test]
+    fn an_foe_read_ends_with_the_short_packet_and_an_unanswered_ack() {
+        let rrq = foe(FoeRepr::ReadRequest {
+            password: 0,
+            file_name: b"f",
+        });
+        let full = vec![1u8; foe::max_data(128)];
+        let data1 = foe(FoeRepr::Data {
+            packet: 1,
+            data: &full,
+        });
+        let t = after(
+            MailboxType::Foe,
+            &rrq,
+            Some((MailboxType::Foe, &data1)),
+            None,
+            SIZES,
+        );
+        assert_eq!(t, Some(Transfer::FoeRead { last: false }));
+        let ack = foe(FoeRepr::Ack { packet: 1 });
+        assert!(matches!(expect(MailboxType::Foe, &ack, t), Expect::Reply));
+        let data2 = foe(FoeRepr::Data {
+            packet: 2,
+            data: &[1, 2],
+        });
+        let t = after(
+            MailboxType::Foe,
+            &ack,
+            Some((MailboxType::Foe, &data2)),
+            t,
+            SIZES,
+        );
+        assert_eq!(t, Some(Transfer::FoeRead { last: true }));
+        let ack2 = foe(FoeRepr::Ack { packet: 2 });
+        assert!(matches!(
+            expect(MailboxType::Foe, &ack2, t),
+            Expect::Nothing
+        ));
+        assert_eq!(after(MailboxType::Foe, &ack2, None, t, SIZES), None);
+    }
+
+    #[test]
+    fn an_foe_write_ends_with_the_acked_short_packet() {
+        let wrq = foe(FoeRepr::WriteRequest {
+            password: 0,
+            file_name: b"f",
+        });
+        let ack0 = foe(FoeRepr::Ack { packet: 0 });
+        let t = after(
+            MailboxType::Foe,
+            &wrq,
+            Some((MailboxType::Foe, &ack0)),
+            None,
+            SIZES,
+        );
+        assert_eq!(t, Some(Transfer::FoeWrite));
+        let full = vec![0u8; foe::max_data(128)];
+        let d1 = foe(FoeRepr::Data {
+            packet: 1,
+            data: &full,
+        });
+        let ack1 = foe(FoeRepr::Ack { packet: 1 });
+        let t = after(
+            MailboxType::Foe,
+            &d1,
+            Some((MailboxType::Foe, &ack1)),
+            t,
+            SIZES,
+        );
+        assert_eq!(t, Some(Transfer::FoeWrite));
+        let d2 = foe(FoeRepr::Data {
+            packet: 2,
+            data: &[9],
+        });
+        let ack2 = foe(FoeRepr::Ack { packet: 2 });
+        assert_eq!(
+            after(
+                MailboxType::Foe,
+                &d2,
+                Some((MailboxType::Foe, &ack2)),
+                t,
+                SIZES
+            ),
+            None
+        );
+    }
+
+    #[test]
+    fn soe_write_fragments_get_no_answer_and_hold_the_slave() {
+        // Write request, incomplete, 2 fragments left.
+        let fragment = [0x0B, 0x40, 0x02, 0x00, 1, 2, 3, 4];
+        assert!(matches!(
+            expect(MailboxType::Soe, &fragment, None),
+            Expect::Nothing
+        ));
+        assert_eq!(
+            after(MailboxType::Soe, &fragment, None, None, SIZES),
+            Some(Transfer::SoeWrite)
+        );
+        let read = [0x01, 0x40, 0x20, 0x00];
+        assert!(matches!(
+            expect(MailboxType::Soe, &read, None),
+            Expect::Replies(_)
+        ));
+    }
+}

@@ -1,0 +1,62 @@
+//! Reply datagrams: a mailbox message wrapped in the ETG.8200 EtherCAT header, its address
+//! field set to the address the client asked (the slave writes its own, or none).
+
+use crate::wire::gateway::{GatewayMessage, GatewayRepr};
+use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
+
+/// The datagram for a message from a slave (header and data) going back to a client that
+/// used `address`; `None` if the message does not parse or is too long for ETG.8200.
+pub(crate) fn from_slave(address: u16, message: &[u8]) -> Option<Vec<u8>> {
+    let header = Mailbox::new_checked(message)
+        .and_then(|m| MailboxHeader::parse(&m))
+        .ok()?;
+    let end = crate::wire::mailbox::HEADER_LEN + usize::from(header.length);
+    let data = message.get(crate::wire::mailbox::HEADER_LEN..end)?;
+    encode(MailboxHeader { address, ..header }, data)
+}
+
+/// The datagram for a reply the gateway makes (the master's dictionary, an error answer).
+pub(crate) fn made(
+    address: u16,
+    mailbox_type: MailboxType,
+    counter: u8,
+    data: &[u8],
+) -> Option<Vec<u8>> {
+    let header = MailboxHeader {
+        length: u16::try_from(data.len()).ok()?,
+        address,
+        channel: 0,
+        priority: 0,
+        mailbox_type,
+        counter,
+    };
+    encode(header, data)
+}
+
+fn encode(header: MailboxHeader, data: &[u8]) -> Option<Vec<u8>> {
+    let repr = GatewayRepr { header, data };
+    let mut out = vec![0u8; repr.buffer_len()];
+    repr.emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
+        .ok()?;
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_slave_reply_gets_the_client_address_and_keeps_its_counter() {
+        // Digest §11.2: the slave's reply to the TwinSAFE Loader, address rewritten.
+        let message = [
+            0x0a, 0x00, 0xe9, 0x03, 0x00, 0x13, 0x00, 0x30, 0x43, 0x80, 0xf9, 0x02, 0xea, 0x82,
+            0x1e, 0x00,
+        ];
+        let datagram = from_slave(0x8001, &message).unwrap();
+        assert_eq!(datagram[..2], [0x10, 0x50]);
+        assert_eq!(datagram[4..6], [0x01, 0x80]);
+        assert_eq!(datagram[7], 0x13);
+        assert_eq!(datagram[8..], message[6..]);
+        assert_eq!(from_slave(1, &message[..5]), None);
+    }
+}

@@ -1,0 +1,142 @@
+//! Gateway sessions: a client in the middle of a multi-message transfer with a slave
+//! (segmented SDO, FoE, fragmented SoE write) holds that slave until the transfer ends or
+//! the client stays silent for the session timeout. Other clients' requests to the slave
+//! wait meanwhile (up to their own deadline), so two transfers never interleave on one
+//! slave — the slave's SDO server, FoE and SoE state exist once per slave.
+//!
+//! The lock on the table is never held across an await: waiting is done on a `Notify`
+//! registered before the table is looked at, so no release is missed.
+
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::pin::pin;
+use std::sync::{Mutex, PoisonError};
+use std::time::Duration;
+
+use tokio::sync::Notify;
+use tokio::time::Instant;
+
+use super::plan::Transfer;
+
+#[derive(Debug, Clone, Copy)]
+struct Held {
+    client: SocketAddr,
+    transfer: Transfer,
+    expires: Instant,
+}
+
+/// Who holds which slave (by station address).
+#[derive(Debug, Default)]
+pub(crate) struct Sessions {
+    held: Mutex<HashMap<u16, Held>>,
+    released: Notify,
+}
+
+impl Sessions {
+    /// Waits until `client` may talk to `station` (no one else holds it, or their hold ran
+    /// out) and returns the transfer `client` is in with it, if any. `Err(())` if `deadline`
+    /// passes first.
+    pub async fn enter(
+        &self,
+        station: u16,
+        client: SocketAddr,
+        deadline: Instant,
+    ) -> Result<Option<Transfer>, ()> {
+        loop {
+            let mut released = pin!(self.released.notified());
+            released.as_mut().enable();
+            let wait_until = {
+                let mut held = self.held.lock().unwrap_or_else(PoisonError::into_inner);
+                let now = Instant::now();
+                match held.get(&station).copied() {
+                    None => return Ok(None),
+                    Some(h) if h.client == client => return Ok(Some(h.transfer)),
+                    Some(h) if h.expires <= now => {
+                        held.remove(&station);
+                        return Ok(None);
+                    }
+                    Some(h) => h.expires.min(deadline),
+                }
+            };
+            if Instant::now() >= deadline {
+                return Err(());
+            }
+            tokio::select! {
+                _ = released => {}
+                _ = tokio::time::sleep_until(wait_until) => {}
+            }
+        }
+    }
+
+    /// Records the transfer `client` is in with `station` after a message (`None`: it
+    /// ended, the slave is free). Only the holder (or anyone, when free) changes it.
+    pub fn update(
+        &self,
+        station: u16,
+        client: SocketAddr,
+        transfer: Option<Transfer>,
+        timeout: Duration,
+    ) {
+        let mut held = self.held.lock().unwrap_or_else(PoisonError::into_inner);
+        let mine = held.get(&station).is_none_or(|h| h.client == client);
+        if !mine {
+            return;
+        }
+        match transfer {
+            Some(transfer) => {
+                held.insert(
+                    station,
+                    Held {
+                        client,
+                        transfer,
+                        expires: Instant::now() + timeout,
+                    },
+                );
+            }
+            None => {
+                if held.remove(&station).is_some() {
+                    drop(held);
+                    self.released.notify_waiters();
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn addr(port: u16) -> SocketAddr {
+        SocketAddr::from(([127, 0, 0, 1], port))
+    }
+
+    #[tokio::test(flavor = "current_thread")]
+    async fn a_held_slave_waits_for_the_release_or_the_timeout() {
+        let sessions = std::sync::Arc::new(Sessions::default());
+        let far = Instant::now() + Duration::from_secs(60);
+        assert_eq!(sessions.enter(1, addr(1), far).await, Ok(None));
+        sessions.update(1, addr(1), Some(Transfer::Sdo), Duration::from_secs(3));
+        assert_eq!(
+            sessions.enter(1, addr(1), far).await,
+            Ok(Some(Transfer::Sdo))
+        );
+        // Another client gives up at its own deadline while the hold lasts.
+        let soon = Instant::now() + Duration::from_millis(20);
+        assert_eq!(sessions.enter(1, addr(2), soon).await, Err(()));
+        // A release lets it in at once.
+        let waiter = {
+            let sessions = std::sync::Arc::clone(&sessions);
+            tokio::spawn(async move { sessions.enter(1, addr(2), far).await })
+        };
+        tokio::task::yield_now().await;
+        sessions.update(1, addr(1), None, Duration::from_secs(3));
+        assert_eq!(waiter.await.unwrap(), Ok(None));
+        // A forgotten hold runs out.
+        let hold = Duration::from_millis(30);
+        sessions.update(2, addr(1), Some(Transfer::FoeWrite), hold);
+        let start = Instant::now();
+        assert_eq!(sessions.enter(2, addr(2), far).await, Ok(None));
+        assert!(start.elapsed() >= hold);
+    }
+}
