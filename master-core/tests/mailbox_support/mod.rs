@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use master_core::bus::{Bus, BusConfig, BusHandle};
 use master_core::link::{FaultConfig, FaultCounts, FaultInjector, Link};
 use master_core::mailbox::{MailboxConfig, MailboxEngine, SlaveMailbox, SlaveMailboxConfig};
-use master_core::master::{Master, MasterConfig, SlaveAddress};
+use master_core::master::{Master, MasterConfig, SiiLayout, SlaveAddress};
 use master_core::wire::register::AlState;
 use sim::link::{InProcessLink, SharedSegment};
 use sim::segment::Segment;
@@ -181,7 +181,10 @@ pub fn scan_to_preop(
         mailbox,
         ..MasterConfig::default()
     };
-    let master = Master::start(bus.clone(), config).expect("master starts");
+    // The process-data layout from the SII: some tests replace a slave's device with one
+    // that speaks only the protocol under test, so the scan must not need CoE.
+    let master = Master::with_layout_source(bus.clone(), config, Box::new(SiiLayout))
+        .expect("master starts");
     let report = block_on(master.scan()).expect("scan");
     assert!(report.failures.is_empty(), "{:?}", report.failures);
     let slaves = report
