@@ -3,6 +3,8 @@
 use std::time::Duration;
 
 use crate::mailbox::MailboxConfig;
+
+use super::dc::DcSettings;
 use crate::wire::register::AlState;
 
 /// Settings of a [`Master`](super::Master).
@@ -45,6 +47,8 @@ pub struct MasterConfig {
     /// ignored (taken as `None`). Slaves without an FMMU to spare are then read only
     /// while a request waits for an answer. Default true.
     pub map_mailbox_status: bool,
+    /// Distributed clocks: delays, offsets, the cyclic reference time, SYNC0.
+    pub dc: DcSettings,
 }
 
 impl Default for MasterConfig {
@@ -63,6 +67,7 @@ impl Default for MasterConfig {
             event_capacity: 256,
             mailbox: MailboxConfig::default(),
             map_mailbox_status: true,
+            dc: DcSettings::default(),
         }
     }
 }

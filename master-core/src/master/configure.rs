@@ -18,6 +18,7 @@ use crate::wire::sii::{MailboxArea, SiiImage};
 use super::access::{apwr, fprd, fprd_u16, fpwr};
 use super::al::{self, Who};
 use super::context::{Context, SlaveRecord};
+use super::dc;
 use super::eeprom::Eeprom;
 use super::error::MasterError;
 use super::event::MasterEvent;
@@ -329,6 +330,7 @@ pub(crate) async fn bring_to(
             AlState::Boot => configure_mailbox(ctx, info, true).await,
             AlState::SafeOp if current == AlState::PreOp => {
                 write_pdo_config(ctx, record).await?;
+                dc::activate_sync0(ctx, record).await?;
                 configure_process_data(ctx, record).await
             }
             AlState::Op if !record.layout.sync_managers.is_empty() => {

@@ -9,6 +9,7 @@ use crate::mailbox::MailboxEngine;
 
 use super::address::{self, SlaveAddress};
 use super::config::MasterConfig;
+use super::dc::DcSlave;
 use super::error::MasterError;
 use super::event::MasterEvent;
 use super::image::Image;
@@ -71,6 +72,8 @@ pub(crate) struct Context {
     pub events: broadcast::Sender<MasterEvent>,
     pub image: Arc<Image>,
     pub layout_source: Box<dyn LayoutSource>,
+    /// What the last scan measured and set on DC slaves.
+    pub dc: Mutex<Vec<DcSlave>>,
     /// PDO assignments to write in PREOP, by slave.
     pub pdo_configs: Mutex<Vec<SlavePdoConfig>>,
     /// Owns the mailbox of every slave in PREOP or above (see `mailboxes`).

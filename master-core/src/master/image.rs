@@ -2,13 +2,16 @@
 //!
 //! 1. an LRW of the whole image at logical [`LOGICAL_BASE`]: every slave's outputs, then
 //!    its inputs, in ring order;
+//! 0. with distributed clocks, first an FRMW of the reference clock's system time
+//!    (0x0910, 8 bytes), which every other DC slave compares with its own (see `dc`);
 //! 2. an LRD of the mailbox-status bits at logical [`STATUS_BASE`] (the seed capture's
 //!    0x40000): bit *p* is bit 3 ("mailbox full") of SM1's status byte 0x080D of the slave
 //!    at position *p*, mapped by an FMMU of that slave (see `mailbox_status`). A set bit is
 //!    handed to the mailbox engine ([`MailboxEngine::notify_mailbox_full`]), which then
 //!    reads that slave's mailbox; the engine does not poll idle mailboxes.
 //!
-//! The task runs on the bus thread; callers read and write the image through the master.
+//! A datagram whose working counter is not the expected one counts the cycle in
+//! [`CycleStats::wrong_wkc`]. The task runs on the bus thread; callers read and write the image through the master.
 //! The lock is held only to copy bytes, and a reader sees the inputs of one whole cycle.
 
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
@@ -17,6 +20,8 @@ use std::time::{Duration, Instant};
 use crate::bus::{CyclicFrame, CyclicReply, CyclicTask};
 use crate::mailbox::MailboxEngine;
 use crate::wire::command::{Command, DatagramAddress};
+use crate::wire::register::address::DC_SYSTEM_TIME;
+use crate::wire::register::dc::read_time;
 
 use super::bits::copy_bits;
 use super::cycle_stats::{CycleCounters, CycleStats};
@@ -42,6 +47,11 @@ struct Buffers {
     status_stations: Vec<Option<u16>>,
     /// Bytes of the status area (a bit per slave position).
     status_len: usize,
+    /// The DC reference clock's station and the number of DC slaves (the working counter
+    /// of the reference-time datagram).
+    dc: Option<(u16, u16)>,
+    /// The reference clock's system time as the last cycle read it.
+    dc_time: Option<u64>,
 }
 
 impl Buffers {
@@ -85,6 +95,19 @@ impl Image {
         if let Some(slot) = self.lock().status_stations.get_mut(usize::from(position)) {
             *slot = station;
         }
+    }
+
+    /// The reference clock whose system time every cycle distributes (FRMW 0x0910) and
+    /// the number of DC slaves; `None`: no DC.
+    pub fn set_dc_reference(&self, reference: Option<(u16, u16)>) {
+        let mut b = self.lock();
+        b.dc = reference;
+        b.dc_time = None;
+    }
+
+    /// The reference clock's system time as the last cycle read it.
+    pub fn dc_time(&self) -> Option<u64> {
+        self.lock().dc_time
     }
 
     /// Writes `data` into the image at `offset`; false if it does not fit.
@@ -172,7 +195,8 @@ pub(crate) struct ProcessCycle {
     pub image: Arc<Image>,
     pub period: Duration,
     pub mailboxes: MailboxEngine,
-    /// Frame positions of this cycle's process-data and status datagrams.
+    /// Frame positions of this cycle's reference-time, process-data and status datagrams.
+    dc_at: Option<usize>,
     pd_at: Option<usize>,
     status_at: Option<usize>,
     last_start: Option<Instant>,
@@ -186,6 +210,7 @@ impl ProcessCycle {
             image,
             period,
             mailboxes,
+            dc_at: None,
             pd_at: None,
             status_at: None,
             last_start: None,
@@ -200,9 +225,24 @@ impl CyclicTask for ProcessCycle {
     }
 
     fn build(&mut self, frame: &mut CyclicFrame<'_>) {
+        self.dc_at = None;
         self.pd_at = None;
         self.status_at = None;
         let b = self.image.lock();
+        // The reference time first, as SOEM and IgH put it: the slaves behind the
+        // reference compare it with their own as the frame passes.
+        if let Some((station, _)) = b.dc {
+            self.dc_at = frame
+                .push_zeroed(
+                    Command::Frmw,
+                    DatagramAddress::Node {
+                        station,
+                        ado: DC_SYSTEM_TIME,
+                    },
+                    8,
+                )
+                .ok();
+        }
         // A failure leaves the datagram out: the image size was checked against the frame
         // when the layout was made.
         if !b.outputs.is_empty() {
@@ -224,7 +264,7 @@ impl CyclicTask for ProcessCycle {
                 .ok();
         }
         drop(b);
-        if self.pd_at.is_some() || self.status_at.is_some() {
+        if self.pd_at.is_some() || self.status_at.is_some() || self.dc_at.is_some() {
             let now = Instant::now();
             self.image
                 .counters
@@ -237,6 +277,11 @@ impl CyclicTask for ProcessCycle {
         let mut wrong = false;
         {
             let mut b = self.image.lock();
+            if let Some(datagram) = self.dc_at.and_then(|at| reply.datagram(at)) {
+                let expected = b.dc.map_or(0, |(_, count)| count);
+                wrong |= datagram.wkc != expected;
+                b.dc_time = read_time(datagram.data).ok();
+            }
             if let Some(datagram) = self.pd_at.and_then(|at| reply.datagram(at)) {
                 if datagram.data.len() == b.inputs.len() {
                     b.inputs.copy_from_slice(datagram.data);

@@ -30,6 +30,7 @@ mod config;
 mod configure;
 mod context;
 mod cycle_stats;
+mod dc;
 mod eeprom;
 mod error;
 mod event;
@@ -61,6 +62,7 @@ pub use address::SlaveAddress;
 pub use coe_layout::CoeLayout;
 pub use config::MasterConfig;
 pub use cycle_stats::{CycleStats, CycleTiming};
+pub use dc::{DcSettings, DcSlave};
 pub use error::MasterError;
 pub use event::MasterEvent;
 pub use info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
@@ -127,6 +129,7 @@ impl Master {
             image,
             layout_source: source,
             pdo_configs: Mutex::new(Vec::new()),
+            dc: Mutex::new(Vec::new()),
             mailboxes,
             topology: tokio::sync::Mutex::new(()),
         });
@@ -446,6 +449,21 @@ impl Master {
             late: self.ctx.bus.stats().cycles_late,
             ..self.ctx.image.stats()
         }
+    }
+
+    /// The DC slaves of the last scan with their measured delays and offsets, the
+    /// reference clock first (empty without DC).
+    pub fn dc_slaves(&self) -> Vec<DcSlave> {
+        self.ctx
+            .dc
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+    }
+
+    /// The reference clock's system time (ns since 2000) as the last cycle read it.
+    pub fn dc_reference_time(&self) -> Option<u64> {
+        self.ctx.image.dc_time()
     }
 
     /// Distributions of the cyclic exchange's timing: cycle time, jitter, start delay,

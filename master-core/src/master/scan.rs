@@ -2,7 +2,7 @@
 //! then move them all to the target state together, so that their datagrams share frames.
 
 use std::future::Future;
-use std::sync::Arc;
+use std::sync::{Arc, PoisonError};
 
 use tokio::task::JoinSet;
 
@@ -12,6 +12,7 @@ use crate::wire::sii::SiiImage;
 
 use super::configure::{bring_to, identify};
 use super::context::{Context, SlaveRecord};
+use super::dc;
 use super::error::MasterError;
 use super::event::MasterEvent;
 use super::info::{ProcessDataInfo, SlaveInfo};
@@ -82,6 +83,11 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
     mailboxes::release_all(&ctx);
     ctx.image.resize(0, 0);
     ctx.image.reset_status(count);
+    ctx.image.set_dc_reference(None);
+    ctx.dc
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .clear();
     if count == 0 {
         return Ok(ScanReport {
             slaves: Vec::new(),
@@ -122,6 +128,12 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
         });
     }
     ctx.lock().list = all;
+
+    // Clocks before any slave reaches SAFEOP (offsets, delays, converged drift).
+    match dc::configure(&ctx, &identified).await {
+        Ok(dc) => *ctx.dc.lock().unwrap_or_else(PoisonError::into_inner) = dc,
+        Err(err) => failures.push(err),
+    }
 
     let first = first_stop(target);
     let mut ready = Vec::new();

@@ -141,6 +141,12 @@ impl Esc {
         &self.config
     }
 
+    /// Changes how the local clock runs (start value, drift, hop delay), e.g. to give each
+    /// slave of a test segment its own clock; takes effect at once.
+    pub fn set_dc_config(&mut self, dc: DcConfig) {
+        self.config.dc = dc;
+    }
+
     /// Power-cycles the ESC at time `now_ns`: every register goes back to its reset value,
     /// buffers and the mailbox queue are emptied, the clock restarts, and the EEPROM is
     /// loaded again. The SII image (including anything the master wrote to it) survives.

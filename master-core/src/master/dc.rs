@@ -1,0 +1,342 @@
+//! Distributed clocks (digest §13): propagation delays measured through the port
+//! receive-time latch, system-time offsets, static drift compensation at the scan, the
+//! reference clock's time distributed in every cycle (FRMW 0x0910, see `image`), and SYNC0
+//! activation before SAFEOP.
+//!
+//! The first DC slave is the reference clock; the master follows it (it does not steer the
+//! reference to its own clock). Delays are computed for a line (each slave entered at port
+//! 0, left at the next open port): a slave's loop time is the time from passing port 0 to
+//! the frame's return at its last open port, and the delay between consecutive DC slaves is
+//! half the difference of their loop times (§13.2). Branches are not measured separately.
+
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use crate::bus::Pending;
+use crate::wire::register::address as reg;
+use crate::wire::register::dc::{
+    DcActivation, ECAT_EPOCH_UNIX_SECS, OffsetDelay, PortReceiveTimes, SPEED_COUNTER_START_DEFAULT,
+    read_time,
+};
+
+use super::access::{fprd, fpwr};
+use super::context::{Context, SlaveRecord};
+use super::error::MasterError;
+
+/// How the master sets distributed clocks up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DcSettings {
+    /// Configure DC slaves at all (offsets, delays, the cyclic reference time). Default
+    /// true.
+    pub enabled: bool,
+    /// Reference-time datagrams sent back to back at the scan, before any slave reaches
+    /// SAFEOP, so that the clocks have converged when the cycle starts. Default 1000.
+    pub static_drift_frames: u32,
+    /// SYNC0 cycle for every DC slave with process data; `None`: no SYNC0. Default `None`.
+    pub sync0_cycle: Option<Duration>,
+    /// Shift of the first SYNC0 pulse from a multiple of the cycle. Default 0.
+    pub sync0_shift: Duration,
+    /// How far ahead of a slave's system time its first SYNC0 pulse is put. Default
+    /// 100 ms (SOEM).
+    pub sync0_start_delay: Duration,
+}
+
+impl Default for DcSettings {
+    fn default() -> DcSettings {
+        DcSettings {
+            enabled: true,
+            static_drift_frames: 1000,
+            sync0_cycle: None,
+            sync0_shift: Duration::ZERO,
+            sync0_start_delay: Duration::from_millis(100),
+        }
+    }
+}
+
+/// What the master measured and set for one DC slave.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct DcSlave {
+    /// Ring position.
+    pub position: u16,
+    /// Station address.
+    pub station: u16,
+    /// The reference clock (the first DC slave).
+    pub reference: bool,
+    /// Port receive times latched by the measurement (local time, ns).
+    pub receive_times: [u32; 4],
+    /// Local time of the processing unit when the measurement frame passed (0x0918).
+    pub processing_unit_time: u64,
+    /// Propagation delay from the reference clock, written to 0x0928 (ns).
+    pub delay_ns: u32,
+    /// System time offset written to 0x0920 (ns).
+    pub offset: i64,
+}
+
+/// Reference-time datagrams submitted at once during static drift compensation.
+const DRIFT_BATCH: u32 = 32;
+
+/// The master's clock in EtherCAT time: ns since 2000-01-01.
+fn ecat_now() -> u64 {
+    let unix = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default();
+    let since = unix.saturating_sub(Duration::from_secs(ECAT_EPOCH_UNIX_SECS));
+    u64::try_from(since.as_nanos()).unwrap_or(u64::MAX)
+}
+
+/// The time the frame spent behind a slave entered at port 0: from port 0 to its return
+/// at the last open port in processing order (3, 1, 2); 0 at the end of the line.
+fn loop_time(record: &SlaveRecord, times: &PortReceiveTimes) -> u32 {
+    let dl = &record.info.dl_status;
+    [2usize, 1, 3]
+        .into_iter()
+        .find(|&port| dl.port_active(port))
+        .and_then(|port| times.span(0, port))
+        .unwrap_or(0)
+}
+
+/// Propagation delays along a line from the loop times of consecutive DC slaves.
+pub(crate) fn line_delays(loops: &[u32]) -> Vec<u32> {
+    let mut delays = Vec::with_capacity(loops.len());
+    let mut delay: i64 = 0;
+    let mut previous: Option<u32> = None;
+    for &l in loops {
+        if let Some(p) = previous {
+            delay += (i64::from(p) - i64::from(l)) / 2;
+        }
+        delays.push(u32::try_from(delay.max(0)).unwrap_or(u32::MAX));
+        previous = Some(l);
+    }
+    delays
+}
+
+/// Measures and sets every DC slave among `records` (in ring order), compensates static
+/// drift, and hands the reference clock to the cyclic exchange. Returns what was set.
+pub(crate) async fn configure(
+    ctx: &Context,
+    records: &[SlaveRecord],
+) -> Result<Vec<DcSlave>, MasterError> {
+    let settings = ctx.config.dc;
+    let dc: Vec<&SlaveRecord> = records
+        .iter()
+        .filter(|r| r.info.esc.features.dc_supported())
+        .collect();
+    if !settings.enabled || dc.is_empty() {
+        ctx.image.set_dc_reference(None);
+        return Ok(Vec::new());
+    }
+    let bus = &ctx.bus;
+    let master_time = ecat_now();
+    bus.bwr(reg::DC_RECEIVE_TIME_PORT0, [0u8; 4])
+        .await
+        .map_err(MasterError::bus("latch DC receive times"))?;
+    let mut measured = Vec::with_capacity(dc.len());
+    for record in &dc {
+        let station = record.info.station;
+        let raw = fprd(
+            bus,
+            station,
+            reg::DC_RECEIVE_TIME_PORT0,
+            PortReceiveTimes::LEN,
+            "DC receive times",
+        )
+        .await?;
+        let times = PortReceiveTimes::parse(&raw).map_err(|source| MasterError::Malformed {
+            position: record.info.position,
+            what: "DC receive times",
+            source,
+        })?;
+        let raw = fprd(
+            bus,
+            station,
+            reg::DC_RECEIVE_TIME_PROCESSING_UNIT,
+            8,
+            "DC processing unit time",
+        )
+        .await?;
+        let pu = read_time(&raw).map_err(|source| MasterError::Malformed {
+            position: record.info.position,
+            what: "DC processing unit time",
+            source,
+        })?;
+        measured.push((times, pu, loop_time(record, &times)));
+    }
+    let loops: Vec<u32> = measured.iter().map(|(_, _, l)| *l).collect();
+    let delays = line_delays(&loops);
+    let mut slaves = Vec::with_capacity(dc.len());
+    for ((record, (times, pu, _)), delay) in dc.iter().zip(&measured).zip(delays) {
+        // System time = master time at the latch, plus the time the latch frame took from
+        // the reference to this slave (it saw the frame that much later).
+        let offset = master_time.wrapping_sub(*pu).wrapping_add(u64::from(delay)) as i64;
+        let mut block = [0u8; OffsetDelay::LEN];
+        OffsetDelay { offset, delay }
+            .emit(&mut block)
+            .map_err(|source| MasterError::Malformed {
+                position: record.info.position,
+                what: "DC offset",
+                source,
+            })?;
+        let station = record.info.station;
+        fpwr(
+            bus,
+            station,
+            reg::DC_SYSTEM_TIME_OFFSET,
+            block,
+            "DC offset and delay",
+        )
+        .await?;
+        fpwr(
+            bus,
+            station,
+            reg::DC_SPEED_COUNTER_START,
+            SPEED_COUNTER_START_DEFAULT.to_le_bytes(),
+            "DC filter reset",
+        )
+        .await?;
+        slaves.push(DcSlave {
+            position: record.info.position,
+            station,
+            reference: slaves.is_empty(),
+            receive_times: times.0,
+            processing_unit_time: *pu,
+            delay_ns: delay,
+            offset,
+        });
+    }
+    let reference = slaves.first().map(|s| s.station);
+    if let Some(reference) = reference {
+        compensate_static_drift(ctx, reference, settings.static_drift_frames).await?;
+    }
+    let count = u16::try_from(slaves.len()).unwrap_or(u16::MAX);
+    ctx.image
+        .set_dc_reference(reference.map(|station| (station, count)));
+    Ok(slaves)
+}
+
+/// Sends `frames` reference-time datagrams, a batch at a time.
+async fn compensate_static_drift(
+    ctx: &Context,
+    reference: u16,
+    frames: u32,
+) -> Result<(), MasterError> {
+    let mut left = frames;
+    while left > 0 {
+        let batch = left.min(DRIFT_BATCH);
+        let pending: Vec<Pending> = (0..batch)
+            .map(|_| ctx.bus.frmw(reference, reg::DC_SYSTEM_TIME, 8))
+            .collect();
+        for p in pending {
+            p.await.map_err(MasterError::bus("DC static drift"))?;
+        }
+        left -= batch;
+    }
+    Ok(())
+}
+
+/// Starts SYNC0 on the slave of `record` if the settings ask for it and the slave has DC
+/// and process data (SOEM's `ecx_dcsync0` sequence, §13.5).
+pub(crate) async fn activate_sync0(ctx: &Context, record: &SlaveRecord) -> Result<(), MasterError> {
+    let settings = ctx.config.dc;
+    let info = &record.info;
+    let Some(cycle) = settings.sync0_cycle else {
+        return Ok(());
+    };
+    if !settings.enabled
+        || !info.esc.features.dc_supported()
+        || record.layout.sync_managers.is_empty()
+    {
+        return Ok(());
+    }
+    let bus = &ctx.bus;
+    let station = info.station;
+    let cycle_ns = u64::try_from(cycle.as_nanos()).unwrap_or(u64::MAX).max(1);
+    let cycle_reg = u32::try_from(cycle_ns)
+        .map_err(|_| MasterError::InvalidArgument("SYNC0 cycle longer than 2^32 ns"))?;
+    fpwr(bus, station, reg::DC_ACTIVATION, [0u8], "SYNC0 stop").await?;
+    fpwr(
+        bus,
+        station,
+        reg::DC_CYCLIC_UNIT_CONTROL,
+        [0u8],
+        "SYNC unit to ECAT",
+    )
+    .await?;
+    let raw = fprd(bus, station, reg::DC_SYSTEM_TIME, 8, "DC system time").await?;
+    let now = read_time(&raw).map_err(|source| MasterError::Malformed {
+        position: info.position,
+        what: "DC system time",
+        source,
+    })?;
+    let start = sync0_start(
+        now,
+        settings.sync0_start_delay,
+        cycle_ns,
+        settings.sync0_shift,
+    );
+    fpwr(
+        bus,
+        station,
+        reg::DC_START_TIME,
+        start.to_le_bytes(),
+        "SYNC0 start time",
+    )
+    .await?;
+    fpwr(
+        bus,
+        station,
+        reg::DC_SYNC0_CYCLE,
+        cycle_reg.to_le_bytes(),
+        "SYNC0 cycle",
+    )
+    .await?;
+    let activation = DcActivation {
+        cyclic: true,
+        sync0: true,
+        ..DcActivation::default()
+    };
+    fpwr(
+        bus,
+        station,
+        reg::DC_ACTIVATION,
+        [activation.encode()],
+        "SYNC0 activation",
+    )
+    .await
+}
+
+/// The first SYNC0 pulse: at least `lead` after `now`, on a multiple of the cycle (so
+/// every slave with the same cycle fires together), plus the shift.
+pub(crate) fn sync0_start(now: u64, lead: Duration, cycle_ns: u64, shift: Duration) -> u64 {
+    let lead = u64::try_from(lead.as_nanos()).unwrap_or(u64::MAX);
+    let shift = u64::try_from(shift.as_nanos()).unwrap_or(0);
+    let cycle = cycle_ns.max(1);
+    (now.saturating_add(lead) / cycle)
+        .saturating_add(1)
+        .saturating_mul(cycle)
+        .saturating_add(shift)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn delays_add_up_half_loop_differences() {
+        // Hops 200, 300, 120 ns behind the reference: loops 2·(200+300+120), ...
+        let loops = [1240, 840, 240, 0];
+        assert_eq!(line_delays(&loops), vec![0, 200, 500, 620]);
+        assert_eq!(line_delays(&[]), Vec::<u32>::new());
+    }
+
+    #[test]
+    fn sync0_starts_on_a_cycle_boundary_after_the_lead() {
+        let start = sync0_start(
+            1_234_567,
+            Duration::from_millis(100),
+            1_000_000,
+            Duration::ZERO,
+        );
+        assert_eq!(start, 102_000_000);
+        let shifted = sync0_start(0, Duration::ZERO, 1_000, Duration::from_nanos(250));
+        assert_eq!(shifted, 1_250);
+    }
+}
