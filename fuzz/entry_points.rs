@@ -33,6 +33,7 @@ pub const ALL: &[(&str, EntryPoint)] = &[
     ("datagrams", datagrams),
     ("mailbox", mailbox),
     ("gateway", gateway),
+    ("gateway_service", gateway_service),
     ("sii", sii),
     ("registers", registers),
     ("eoe_reassembly", eoe_reassembly),
@@ -80,6 +81,12 @@ pub fn mailbox(data: &[u8]) {
             .emit(&mut out)
             .expect("a parsed mailbox message re-emits");
     }
+}
+
+/// An ETG.8200 gateway UDP payload through every parsing step of the gateway service
+/// (tolerance rewrites, transfer tracking, error answers, reply datagrams).
+pub fn gateway_service(data: &[u8]) {
+    let _ = master_core::gateway::fuzzing::request(data);
 }
 
 /// An ETG.8200 gateway UDP payload, then its mailbox.

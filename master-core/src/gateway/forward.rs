@@ -72,6 +72,7 @@ pub(crate) async fn forward(
     data: &[u8],
 ) -> Result<Vec<Vec<u8>>, Fault> {
     let station = mailbox.station();
+    let message = message(mailbox_type, data)?;
     let transfer = match f.sessions {
         Some(sessions) => sessions
             .enter(station, f.client, f.deadline)
@@ -79,9 +80,12 @@ pub(crate) async fn forward(
             .map_err(|()| Fault::Busy)?,
         None => None,
     };
-    let message = message(mailbox_type, data)?;
+    // From here on every way out updates the session (the slave is held for us).
     let left = f.deadline.saturating_duration_since(Instant::now());
     if left.is_zero() {
+        if let Some(sessions) = f.sessions {
+            sessions.update(station, f.client, None, f.session_timeout);
+        }
         return Err(Fault::Timeout);
     }
     let mb = mailbox.with_timeout(left);

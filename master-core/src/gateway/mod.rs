@@ -23,7 +23,8 @@
 //! loop and the request tasks), `route` (addresses), `forward` (one slave), `plan` (what
 //! a message makes the slave do), `session` (multi-message transfers), `normalize`
 //! (tolerated short SDO requests), `answer` (the gateway's own error answers), `reply`
-//! (datagrams back), `admission` (in-flight caps), `stats`.
+//! (datagrams back), `admission` (in-flight caps), `stats`, `fuzzing` (the parsing steps
+//! for the fuzz target).
 
 mod admission;
 mod allow;
@@ -31,6 +32,8 @@ mod answer;
 mod bind;
 mod config;
 mod forward;
+#[doc(hidden)]
+pub mod fuzzing;
 mod normalize;
 mod plan;
 mod reply;

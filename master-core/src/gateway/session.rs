@@ -4,6 +4,10 @@
 //! wait meanwhile (up to their own deadline), so two transfers never interleave on one
 //! slave — the slave's SDO server, FoE and SoE state exist once per slave.
 //!
+//! A client also holds the slave while one of its messages is being exchanged, so that
+//! of two clients starting transfers at the same moment one goes first and the other
+//! waits, instead of both initiating and the second silently replacing the first.
+//!
 //! The lock on the table is never held across an await: waiting is done on a `Notify`
 //! registered before the table is looked at, so no release is missed.
 
@@ -21,7 +25,8 @@ use super::plan::Transfer;
 #[derive(Debug, Clone, Copy)]
 struct Held {
     client: SocketAddr,
-    transfer: Transfer,
+    /// The transfer the client is in; `None` while its first message is exchanged.
+    transfer: Option<Transfer>,
     expires: Instant,
 }
 
@@ -34,8 +39,9 @@ pub(crate) struct Sessions {
 
 impl Sessions {
     /// Waits until `client` may talk to `station` (no one else holds it, or their hold ran
-    /// out) and returns the transfer `client` is in with it, if any. `Err(())` if `deadline`
-    /// passes first.
+    /// out), holds it for `client` until `deadline` (the end of its exchange; see
+    /// [`Self::update`]) and returns the transfer `client` is in with it, if any. `Err(())`
+    /// if `deadline` passes first.
     pub async fn enter(
         &self,
         station: u16,
@@ -49,18 +55,29 @@ impl Sessions {
                 let mut held = self.held.lock().unwrap_or_else(PoisonError::into_inner);
                 let now = Instant::now();
                 match held.get(&station).copied() {
-                    None => return Ok(None),
-                    Some(h) if h.client == client => return Ok(Some(h.transfer)),
-                    Some(h) if h.expires <= now => {
-                        held.remove(&station);
-                        return Ok(None);
+                    Some(h) if h.client != client && h.expires > now => {
+                        if now >= deadline {
+                            return Err(());
+                        }
+                        h.expires.min(deadline)
                     }
-                    Some(h) => h.expires.min(deadline),
+                    other => {
+                        // Free, expired, or already this client's.
+                        let transfer = other
+                            .filter(|h| h.client == client)
+                            .and_then(|h| h.transfer);
+                        held.insert(
+                            station,
+                            Held {
+                                client,
+                                transfer,
+                                expires: deadline,
+                            },
+                        );
+                        return Ok(transfer);
+                    }
                 }
             };
-            if Instant::now() >= deadline {
-                return Err(());
-            }
             tokio::select! {
                 _ = released => {}
                 _ = tokio::time::sleep_until(wait_until) => {}
@@ -88,7 +105,7 @@ impl Sessions {
                     station,
                     Held {
                         client,
-                        transfer,
+                        transfer: Some(transfer),
                         expires: Instant::now() + timeout,
                     },
                 );
@@ -138,5 +155,18 @@ mod tests {
         let start = Instant::now();
         assert_eq!(sessions.enter(2, addr(2), far).await, Ok(None));
         assert!(start.elapsed() >= hold);
+    }
+
+    #[tokio::test(flavor = "current_thread")]
+    async fn an_exchange_holds_the_slave_until_its_update() {
+        let sessions = Sessions::default();
+        let far = Instant::now() + Duration::from_secs(60);
+        assert_eq!(sessions.enter(7, addr(1), far).await, Ok(None));
+        let soon = Instant::now() + Duration::from_millis(20);
+        assert_eq!(sessions.enter(7, addr(2), soon).await, Err(()));
+        // The same client may go on (a pipelining client).
+        assert_eq!(sessions.enter(7, addr(1), far).await, Ok(None));
+        sessions.update(7, addr(1), None, Duration::from_secs(3));
+        assert_eq!(sessions.enter(7, addr(2), far).await, Ok(None));
     }
 }
