@@ -191,7 +191,7 @@ impl Drop for Ecatd {
 }
 
 /// The venv's bin directory (`$ECATD_PYTHON`'s, else `target/pyenv/bin`).
-fn venv_bin() -> PathBuf {
+pub fn venv_bin() -> PathBuf {
     match std::env::var_os("ECATD_PYTHON") {
         Some(python) => PathBuf::from(python)
             .parent()
