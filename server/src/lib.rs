@@ -9,5 +9,6 @@ pub mod daemon;
 pub mod grpc;
 pub mod http;
 pub mod logging;
+pub mod metrics;
 pub mod security;
 pub mod segment;

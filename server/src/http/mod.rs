@@ -77,7 +77,18 @@ pub fn router(core: Core, tokens: Tokens) -> Router {
                 )
             }),
         )
+        .route("/metrics", get(metrics).with_state(core.clone()))
         .merge(health::routes(core))
+}
+
+async fn metrics(
+    axum::extract::State(core): axum::extract::State<Core>,
+) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    match crate::metrics::render(&core) {
+        Ok(text) => ([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], text).into_response(),
+        Err(err) => (StatusCode::INTERNAL_SERVER_ERROR, err).into_response(),
+    }
 }
 
 /// Serves the HTTP routes on `listener` until `shutdown` completes.
