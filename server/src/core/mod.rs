@@ -7,6 +7,7 @@
 pub mod address;
 pub mod error;
 pub mod ip;
+pub mod value;
 pub mod view;
 
 use std::sync::Arc;

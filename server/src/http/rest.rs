@@ -13,18 +13,13 @@ use tokio_stream::wrappers::BroadcastStream;
 use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 use utoipa::{IntoParams, ToSchema};
 
+use crate::core::value::parse_number;
 use crate::core::{ApiError, Core, EntryView, EventView, IpView, ObjectView, SlaveView, VoeView};
 
 type Result<T> = std::result::Result<T, ApiError>;
 
-/// A number from a path or query: decimal or `0x` hex, narrowed to its field's width.
 fn num<T: TryFrom<u64>>(text: &str, field: &str) -> Result<T> {
-    let bad = || ApiError::invalid(format!("bad {field} {text:?}"));
-    let value = match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
-        Some(hex) => u64::from_str_radix(hex, 16).map_err(|_| bad())?,
-        None => text.parse::<u64>().map_err(|_| bad())?,
-    };
-    T::try_from(value).map_err(|_| bad())
+    parse_number(text, field)
 }
 
 fn unhex(text: &str) -> Result<Vec<u8>> {
