@@ -4,7 +4,7 @@
 mod server_support;
 
 use serde_json::Value;
-use server_support::{Ecatd, b64, call, grpcurl};
+use server_support::{Ecatd, b64, call, call_status, grpcurl};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// The simulator's test pattern for sized objects and files (byte i = i mod 251; the
@@ -225,6 +225,26 @@ fn mailbox_calls_match_the_simulator() {
     assert!(
         abort.1.contains("0x06020000"),
         "the abort code is in the message: {abort:?}"
+    );
+    // The details: a google.rpc.ErrorInfo grpcurl decodes through reflection.
+    let status = call_status(
+        g,
+        &[],
+        "ecat.v1.CoeService/Upload",
+        r#"{"slave":"0","index":24576,"subindex":1}"#,
+    )
+    .unwrap_err();
+    let info = &status["details"][0];
+    assert_eq!(
+        info["@type"], "type.googleapis.com/google.rpc.ErrorInfo",
+        "{status}"
+    );
+    assert_eq!(info["reason"], "sdo_abort");
+    assert_eq!(info["domain"], "ecat.v1");
+    assert_eq!(info["metadata"]["code"], "0x6020000");
+    assert_eq!(
+        info["metadata"]["code_text"],
+        "Object does not exist in the object dictionary"
     );
 
     let list = call(g, &[], "ecat.v1.CoeService/ObjectList", r#"{"slave":"0"}"#).unwrap();

@@ -236,34 +236,48 @@ pub fn call(
     method: &str,
     body: &str,
 ) -> Result<serde_json::Value, (String, String)> {
+    call_status(addr, headers, method, body).map_err(|status| {
+        (
+            status["code"]
+                .as_u64()
+                .map(|c| c.to_string())
+                .unwrap_or_default(),
+            status["message"].as_str().unwrap_or_default().to_owned(),
+        )
+    })
+}
+
+/// Like [`call`], but a failure is grpcurl's whole status as JSON (code, message, details).
+pub fn call_status(
+    addr: &str,
+    headers: &[&str],
+    method: &str,
+    body: &str,
+) -> Result<serde_json::Value, serde_json::Value> {
     let mut args: Vec<&str> = vec!["-format-error", "-d", body];
     for h in headers {
         args.push("-H");
         args.push(h);
     }
-    let mut command = Command::new(grpcurl_path());
-    command.arg("-plaintext").args(&args).arg(addr).arg(method);
-    let output = command.output().expect("grpcurl runs");
+    let output = Command::new(grpcurl_path())
+        .arg("-plaintext")
+        .args(&args)
+        .arg(addr)
+        .arg(method)
+        .output()
+        .expect("grpcurl runs");
     let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
     if output.status.success() {
-        Ok(serde_json::from_str(&stdout)
-            .unwrap_or_else(|e| panic!("grpcurl output {stdout:?}: {e}")))
-    } else {
-        // With -format-error grpcurl writes the status as JSON to stderr.
-        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-        let err: serde_json::Value = serde_json::Deserializer::from_str(&stderr)
-            .into_iter::<serde_json::Value>()
-            .next()
-            .and_then(Result::ok)
-            .unwrap_or_else(|| panic!("grpcurl failed without an error: {stdout}{stderr}"));
-        Err((
-            err["code"]
-                .as_u64()
-                .map(|c| c.to_string())
-                .unwrap_or_default(),
-            err["message"].as_str().unwrap_or_default().to_owned(),
-        ))
+        return Ok(serde_json::from_str(&stdout)
+            .unwrap_or_else(|e| panic!("grpcurl output {stdout:?}: {e}")));
     }
+    // With -format-error grpcurl writes the status as JSON to stderr.
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    Err(serde_json::Deserializer::from_str(&stderr)
+        .into_iter::<serde_json::Value>()
+        .next()
+        .and_then(Result::ok)
+        .unwrap_or_else(|| panic!("grpcurl failed without an error: {stdout}{stderr}")))
 }
 
 /// Runs curl with `args` and appends `-w %{http_code}`: the status and the body.
