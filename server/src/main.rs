@@ -1,13 +1,43 @@
-//! `ecatd`: the EtherCAT master daemon.
+//! `ecatd`: the EtherCAT master daemon. See the `server` library for the parts.
 
 use std::process::ExitCode;
 
+use clap::Parser;
+use server::config::{Args, Config};
+
 fn main() -> ExitCode {
-    eprintln!(
-        "ecatd {}: not runnable yet. Present: the EtherCAT wire formats (master-core::wire). \
-         Missing: the simulator (--simulate), the link and bus loop, mailboxes, the ETG.8200 \
-         gateway, gRPC/REST and metrics; each is an open issue.",
-        env!("CARGO_PKG_VERSION")
-    );
-    ExitCode::from(2)
+    let args = Args::parse();
+    let config = match Config::load(&args) {
+        Ok(config) => config,
+        Err(err) => {
+            eprintln!("ecatd: {err}");
+            return ExitCode::from(2);
+        }
+    };
+    if args.print_config {
+        print!("{}", config.to_toml());
+        return ExitCode::SUCCESS;
+    }
+    if let Err(err) = server::logging::init(config.log_format, &config.log) {
+        eprintln!("ecatd: {err}");
+        return ExitCode::from(2);
+    }
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(runtime) => runtime,
+        Err(err) => {
+            eprintln!("ecatd: cannot start the runtime: {err}");
+            return ExitCode::from(1);
+        }
+    };
+    match runtime.block_on(server::daemon::run(config)) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            tracing::error!(%err, "ecatd failed");
+            eprintln!("ecatd: {err}");
+            ExitCode::from(1)
+        }
+    }
 }

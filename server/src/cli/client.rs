@@ -1,0 +1,70 @@
+//! The gRPC connection: address, optional bearer token on every call.
+
+use proto::v1::bus_service_client::BusServiceClient;
+use proto::v1::coe_service_client::CoeServiceClient;
+use proto::v1::eoe_service_client::EoeServiceClient;
+use proto::v1::foe_service_client::FoeServiceClient;
+use proto::v1::soe_service_client::SoeServiceClient;
+use proto::v1::voe_service_client::VoeServiceClient;
+use tonic::metadata::MetadataValue;
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::Channel;
+use tonic::{Request, Status};
+
+/// Adds `authorization: Bearer <token>` when a token is given.
+#[derive(Clone)]
+pub struct Auth(Option<MetadataValue<tonic::metadata::Ascii>>);
+
+impl tonic::service::Interceptor for Auth {
+    fn call(&mut self, mut request: Request<()>) -> Result<Request<()>, Status> {
+        if let Some(value) = &self.0 {
+            request
+                .metadata_mut()
+                .insert("authorization", value.clone());
+        }
+        Ok(request)
+    }
+}
+
+type Svc = InterceptedService<Channel, Auth>;
+
+/// One client per service over one channel.
+pub struct Clients {
+    /// Bus.
+    pub bus: BusServiceClient<Svc>,
+    /// CoE.
+    pub coe: CoeServiceClient<Svc>,
+    /// SoE.
+    pub soe: SoeServiceClient<Svc>,
+    /// FoE.
+    pub foe: FoeServiceClient<Svc>,
+    /// VoE.
+    pub voe: VoeServiceClient<Svc>,
+    /// EoE.
+    pub eoe: EoeServiceClient<Svc>,
+}
+
+/// Connects to `address` (`http://host:port`).
+pub async fn connect(address: &str, token: Option<&str>) -> Result<Clients, String> {
+    let channel = Channel::from_shared(address.to_owned())
+        .map_err(|err| format!("bad address {address}: {err}"))?
+        .connect()
+        .await
+        .map_err(|err| format!("cannot connect to {address}: {err}"))?;
+    let auth = Auth(match token {
+        None => None,
+        Some(t) => Some(
+            format!("Bearer {t}")
+                .parse()
+                .map_err(|_| "the token has characters a header cannot carry".to_owned())?,
+        ),
+    });
+    Ok(Clients {
+        bus: BusServiceClient::with_interceptor(channel.clone(), auth.clone()),
+        coe: CoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
+        soe: SoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
+        foe: FoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
+        voe: VoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
+        eoe: EoeServiceClient::with_interceptor(channel, auth),
+    })
+}

@@ -1,0 +1,326 @@
+//! The service layer both APIs call: one method per operation, each one call into the
+//! master or a slave's mailbox, errors as [`ApiError`].
+//!
+//! Files: `address` (slave names), `error` (the one error type), `view` (what the APIs
+//! serialise), `ip` (EoE IP parameter text forms).
+
+pub mod address;
+pub mod error;
+pub mod ip;
+pub mod value;
+pub mod view;
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use master_core::mailbox::{FoeOptions, FoeProgress, SlaveMailbox, VoeMessage};
+use master_core::master::{Master, MasterEvent};
+use master_core::wire::coe::info::OdListType;
+use master_core::wire::register::AlState;
+use master_core::wire::soe::{ElementFlags, Idn};
+use tokio::sync::broadcast;
+
+pub use address::parse_slave;
+pub use error::{ApiError, ErrorKind};
+pub use view::{EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView};
+
+/// The largest register access in one request (the ESC's whole register space).
+pub const MAX_REGISTER_LEN: usize = 0x1000;
+
+/// The service layer over one master.
+#[derive(Clone)]
+pub struct Core {
+    master: Arc<Master>,
+    ready: Arc<AtomicBool>,
+}
+
+/// What the gRPC and REST layers give the core for each request: the slave name and the
+/// operation's own arguments.
+pub type Result<T> = std::result::Result<T, ApiError>;
+
+impl Core {
+    /// A core over `master`, not ready until [`Core::set_ready`].
+    pub fn new(master: Arc<Master>) -> Core {
+        Core {
+            master,
+            ready: Arc::new(AtomicBool::new(false)),
+        }
+    }
+
+    /// The master.
+    pub fn master(&self) -> &Arc<Master> {
+        &self.master
+    }
+
+    /// Marks the service ready (after the first scan) or not (shutting down).
+    pub fn set_ready(&self, ready: bool) {
+        self.ready.store(ready, Ordering::Release);
+    }
+
+    /// Whether the first scan is done and the service is not shutting down.
+    pub fn ready(&self) -> bool {
+        self.ready.load(Ordering::Acquire)
+    }
+
+    fn mailbox(&self, slave: &str) -> Result<SlaveMailbox> {
+        Ok(self.master.mailbox(parse_slave(slave)?)?)
+    }
+
+    /// Every slave of the last scan.
+    pub fn list_slaves(&self) -> Vec<SlaveView> {
+        self.master.slaves().iter().map(SlaveView::from).collect()
+    }
+
+    /// One slave.
+    pub fn get_slave(&self, slave: &str) -> Result<SlaveView> {
+        Ok(SlaveView::from(&self.master.slave(parse_slave(slave)?)?))
+    }
+
+    /// Moves a slave to `state` (a state name) and returns it afterwards.
+    pub async fn request_state(&self, slave: &str, state: &str) -> Result<SlaveView> {
+        let address = parse_slave(slave)?;
+        let state = view::parse_state(state)
+            .ok_or_else(|| ApiError::invalid(format!("unknown AL state {state:?}")))?;
+        self.master.request_state(address, state).await?;
+        Ok(SlaveView::from(&self.master.slave(address)?))
+    }
+
+    /// Scans the segment again; the slaves and one message per slave that refused a state.
+    pub async fn rescan(&self) -> Result<(Vec<SlaveView>, Vec<String>)> {
+        let report = self.master.scan().await?;
+        let failures = report.failures.iter().map(|f| f.to_string()).collect();
+        Ok((self.list_slaves(), failures))
+    }
+
+    /// A subscription to the master's events.
+    pub fn events(&self) -> broadcast::Receiver<MasterEvent> {
+        self.master.events()
+    }
+
+    /// Reads `len` bytes of ESC registers from `address`.
+    pub async fn read_register(&self, slave: &str, address: u16, len: usize) -> Result<Vec<u8>> {
+        if len == 0 || len > MAX_REGISTER_LEN {
+            return Err(ApiError::invalid(format!(
+                "register length must be 1..={MAX_REGISTER_LEN}"
+            )));
+        }
+        Ok(self
+            .master
+            .read_register(parse_slave(slave)?, address, len)
+            .await?)
+    }
+
+    /// Writes ESC registers at `address`.
+    pub async fn write_register(&self, slave: &str, address: u16, data: &[u8]) -> Result<()> {
+        if data.is_empty() || data.len() > MAX_REGISTER_LEN {
+            return Err(ApiError::invalid(format!(
+                "register data must be 1..={MAX_REGISTER_LEN} bytes"
+            )));
+        }
+        Ok(self
+            .master
+            .write_register(parse_slave(slave)?, address, data)
+            .await?)
+    }
+
+    /// Reads the whole SII image.
+    pub async fn read_sii(&self, slave: &str) -> Result<Vec<u8>> {
+        Ok(self.master.read_sii(parse_slave(slave)?).await?)
+    }
+
+    /// Writes SII words from `word` on; `data` is little-endian bytes, an even number.
+    pub async fn write_sii(&self, slave: &str, word: u16, data: &[u8]) -> Result<()> {
+        if data.is_empty() || !data.len().is_multiple_of(2) {
+            return Err(ApiError::invalid(
+                "SII data must be a non-empty even number of bytes",
+            ));
+        }
+        let words: Vec<u16> = data
+            .chunks_exact(2)
+            .map(|w| u16::from_le_bytes([w[0], w[1]]))
+            .collect();
+        Ok(self
+            .master
+            .write_sii(parse_slave(slave)?, word, &words)
+            .await?)
+    }
+
+    /// Sets the station alias; returns the alias register read back.
+    pub async fn set_alias(&self, slave: &str, alias: u16) -> Result<u16> {
+        Ok(self.master.set_alias(parse_slave(slave)?, alias).await?)
+    }
+
+    /// SDO upload (complete access from `subindex` when `complete`).
+    pub async fn coe_upload(
+        &self,
+        slave: &str,
+        index: u16,
+        subindex: u8,
+        complete: bool,
+    ) -> Result<Vec<u8>> {
+        let mailbox = self.mailbox(slave)?;
+        Ok(if complete {
+            mailbox.sdo_upload_complete(index, subindex).await?
+        } else {
+            mailbox.sdo_upload(index, subindex).await?
+        })
+    }
+
+    /// SDO download (complete access from `subindex` when `complete`).
+    pub async fn coe_download(
+        &self,
+        slave: &str,
+        index: u16,
+        subindex: u8,
+        data: &[u8],
+        complete: bool,
+    ) -> Result<()> {
+        let mailbox = self.mailbox(slave)?;
+        if complete {
+            mailbox.sdo_download_complete(index, subindex, data).await?;
+        } else {
+            mailbox.sdo_download(index, subindex, data).await?;
+        }
+        Ok(())
+    }
+
+    /// The object list of type `list` (1 all, 2 RxPDO, 3 TxPDO, 4 backup, 5 settings).
+    pub async fn coe_object_list(&self, slave: &str, list: u16) -> Result<Vec<u16>> {
+        if !(1..=5).contains(&list) {
+            return Err(ApiError::invalid("object list type must be 1..=5"));
+        }
+        Ok(self
+            .mailbox(slave)?
+            .sdo_info_od_list(OdListType::from(list))
+            .await?)
+    }
+
+    /// The description of object `index`.
+    pub async fn coe_object(&self, slave: &str, index: u16) -> Result<ObjectView> {
+        let info = self.mailbox(slave)?.sdo_info_object(index).await?;
+        Ok(ObjectView {
+            index: info.index,
+            data_type: u16::from(info.data_type),
+            data_type_name: info.data_type.to_string(),
+            max_subindex: info.max_subindex,
+            object_code: u8::from(info.object_code),
+            name: info.name,
+        })
+    }
+
+    /// The description of entry `index:subindex`.
+    pub async fn coe_entry(&self, slave: &str, index: u16, subindex: u8) -> Result<EntryView> {
+        let info = self
+            .mailbox(slave)?
+            .sdo_info_entry(index, subindex, 0)
+            .await?;
+        Ok(EntryView {
+            index: info.index,
+            subindex: info.subindex,
+            data_type: u16::from(info.data_type),
+            data_type_name: info.data_type.to_string(),
+            bit_length: info.bit_length,
+            access: info.access.0,
+            description: info.description,
+        })
+    }
+
+    /// Reads the `elements` (0: the value) of IDN `idn` of drive `drive`.
+    pub async fn soe_read(
+        &self,
+        slave: &str,
+        drive: u8,
+        idn: u16,
+        elements: u8,
+    ) -> Result<Vec<u8>> {
+        Ok(self
+            .mailbox(slave)?
+            .soe_read(drive, Idn::from_raw(idn), element_flags(elements))
+            .await?)
+    }
+
+    /// Writes the `elements` (0: the value) of IDN `idn` of drive `drive`.
+    pub async fn soe_write(
+        &self,
+        slave: &str,
+        drive: u8,
+        idn: u16,
+        elements: u8,
+        data: &[u8],
+    ) -> Result<()> {
+        Ok(self
+            .mailbox(slave)?
+            .soe_write(drive, Idn::from_raw(idn), element_flags(elements), data)
+            .await?)
+    }
+
+    /// Reads file `name`; `progress` hears the bytes transferred so far.
+    pub async fn foe_read(
+        &self,
+        slave: &str,
+        name: &str,
+        password: u32,
+        progress: Option<Arc<dyn Fn(FoeProgress) + Send + Sync>>,
+    ) -> Result<Vec<u8>> {
+        let options = FoeOptions { password, progress };
+        Ok(self.mailbox(slave)?.foe_read(name, options).await?)
+    }
+
+    /// Writes file `name`.
+    pub async fn foe_write(
+        &self,
+        slave: &str,
+        name: &str,
+        password: u32,
+        data: &[u8],
+    ) -> Result<()> {
+        let options = FoeOptions {
+            password,
+            progress: None,
+        };
+        Ok(self.mailbox(slave)?.foe_write(name, data, options).await?)
+    }
+
+    /// Sends one VoE message and returns the answer.
+    pub async fn voe(
+        &self,
+        slave: &str,
+        vendor_id: u32,
+        vendor_type: u16,
+        data: &[u8],
+    ) -> Result<VoeMessage> {
+        Ok(self
+            .mailbox(slave)?
+            .voe(vendor_id, vendor_type, data)
+            .await?)
+    }
+
+    /// Sets IP parameters of the slave's EoE port.
+    pub async fn eoe_set_ip(&self, slave: &str, settings: &IpView) -> Result<()> {
+        let settings = ip::to_settings(settings)?;
+        Ok(self.mailbox(slave)?.eoe_set_ip(&settings).await?)
+    }
+
+    /// Reads IP parameters of the slave's EoE port.
+    pub async fn eoe_get_ip(&self, slave: &str) -> Result<IpView> {
+        Ok(ip::from_settings(&self.mailbox(slave)?.eoe_get_ip().await?))
+    }
+
+    /// Brings every slave to `state` (shutdown: a safe state); failures are logged.
+    pub async fn all_to(&self, state: AlState) {
+        for slave in self.master.slaves() {
+            let address = master_core::master::SlaveAddress::Position(slave.position);
+            if let Err(err) = self.master.request_state(address, state).await {
+                tracing::warn!(position = slave.position, %err, "slave did not reach the safe state");
+            }
+        }
+    }
+}
+
+fn element_flags(elements: u8) -> ElementFlags {
+    if elements == 0 {
+        ElementFlags::VALUE
+    } else {
+        ElementFlags::from_bits(elements)
+    }
+}

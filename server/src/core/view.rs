@@ -1,0 +1,287 @@
+//! What the core hands to both APIs: plain serialisable views of the master's types.
+
+use master_core::master::{MasterEvent, SlaveInfo};
+use master_core::wire::register::AlState;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+/// An AL state by its name (`INIT`, `PREOP`, `BOOT`, `SAFEOP`, `OP`).
+pub fn state_name(state: AlState) -> String {
+    match state {
+        AlState::Init => "INIT".into(),
+        AlState::PreOp => "PREOP".into(),
+        AlState::Boot => "BOOT".into(),
+        AlState::SafeOp => "SAFEOP".into(),
+        AlState::Op => "OP".into(),
+        AlState::Unknown(raw) => format!("UNKNOWN({raw:#x})"),
+    }
+}
+
+/// Parses a state name (case-insensitive; `PRE-OP`, `SAFE-OP` accepted).
+pub fn parse_state(name: &str) -> Option<AlState> {
+    match name.to_ascii_uppercase().replace(['-', '_'], "").as_str() {
+        "INIT" => Some(AlState::Init),
+        "PREOP" => Some(AlState::PreOp),
+        "BOOT" => Some(AlState::Boot),
+        "SAFEOP" => Some(AlState::SafeOp),
+        "OP" => Some(AlState::Op),
+        _ => None,
+    }
+}
+
+/// Vendor, product, revision and serial number.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct IdentityView {
+    /// Vendor id.
+    pub vendor_id: u32,
+    /// Product code.
+    pub product_code: u32,
+    /// Revision number.
+    pub revision: u32,
+    /// Serial number.
+    pub serial: u32,
+}
+
+/// One slave.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct SlaveView {
+    /// Ring position.
+    pub position: u16,
+    /// Configured station address.
+    pub station: u16,
+    /// Station alias (0: none).
+    pub alias: u16,
+    /// Identity from the SII.
+    pub identity: IdentityView,
+    /// Name from the SII.
+    pub name: String,
+    /// Current AL state.
+    pub state: String,
+    /// The error indication of the AL status register.
+    pub al_error: bool,
+    /// AL status code.
+    pub al_status_code: u16,
+    /// Text of the AL status code.
+    pub al_status_text: String,
+    /// Mailbox protocols (`CoE`, `SoE`, `FoE`, `VoE`, `EoE`, `AoE`).
+    pub mailbox_protocols: Vec<String>,
+    /// The state the master keeps the slave in.
+    pub requested_state: String,
+    /// Whether the slave answered the last look.
+    pub present: bool,
+}
+
+impl From<&SlaveInfo> for SlaveView {
+    fn from(info: &SlaveInfo) -> SlaveView {
+        let mut mailbox_protocols = Vec::new();
+        if let Some(mailbox) = &info.mailbox {
+            let p = mailbox.protocols;
+            for (flag, name) in [
+                (p.coe(), "CoE"),
+                (p.soe(), "SoE"),
+                (p.foe(), "FoE"),
+                (p.voe(), "VoE"),
+                (p.eoe(), "EoE"),
+                (p.aoe(), "AoE"),
+            ] {
+                if flag {
+                    mailbox_protocols.push(name.to_owned());
+                }
+            }
+        }
+        SlaveView {
+            position: info.position,
+            station: info.station,
+            alias: info.alias,
+            identity: IdentityView {
+                vendor_id: info.identity.vendor_id,
+                product_code: info.identity.product_code,
+                revision: info.identity.revision,
+                serial: info.identity.serial,
+            },
+            name: info.name.clone(),
+            state: state_name(info.al_state),
+            al_error: info.al_error,
+            al_status_code: u16::from(info.al_status_code),
+            al_status_text: info.al_status_code.description().to_owned(),
+            mailbox_protocols,
+            requested_state: state_name(info.requested_state),
+            present: info.present,
+        }
+    }
+}
+
+/// A topology or state event.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct EventView {
+    /// `slave_found`, `slave_lost`, `slave_replaced`, `state_changed`, `al_error`, `lagged`.
+    pub kind: String,
+    /// Ring position.
+    pub position: u16,
+    /// Station address.
+    pub station: u16,
+    /// Slave name, when the event has it.
+    pub name: String,
+    /// State before (state changes).
+    pub from: Option<String>,
+    /// State after (state changes, AL errors).
+    pub to: Option<String>,
+    /// AL status code (AL errors).
+    pub al_status_code: Option<u16>,
+    /// New identity (found, replaced).
+    pub identity: Option<IdentityView>,
+    /// Summary.
+    pub text: String,
+}
+
+impl EventView {
+    /// The event for a subscriber that fell behind and missed `missed` events.
+    pub fn lagged(missed: u64) -> EventView {
+        EventView {
+            kind: "lagged".into(),
+            position: 0,
+            station: 0,
+            name: String::new(),
+            from: None,
+            to: None,
+            al_status_code: None,
+            identity: None,
+            text: format!("{missed} events were missed"),
+        }
+    }
+}
+
+impl From<&MasterEvent> for EventView {
+    fn from(event: &MasterEvent) -> EventView {
+        let id = |i: &master_core::master::Identity| IdentityView {
+            vendor_id: i.vendor_id,
+            product_code: i.product_code,
+            revision: i.revision,
+            serial: i.serial,
+        };
+        let base = |kind: &str, position: u16, station: u16, name: &str| EventView {
+            kind: kind.into(),
+            position,
+            station,
+            name: name.into(),
+            from: None,
+            to: None,
+            al_status_code: None,
+            identity: None,
+            text: String::new(),
+        };
+        let mut view = match event {
+            MasterEvent::SlaveFound {
+                position,
+                station,
+                identity,
+                name,
+            } => EventView {
+                identity: Some(id(identity)),
+                ..base("slave_found", *position, *station, name)
+            },
+            MasterEvent::SlaveLost {
+                position,
+                station,
+                name,
+            } => base("slave_lost", *position, *station, name),
+            MasterEvent::SlaveReplaced {
+                position,
+                station,
+                new,
+                name,
+                ..
+            } => EventView {
+                identity: Some(id(new)),
+                ..base("slave_replaced", *position, *station, name)
+            },
+            MasterEvent::StateChanged {
+                position,
+                station,
+                from,
+                to,
+            } => EventView {
+                from: Some(state_name(*from)),
+                to: Some(state_name(*to)),
+                ..base("state_changed", *position, *station, "")
+            },
+            MasterEvent::AlError {
+                position,
+                station,
+                name,
+                state,
+                code,
+            } => EventView {
+                to: Some(state_name(*state)),
+                al_status_code: Some(u16::from(*code)),
+                ..base("al_error", *position, *station, name)
+            },
+        };
+        view.text = format!("{event:?}");
+        view
+    }
+}
+
+/// IP parameters of a slave's EoE port; absent fields are left as they are.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct IpView {
+    /// MAC address, `aa:bb:cc:dd:ee:ff`.
+    pub mac: Option<String>,
+    /// IPv4 address.
+    pub ip: Option<String>,
+    /// Subnet mask.
+    pub subnet_mask: Option<String>,
+    /// Default gateway.
+    pub default_gateway: Option<String>,
+    /// DNS server.
+    pub dns_server: Option<String>,
+    /// DNS name.
+    pub dns_name: Option<String>,
+}
+
+/// An object of the CoE dictionary (SDO Information).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct ObjectView {
+    /// Index.
+    pub index: u16,
+    /// Data type code.
+    pub data_type: u16,
+    /// Data type name.
+    pub data_type_name: String,
+    /// Highest subindex.
+    pub max_subindex: u8,
+    /// Object code (7 VAR, 8 ARRAY, 9 RECORD).
+    pub object_code: u8,
+    /// Name.
+    pub name: String,
+}
+
+/// An entry of a CoE object (SDO Information).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct EntryView {
+    /// Index.
+    pub index: u16,
+    /// Subindex.
+    pub subindex: u8,
+    /// Data type code.
+    pub data_type: u16,
+    /// Data type name.
+    pub data_type_name: String,
+    /// Size in bits.
+    pub bit_length: u16,
+    /// Access flags.
+    pub access: u16,
+    /// Description.
+    pub description: String,
+}
+
+/// A VoE message.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct VoeView {
+    /// Vendor id.
+    pub vendor_id: u32,
+    /// Vendor type.
+    pub vendor_type: u16,
+    /// Payload, hex.
+    pub data: String,
+}

@@ -1,0 +1,152 @@
+//! `ecat.v1.BusService`: slaves, states, events, registers and SII.
+
+use std::pin::Pin;
+
+use proto::v1 as pb;
+use proto::v1::bus_service_server::BusService;
+use tokio_stream::Stream;
+use tokio_stream::StreamExt;
+use tokio_stream::wrappers::BroadcastStream;
+use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
+use tonic::{Request, Response, Status};
+
+use super::convert::{event, slave, state_name};
+use super::status::{narrow, status};
+use crate::core::{Core, EventView};
+use crate::security::require_write;
+
+/// The bus service over the core.
+pub struct Bus {
+    /// The service layer.
+    pub core: Core,
+}
+
+type Reply<T> = Result<Response<T>, Status>;
+
+#[tonic::async_trait]
+impl BusService for Bus {
+    async fn list_slaves(
+        &self,
+        _: Request<pb::ListSlavesRequest>,
+    ) -> Reply<pb::ListSlavesResponse> {
+        let slaves = self.core.list_slaves().iter().map(slave).collect();
+        Ok(Response::new(pb::ListSlavesResponse { slaves }))
+    }
+
+    async fn get_slave(&self, request: Request<pb::GetSlaveRequest>) -> Reply<pb::Slave> {
+        let view = self
+            .core
+            .get_slave(&request.get_ref().slave)
+            .map_err(status)?;
+        Ok(Response::new(slave(&view)))
+    }
+
+    async fn request_state(
+        &self,
+        request: Request<pb::RequestStateRequest>,
+    ) -> Reply<pb::RequestStateResponse> {
+        require_write(&request, "request_state")?;
+        let r = request.get_ref();
+        let state = state_name(r.state)?;
+        let view = self
+            .core
+            .request_state(&r.slave, state)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::RequestStateResponse {
+            slave: Some(slave(&view)),
+        }))
+    }
+
+    async fn rescan(&self, request: Request<pb::RescanRequest>) -> Reply<pb::RescanResponse> {
+        require_write(&request, "rescan")?;
+        let (slaves, failures) = self.core.rescan().await.map_err(status)?;
+        Ok(Response::new(pb::RescanResponse {
+            slaves: slaves.iter().map(slave).collect(),
+            failures,
+        }))
+    }
+
+    type WatchEventsStream = Pin<Box<dyn Stream<Item = Result<pb::Event, Status>> + Send>>;
+
+    async fn watch_events(
+        &self,
+        _: Request<pb::WatchEventsRequest>,
+    ) -> Reply<Self::WatchEventsStream> {
+        let stream = BroadcastStream::new(self.core.events()).map(|item| {
+            Ok(match item {
+                Ok(e) => event(&EventView::from(&e)),
+                Err(BroadcastStreamRecvError::Lagged(missed)) => event(&EventView::lagged(missed)),
+            })
+        });
+        Ok(Response::new(Box::pin(stream)))
+    }
+
+    async fn read_register(
+        &self,
+        request: Request<pb::ReadRegisterRequest>,
+    ) -> Reply<pb::ReadRegisterResponse> {
+        let r = request.get_ref();
+        let data = self
+            .core
+            .read_register(
+                &r.slave,
+                narrow(r.address, "address")?,
+                narrow(r.length, "length")?,
+            )
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::ReadRegisterResponse { data }))
+    }
+
+    async fn write_register(
+        &self,
+        request: Request<pb::WriteRegisterRequest>,
+    ) -> Reply<pb::WriteRegisterResponse> {
+        require_write(&request, "write_register")?;
+        let r = request.get_ref();
+        self.core
+            .write_register(&r.slave, narrow(r.address, "address")?, &r.data)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::WriteRegisterResponse {}))
+    }
+
+    async fn read_sii(&self, request: Request<pb::ReadSiiRequest>) -> Reply<pb::ReadSiiResponse> {
+        let data = self
+            .core
+            .read_sii(&request.get_ref().slave)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::ReadSiiResponse { data }))
+    }
+
+    async fn write_sii(
+        &self,
+        request: Request<pb::WriteSiiRequest>,
+    ) -> Reply<pb::WriteSiiResponse> {
+        require_write(&request, "write_sii")?;
+        let r = request.get_ref();
+        self.core
+            .write_sii(&r.slave, narrow(r.word, "word")?, &r.data)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::WriteSiiResponse {}))
+    }
+
+    async fn set_alias(
+        &self,
+        request: Request<pb::SetAliasRequest>,
+    ) -> Reply<pb::SetAliasResponse> {
+        require_write(&request, "set_alias")?;
+        let r = request.get_ref();
+        let alias = self
+            .core
+            .set_alias(&r.slave, narrow(r.alias, "alias")?)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::SetAliasResponse {
+            alias: u32::from(alias),
+        }))
+    }
+}

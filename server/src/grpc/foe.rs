@@ -1,0 +1,111 @@
+//! `ecat.v1.FoeService`: file read as a stream of chunks (progress first, then the data),
+//! file write from a client stream.
+
+use std::pin::Pin;
+use std::sync::Arc;
+
+use master_core::mailbox::FoeProgress;
+use proto::v1 as pb;
+use proto::v1::foe_service_server::FoeService;
+use tokio::sync::mpsc;
+use tokio_stream::wrappers::ReceiverStream;
+use tokio_stream::{Stream, StreamExt};
+use tonic::{Request, Response, Status, Streaming};
+
+use super::status::status;
+use crate::core::{ApiError, Core};
+use crate::security::require_write;
+
+/// Largest file a client may write in one call.
+pub const MAX_FOE_WRITE: usize = 16 << 20;
+/// Data bytes per streamed chunk.
+const CHUNK: usize = 64 << 10;
+/// Progress and data messages buffered ahead of a slow client.
+const QUEUE: usize = 16;
+
+/// The FoE service over the core.
+pub struct Foe {
+    /// The service layer.
+    pub core: Core,
+}
+
+type Reply<T> = Result<Response<T>, Status>;
+
+#[tonic::async_trait]
+impl FoeService for Foe {
+    type ReadStream = Pin<Box<dyn Stream<Item = Result<pb::FoeChunk, Status>> + Send>>;
+
+    async fn read(&self, request: Request<pb::FoeReadRequest>) -> Reply<Self::ReadStream> {
+        let r = request.into_inner();
+        let (tx, rx) = mpsc::channel(QUEUE);
+        let progress_tx = tx.clone();
+        // Progress messages carry no data; a full queue drops them (the data still comes).
+        let progress = Arc::new(move |p: FoeProgress| {
+            if let FoeProgress::Transferred { bytes, total } = p {
+                let _ = progress_tx.try_send(Ok(pb::FoeChunk {
+                    data: Vec::new(),
+                    transferred: bytes as u64,
+                    total: total.map(|t| t as u64),
+                }));
+            }
+        });
+        let core = self.core.clone();
+        tokio::spawn(async move {
+            match core
+                .foe_read(&r.slave, &r.name, r.password, Some(progress))
+                .await
+            {
+                Ok(data) => {
+                    let total = data.len() as u64;
+                    let mut sent = 0u64;
+                    for piece in data.chunks(CHUNK) {
+                        sent += piece.len() as u64;
+                        let chunk = pb::FoeChunk {
+                            data: piece.to_vec(),
+                            transferred: sent,
+                            total: Some(total),
+                        };
+                        if tx.send(Ok(chunk)).await.is_err() {
+                            return;
+                        }
+                    }
+                }
+                Err(err) => {
+                    let _ = tx.send(Err(status(err))).await;
+                }
+            }
+        });
+        Ok(Response::new(Box::pin(ReceiverStream::new(rx))))
+    }
+
+    async fn write(
+        &self,
+        request: Request<Streaming<pb::FoeWriteChunk>>,
+    ) -> Reply<pb::FoeWriteResponse> {
+        require_write(&request, "foe_write")?;
+        let mut stream = request.into_inner();
+        let mut target: Option<(String, String, u32)> = None;
+        let mut data = Vec::new();
+        while let Some(chunk) = stream.next().await {
+            let chunk = chunk?;
+            if target.is_none() {
+                target = Some((chunk.slave, chunk.name, chunk.password));
+            }
+            if data.len() + chunk.data.len() > MAX_FOE_WRITE {
+                return Err(status(ApiError::too_large(format!(
+                    "FoE write above {MAX_FOE_WRITE} bytes"
+                ))));
+            }
+            data.extend_from_slice(&chunk.data);
+        }
+        let (slave, name, password) =
+            target.ok_or_else(|| status(ApiError::invalid("empty FoE write stream")))?;
+        self.core
+            .foe_write(&slave, &name, password, &data)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::FoeWriteResponse {
+            written: data.len() as u64,
+        }))
+    }
+}

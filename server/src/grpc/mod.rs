@@ -1,0 +1,93 @@
+//! The gRPC API (`ecat.v1`), server reflection (v1 and v1alpha) and `grpc.health.v1`.
+//!
+//! Files: one per service (`bus`, `coe`, `foe`, `protocols` for SoE/VoE/EoE), `convert`
+//! (views to messages), `status` (the error mapping).
+
+pub mod bus;
+pub mod coe;
+pub mod convert;
+pub mod foe;
+pub mod protocols;
+pub mod status;
+
+use std::future::Future;
+use std::time::Duration;
+
+use proto::v1::bus_service_server::BusServiceServer;
+use proto::v1::coe_service_server::CoeServiceServer;
+use proto::v1::eoe_service_server::EoeServiceServer;
+use proto::v1::foe_service_server::FoeServiceServer;
+use proto::v1::soe_service_server::SoeServiceServer;
+use proto::v1::voe_service_server::VoeServiceServer;
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::Server;
+
+use crate::core::Core;
+use crate::security::{Tokens, grpc_interceptor};
+
+/// Largest request message accepted (FoE writes come in chunks below this).
+pub const MAX_MESSAGE: usize = 4 << 20;
+/// Time limit of one call (a streaming call counts from its start).
+pub const TIMEOUT: Duration = Duration::from_secs(60);
+
+/// Serves every gRPC service on `listener` until `shutdown` completes.
+pub async fn serve(
+    core: Core,
+    tokens: Tokens,
+    listener: tokio::net::TcpListener,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), String> {
+    let reflection = || {
+        tonic_reflection::server::Builder::configure()
+            .register_encoded_file_descriptor_set(proto::v1::FILE_DESCRIPTOR_SET)
+            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+            // google.rpc.ErrorInfo, so that clients using reflection can show error details.
+            .register_encoded_file_descriptor_set(tonic_types::pb::FILE_DESCRIPTOR_SET)
+    };
+    let reflection_v1 = reflection().build_v1().map_err(|e| e.to_string())?;
+    let reflection_v1alpha = reflection().build_v1alpha().map_err(|e| e.to_string())?;
+    let (health, health_service) = tonic_health::server::health_reporter();
+    for name in [
+        "",
+        "ecat.v1.BusService",
+        "ecat.v1.CoeService",
+        "ecat.v1.SoeService",
+        "ecat.v1.FoeService",
+        "ecat.v1.VoeService",
+        "ecat.v1.EoeService",
+    ] {
+        health
+            .set_service_status(name, tonic_health::ServingStatus::Serving)
+            .await;
+    }
+    let auth = grpc_interceptor(tokens);
+    macro_rules! svc {
+        ($server:ident, $inner:expr) => {
+            InterceptedService::new(
+                $server::new($inner).max_decoding_message_size(MAX_MESSAGE),
+                auth.clone(),
+            )
+        };
+    }
+    let incoming = tokio_stream::wrappers::TcpListenerStream::new(listener);
+    Server::builder()
+        .timeout(TIMEOUT)
+        .add_service(reflection_v1)
+        .add_service(reflection_v1alpha)
+        .add_service(health_service)
+        .add_service(svc!(BusServiceServer, bus::Bus { core: core.clone() }))
+        .add_service(svc!(CoeServiceServer, coe::Coe { core: core.clone() }))
+        .add_service(svc!(FoeServiceServer, foe::Foe { core: core.clone() }))
+        .add_service(svc!(
+            SoeServiceServer,
+            protocols::Protocols { core: core.clone() }
+        ))
+        .add_service(svc!(
+            VoeServiceServer,
+            protocols::Protocols { core: core.clone() }
+        ))
+        .add_service(svc!(EoeServiceServer, protocols::Protocols { core }))
+        .serve_with_incoming_shutdown(incoming, shutdown)
+        .await
+        .map_err(|err| format!("gRPC server: {err}"))
+}

@@ -1,0 +1,118 @@
+//! `ecat.v1.SoeService`, `VoeService` and `EoeService`: one call each into the core.
+
+use proto::v1 as pb;
+use proto::v1::eoe_service_server::EoeService;
+use proto::v1::soe_service_server::SoeService;
+use proto::v1::voe_service_server::VoeService;
+use tonic::{Request, Response, Status};
+
+use super::status::{narrow, status};
+use crate::core::{Core, IpView};
+use crate::security::require_write;
+
+/// The SoE, VoE and EoE services over the core.
+pub struct Protocols {
+    /// The service layer.
+    pub core: Core,
+}
+
+type Reply<T> = Result<Response<T>, Status>;
+
+#[tonic::async_trait]
+impl SoeService for Protocols {
+    async fn read(&self, request: Request<pb::SoeReadRequest>) -> Reply<pb::SoeReadResponse> {
+        let r = request.get_ref();
+        let data = self
+            .core
+            .soe_read(
+                &r.slave,
+                narrow(r.drive, "drive")?,
+                narrow(r.idn, "idn")?,
+                narrow(r.elements, "elements")?,
+            )
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::SoeReadResponse { data }))
+    }
+
+    async fn write(&self, request: Request<pb::SoeWriteRequest>) -> Reply<pb::SoeWriteResponse> {
+        require_write(&request, "soe_write")?;
+        let r = request.get_ref();
+        self.core
+            .soe_write(
+                &r.slave,
+                narrow(r.drive, "drive")?,
+                narrow(r.idn, "idn")?,
+                narrow(r.elements, "elements")?,
+                &r.data,
+            )
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::SoeWriteResponse {}))
+    }
+}
+
+#[tonic::async_trait]
+impl VoeService for Protocols {
+    async fn transfer(&self, request: Request<pb::VoeRequest>) -> Reply<pb::VoeResponse> {
+        require_write(&request, "voe")?;
+        let r = request.get_ref();
+        let answer = self
+            .core
+            .voe(
+                &r.slave,
+                r.vendor_id,
+                narrow(r.vendor_type, "vendor_type")?,
+                &r.data,
+            )
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::VoeResponse {
+            vendor_id: answer.vendor_id,
+            vendor_type: u32::from(answer.vendor_type),
+            data: answer.data,
+        }))
+    }
+}
+
+fn some(text: &str) -> Option<String> {
+    (!text.is_empty()).then(|| text.to_owned())
+}
+
+#[tonic::async_trait]
+impl EoeService for Protocols {
+    async fn set_ip(&self, request: Request<pb::SetIpRequest>) -> Reply<pb::SetIpResponse> {
+        require_write(&request, "eoe_set_ip")?;
+        let r = request.get_ref();
+        let s = r.settings.clone().unwrap_or_default();
+        let view = IpView {
+            mac: some(&s.mac),
+            ip: some(&s.ip),
+            subnet_mask: some(&s.subnet_mask),
+            default_gateway: some(&s.default_gateway),
+            dns_server: some(&s.dns_server),
+            dns_name: some(&s.dns_name),
+        };
+        self.core
+            .eoe_set_ip(&r.slave, &view)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::SetIpResponse {}))
+    }
+
+    async fn get_ip(&self, request: Request<pb::GetIpRequest>) -> Reply<pb::IpSettings> {
+        let v = self
+            .core
+            .eoe_get_ip(&request.get_ref().slave)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::IpSettings {
+            mac: v.mac.unwrap_or_default(),
+            ip: v.ip.unwrap_or_default(),
+            subnet_mask: v.subnet_mask.unwrap_or_default(),
+            default_gateway: v.default_gateway.unwrap_or_default(),
+            dns_server: v.dns_server.unwrap_or_default(),
+            dns_name: v.dns_name.unwrap_or_default(),
+        }))
+    }
+}

@@ -1,0 +1,30 @@
+//! [`ApiError`] as a gRPC status: the code from [`ErrorKind::grpc`], the message, and a
+//! `google.rpc.ErrorInfo` detail (domain `ecat.v1`, reason = the error's tag, metadata
+//! `code` / `code_text` for the protocol's own error code).
+
+use std::collections::HashMap;
+
+use tonic::Status;
+use tonic_types::{ErrorDetails, StatusExt};
+
+use crate::core::ApiError;
+
+/// The status for `err`.
+pub fn status(err: ApiError) -> Status {
+    let mut metadata = HashMap::new();
+    if let Some(code) = err.code {
+        metadata.insert("code".to_owned(), format!("{code:#x}"));
+        metadata.insert("code_text".to_owned(), err.code_text.clone());
+    }
+    let details = ErrorDetails::with_error_info(err.tag, "ecat.v1", metadata);
+    Status::with_error_details(err.kind.grpc(), err.message, details)
+}
+
+/// Narrows a request field to the width the protocol has, or says which field is too wide.
+pub fn narrow<T: TryFrom<u32>>(value: u32, field: &str) -> Result<T, Status> {
+    T::try_from(value).map_err(|_| {
+        status(ApiError::invalid(format!(
+            "{field} {value:#x} is out of range"
+        )))
+    })
+}

@@ -1,0 +1,105 @@
+//! The HTTP side: REST under `/api/v1` (with its OpenAPI document), `/metrics`,
+//! `/healthz`, `/readyz`.
+//!
+//! Files: `rest` (handlers), `openapi`, `error` (errors as JSON), `auth` (tokens), `health`.
+
+pub mod auth;
+pub mod error;
+pub mod health;
+pub mod openapi;
+pub mod rest;
+
+use std::future::Future;
+use std::time::Duration;
+
+use axum::Router;
+use axum::extract::DefaultBodyLimit;
+use axum::http::{StatusCode, header};
+use axum::routing::{get, post, put};
+use tower_http::timeout::TimeoutLayer;
+
+use crate::core::Core;
+use crate::security::Tokens;
+
+/// Largest request body (an FoE file).
+pub const MAX_BODY: usize = 16 << 20;
+/// Time limit of one request (the event stream excepted).
+pub const TIMEOUT: Duration = Duration::from_secs(60);
+
+/// Every HTTP route.
+pub fn router(core: Core, tokens: Tokens) -> Router {
+    use rest::*;
+    let api = Router::new()
+        .route("/slaves", get(list_slaves))
+        .route("/slaves/{slave}", get(get_slave))
+        .route("/slaves/{slave}/state", put(request_state))
+        .route("/rescan", post(rescan))
+        .route(
+            "/slaves/{slave}/registers/{address}",
+            get(read_register).put(write_register),
+        )
+        .route("/slaves/{slave}/sii", get(read_sii))
+        .route("/slaves/{slave}/sii/{word}", put(write_sii))
+        .route("/slaves/{slave}/alias", put(set_alias))
+        .route(
+            "/slaves/{slave}/coe/sdo/{index}/{subindex}",
+            get(coe_upload).put(coe_download),
+        )
+        .route("/slaves/{slave}/coe/od", get(coe_object_list))
+        .route("/slaves/{slave}/coe/od/{index}", get(coe_object))
+        .route("/slaves/{slave}/coe/od/{index}/{subindex}", get(coe_entry))
+        .route(
+            "/slaves/{slave}/soe/{drive}/{idn}",
+            get(soe_read).put(soe_write),
+        )
+        .route("/slaves/{slave}/foe/{name}", get(foe_read).put(foe_write))
+        .route("/slaves/{slave}/voe", post(voe))
+        .route("/slaves/{slave}/eoe/ip", get(eoe_get_ip).put(eoe_set_ip))
+        .layer(TimeoutLayer::with_status_code(
+            StatusCode::GATEWAY_TIMEOUT,
+            TIMEOUT,
+        ))
+        .route("/events", get(events))
+        .layer(axum::middleware::from_fn_with_state(
+            tokens,
+            auth::authenticate,
+        ))
+        .layer(DefaultBodyLimit::max(MAX_BODY))
+        .with_state(core.clone());
+    Router::new()
+        .nest("/api/v1", api)
+        .route(
+            "/api/v1/openapi.json",
+            get(|| async {
+                (
+                    [(header::CONTENT_TYPE, "application/json")],
+                    openapi::json(),
+                )
+            }),
+        )
+        .route("/metrics", get(metrics).with_state(core.clone()))
+        .merge(health::routes(core))
+}
+
+async fn metrics(
+    axum::extract::State(core): axum::extract::State<Core>,
+) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    match crate::metrics::render(&core) {
+        Ok(text) => ([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], text).into_response(),
+        Err(err) => (StatusCode::INTERNAL_SERVER_ERROR, err).into_response(),
+    }
+}
+
+/// Serves the HTTP routes on `listener` until `shutdown` completes.
+pub async fn serve(
+    core: Core,
+    tokens: Tokens,
+    listener: tokio::net::TcpListener,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), String> {
+    axum::serve(listener, router(core, tokens))
+        .with_graceful_shutdown(shutdown)
+        .await
+        .map_err(|err| format!("HTTP server: {err}"))
+}

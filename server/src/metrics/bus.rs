@@ -1,0 +1,150 @@
+//! Bus and cyclic-exchange metrics from the bus statistics and the master's cycle counters.
+
+use std::time::Duration;
+
+use prometheus::proto::{MetricFamily, MetricType};
+
+use super::family::Family;
+use crate::core::Core;
+
+/// Upper bounds of the round-trip histogram, in seconds.
+const RTT_BOUNDS: [f64; 12] = [
+    25e-6, 50e-6, 100e-6, 250e-6, 500e-6, 1e-3, 2.5e-3, 5e-3, 10e-3, 25e-3, 100e-3, 1.0,
+];
+
+fn counter(name: &str, help: &str, value: u64) -> Option<MetricFamily> {
+    Family::new(name, help, MetricType::COUNTER)
+        .counter(&[], value as f64)
+        .done()
+}
+
+/// The bus families.
+pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
+    let s = core.master().bus().stats();
+    let cycle = core.master().cycle_stats();
+    let mut out = vec![
+        counter(
+            "ecat_bus_frames_sent_total",
+            "Frames handed to the link, cyclic and acyclic, retries included.",
+            s.frames_sent,
+        ),
+        counter(
+            "ecat_bus_frames_received_total",
+            "Returned frames matched to a frame in flight.",
+            s.frames_received,
+        ),
+        counter(
+            "ecat_bus_frames_lost_total",
+            "Frames that did not come back before their deadline.",
+            s.frames_lost,
+        ),
+        counter(
+            "ecat_bus_retries_total",
+            "Lost acyclic frames sent again.",
+            s.retries,
+        ),
+        counter(
+            "ecat_bus_frames_foreign_total",
+            "Received frames that are not EtherCAT datagram frames.",
+            s.frames_foreign,
+        ),
+        counter(
+            "ecat_bus_frames_stale_total",
+            "Received frames matching no frame in flight.",
+            s.frames_stale,
+        ),
+        counter(
+            "ecat_bus_link_errors_total",
+            "Errors the link returned from send or receive.",
+            s.link_errors,
+        ),
+        counter(
+            "ecat_bus_datagrams_sent_total",
+            "Acyclic datagrams put on the wire.",
+            s.datagrams_sent,
+        ),
+        counter(
+            "ecat_bus_datagrams_failed_total",
+            "Datagrams that failed without a reply.",
+            s.datagrams_failed,
+        ),
+        counter(
+            "ecat_bus_wkc_errors_total",
+            "Replies whose working counter was not the expected one.",
+            s.wkc_mismatches,
+        ),
+        counter(
+            "ecat_bus_cycles_total",
+            "Cycles of the cyclic task started.",
+            s.cycles_run,
+        ),
+        counter(
+            "ecat_bus_cycles_late_total",
+            "Cycles started a whole period or more late.",
+            s.cycles_late,
+        ),
+        counter(
+            "ecat_bus_cycles_lost_total",
+            "Cyclic frames that did not come back in time.",
+            s.cycles_lost,
+        ),
+        counter(
+            "ecat_process_data_cycles_completed_total",
+            "Process-data exchanges that came back.",
+            cycle.completed,
+        ),
+        counter(
+            "ecat_process_data_cycles_lost_total",
+            "Process-data exchanges lost.",
+            cycle.lost,
+        ),
+        Family::new(
+            "ecat_process_data_wkc",
+            "Working counter of the last process-data exchange.",
+            MetricType::GAUGE,
+        )
+        .gauge(&[("kind", "last")], f64::from(cycle.last_wkc))
+        .gauge(&[("kind", "expected")], f64::from(cycle.expected_wkc))
+        .done(),
+        Family::new(
+            "ecat_process_data_image_bytes",
+            "Size of the process image.",
+            MetricType::GAUGE,
+        )
+        .gauge(&[], cycle.image_len as f64)
+        .done(),
+    ];
+    out.push(histogram(
+        "ecat_bus_round_trip_seconds",
+        "Frame round-trip time, send to receive on the bus thread (sum estimated from bucket midpoints).",
+        &s.round_trip,
+    ));
+    out.push(histogram(
+        "ecat_bus_cycle_start_delay_seconds",
+        "How long after its due time each cycle started (sum estimated from bucket midpoints).",
+        &s.cycle_start_delay,
+    ));
+    out
+}
+
+fn histogram(
+    name: &str,
+    help: &str,
+    snapshot: &master_core::bus::HistogramSnapshot,
+) -> Option<MetricFamily> {
+    let mut cumulative = [0u64; RTT_BOUNDS.len()];
+    let (mut count, mut sum) = (0u64, 0f64);
+    for (low, high, n) in snapshot.buckets() {
+        count += n;
+        sum += n as f64 * (low + high).as_secs_f64() / 2.0;
+        for (bound, slot) in RTT_BOUNDS.iter().zip(cumulative.iter_mut()) {
+            if high <= Duration::from_secs_f64(*bound) {
+                *slot += n;
+            }
+        }
+    }
+    let buckets: Vec<(f64, u64)> = RTT_BOUNDS.iter().copied().zip(cumulative).collect();
+    Family::new(name, help, MetricType::HISTOGRAM)
+        .histogram(&[], &buckets, count, sum)
+        .done()
+}

@@ -1,0 +1,47 @@
+//! Prometheus metrics, read from the master at scrape time (`/metrics`). The names are
+//! documented in `docs/metrics.md`.
+//!
+//! Files: `family` (building families), `bus` (link and cycle), `slaves` (AL states and
+//! codes), `mailbox` (per-slave mailbox and EoE counters), `gateway` (the mailbox gateway's
+//! statistics, once the gateway exists).
+
+mod bus;
+mod family;
+mod gateway;
+mod mailbox;
+mod slaves;
+
+use prometheus::proto::MetricFamily;
+use prometheus::{Encoder, TextEncoder};
+
+use crate::core::Core;
+use family::Family;
+
+/// Every family, in a stable order.
+pub fn gather(core: &Core) -> Vec<MetricFamily> {
+    let mut families: Vec<Option<MetricFamily>> = vec![build_info()];
+    families.extend(bus::collect(core));
+    families.extend(slaves::collect(core));
+    families.extend(mailbox::collect(core));
+    families.extend(gateway::collect(core));
+    families.into_iter().flatten().collect()
+}
+
+/// The text exposition format.
+pub fn render(core: &Core) -> Result<String, String> {
+    let mut out = Vec::new();
+    TextEncoder::new()
+        .encode(&gather(core), &mut out)
+        .map_err(|err| err.to_string())?;
+    String::from_utf8(out).map_err(|err| err.to_string())
+}
+
+fn build_info() -> Option<MetricFamily> {
+    Family::new(
+        "ecat_build_info",
+        "ecatd's version; always 1.",
+        prometheus::proto::MetricType::GAUGE,
+    )
+    .gauge(&[("version", env!("CARGO_PKG_VERSION"))], 1.0)
+    .done()
+}

@@ -1,0 +1,212 @@
+//! Bearer tokens with read and write roles, shared by gRPC and REST.
+//!
+//! Without configured tokens every caller may read and write (ecatd then refuses to listen
+//! on a non-loopback address unless `--insecure`). With tokens every API call needs one
+//! (`authorization: Bearer <token>`); writes and state changes need a write token. Every
+//! write is logged on the `audit` target with the caller's token name.
+
+use serde::{Deserialize, Serialize};
+use tonic::{Request, Status};
+
+use crate::core::ApiError;
+use crate::grpc::status::status;
+
+/// What a token may do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// Read-only calls.
+    Read,
+    /// Everything.
+    Write,
+}
+
+/// One configured token.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Token {
+    /// Who holds it (shows in the audit log; the secret never does).
+    pub name: String,
+    /// The secret.
+    pub token: String,
+    /// Its role.
+    pub role: Role,
+}
+
+/// The identity of a request, attached by the authentication layer.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Caller {
+    /// Token name, or `anonymous` when no tokens are configured.
+    pub name: String,
+    /// Role.
+    pub role: Role,
+}
+
+/// The configured tokens.
+#[derive(Debug, Clone, Default)]
+pub struct Tokens {
+    tokens: Vec<Token>,
+}
+
+impl Tokens {
+    /// The token set.
+    pub fn new(tokens: Vec<Token>) -> Tokens {
+        Tokens { tokens }
+    }
+
+    /// Whether any token is configured.
+    pub fn enabled(&self) -> bool {
+        !self.tokens.is_empty()
+    }
+
+    /// Who sends `authorization` (the header's value, if any).
+    pub fn authenticate(&self, authorization: Option<&str>) -> Result<Caller, ApiError> {
+        if !self.enabled() {
+            return Ok(Caller {
+                name: "anonymous".into(),
+                role: Role::Write,
+            });
+        }
+        let secret = authorization
+            .and_then(|v| {
+                v.strip_prefix("Bearer ")
+                    .or_else(|| v.strip_prefix("bearer "))
+            })
+            .map(str::trim)
+            .ok_or_else(|| ApiError::unauthenticated("a bearer token is required"))?;
+        self.tokens
+            .iter()
+            .find(|t| constant_time_eq(t.token.as_bytes(), secret.as_bytes()))
+            .map(|t| Caller {
+                name: t.name.clone(),
+                role: t.role,
+            })
+            .ok_or_else(|| ApiError::unauthenticated("unknown token"))
+    }
+}
+
+fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+/// Checks that `caller` may write and logs the audit line for `operation` on `target`.
+pub fn authorize_write(
+    caller: Option<&Caller>,
+    operation: &str,
+    target: &str,
+) -> Result<(), ApiError> {
+    let caller = caller.ok_or_else(|| ApiError::unauthenticated("a bearer token is required"))?;
+    if caller.role < Role::Write {
+        tracing::warn!(target: "audit", caller = %caller.name, operation, target, "write refused: read-only token");
+        return Err(ApiError::permission_denied(format!(
+            "{operation} needs a write token"
+        )));
+    }
+    tracing::info!(target: "audit", caller = %caller.name, operation, target, "write");
+    Ok(())
+}
+
+/// The gRPC side of [`authorize_write`].
+pub fn require_write<T: SlaveField>(request: &Request<T>, operation: &str) -> Result<(), Status> {
+    authorize_write(
+        request.extensions().get::<Caller>(),
+        operation,
+        request.get_ref().slave_field(),
+    )
+    .map_err(status)
+}
+
+/// The interceptor in front of every `ecat.v1` service: authenticates and attaches the
+/// [`Caller`].
+pub fn grpc_interceptor(
+    tokens: Tokens,
+) -> impl Fn(Request<()>) -> Result<Request<()>, Status> + Clone {
+    move |mut request: Request<()>| {
+        let header = request
+            .metadata()
+            .get("authorization")
+            .and_then(|v| v.to_str().ok());
+        let caller = tokens.authenticate(header).map_err(status)?;
+        request.extensions_mut().insert(caller);
+        Ok(request)
+    }
+}
+
+/// The slave a request names, for the audit line.
+pub trait SlaveField {
+    /// The slave name, or "" for bus-wide calls.
+    fn slave_field(&self) -> &str;
+}
+
+macro_rules! slave_field {
+    ($($t:ty),* $(,)?) => {$(
+        impl SlaveField for $t {
+            fn slave_field(&self) -> &str { &self.slave }
+        }
+    )*};
+}
+
+slave_field!(
+    proto::v1::RequestStateRequest,
+    proto::v1::WriteRegisterRequest,
+    proto::v1::WriteSiiRequest,
+    proto::v1::SetAliasRequest,
+    proto::v1::DownloadRequest,
+    proto::v1::SoeWriteRequest,
+    proto::v1::VoeRequest,
+    proto::v1::SetIpRequest,
+);
+
+impl SlaveField for proto::v1::RescanRequest {
+    fn slave_field(&self) -> &str {
+        "all"
+    }
+}
+
+impl SlaveField for tonic::Streaming<proto::v1::FoeWriteChunk> {
+    fn slave_field(&self) -> &str {
+        "(stream)"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tokens() -> Tokens {
+        Tokens::new(vec![
+            Token {
+                name: "r".into(),
+                token: "read-secret".into(),
+                role: Role::Read,
+            },
+            Token {
+                name: "w".into(),
+                token: "write-secret".into(),
+                role: Role::Write,
+            },
+        ])
+    }
+
+    #[test]
+    fn roles_decide() {
+        let t = tokens();
+        assert_eq!(t.authenticate(None).unwrap_err().kind.http(), 401);
+        assert_eq!(
+            t.authenticate(Some("Bearer nope")).unwrap_err().kind.http(),
+            401
+        );
+        let reader = t.authenticate(Some("Bearer read-secret")).unwrap();
+        assert_eq!(
+            authorize_write(Some(&reader), "x", "0")
+                .unwrap_err()
+                .kind
+                .http(),
+            403
+        );
+        let writer = t.authenticate(Some("Bearer write-secret")).unwrap();
+        assert!(authorize_write(Some(&writer), "x", "0").is_ok());
+        let open = Tokens::default().authenticate(None).unwrap();
+        assert_eq!(open.role, Role::Write);
+    }
+}

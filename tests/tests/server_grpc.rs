@@ -1,0 +1,354 @@
+//! ecatd's gRPC API driven by grpcurl (the real client, from the venv): reflection lists
+//! and describes the services, and every RPC answers with the simulator's values.
+
+mod server_support;
+
+use serde_json::Value;
+use server_support::{Ecatd, b64, call, call_status, grpcurl};
+use sim::topology::{SIM_VENDOR_ID, Topology};
+
+/// The simulator's test pattern for sized objects and files (byte i = i mod 251; the
+/// topology model documents it, but does not export the function).
+fn pattern(size: usize) -> Vec<u8> {
+    (0..size).map(|i| (i % 251) as u8).collect()
+}
+
+fn bytes(v: &Value) -> Vec<u8> {
+    b64::decode(v.as_str().unwrap_or(""))
+}
+
+#[test]
+fn reflection_lists_and_describes_every_service() {
+    let ecatd = Ecatd::start(&[]);
+    let list = grpcurl(&[&ecatd.grpc, "list"]);
+    for service in [
+        "ecat.v1.BusService",
+        "ecat.v1.CoeService",
+        "ecat.v1.SoeService",
+        "ecat.v1.FoeService",
+        "ecat.v1.VoeService",
+        "ecat.v1.EoeService",
+        "grpc.health.v1.Health",
+        "grpc.reflection.v1alpha.ServerReflection",
+    ] {
+        assert!(
+            list.lines().any(|l| l == service),
+            "{service} missing from:\n{list}"
+        );
+    }
+    let described = grpcurl(&[&ecatd.grpc, "describe", "ecat.v1.CoeService"]);
+    for rpc in [
+        "Upload",
+        "Download",
+        "ObjectList",
+        "ObjectDescription",
+        "EntryDescription",
+    ] {
+        assert!(
+            described.contains(&format!("rpc {rpc} (")),
+            "{rpc} not described:\n{described}"
+        );
+    }
+    let message = grpcurl(&[&ecatd.grpc, "describe", "ecat.v1.Slave"]);
+    assert!(message.contains("al_status_code"), "{message}");
+    let health = call(&ecatd.grpc, &[], "grpc.health.v1.Health/Check", "{}").unwrap();
+    assert_eq!(health["status"], "SERVING");
+}
+
+#[test]
+fn bus_calls_match_the_topology() {
+    let ecatd = Ecatd::start(&[]);
+    let topology = Topology::default_segment();
+    let list = call(&ecatd.grpc, &[], "ecat.v1.BusService/ListSlaves", "{}").unwrap();
+    let slaves = list["slaves"].as_array().unwrap();
+    assert_eq!(slaves.len(), topology.slaves.len());
+    for (slave, spec) in slaves.iter().zip(&topology.slaves) {
+        assert_eq!(slave["name"], spec.name.as_str());
+        assert_eq!(slave["identity"]["vendorId"], spec.vendor_id);
+        assert_eq!(slave["identity"]["productCode"], spec.product_code);
+        assert_eq!(slave["state"], "AL_STATE_OP");
+    }
+    // One name syntax: position, station, and station in hex name the same slave.
+    for name in ["3", "#1004", "#0x3ec"] {
+        let slave = call(
+            &ecatd.grpc,
+            &[],
+            "ecat.v1.BusService/GetSlave",
+            &format!(r#"{{"slave":"{name}"}}"#),
+        )
+        .unwrap();
+        assert_eq!(slave["name"], topology.slaves[3].name.as_str(), "{name}");
+    }
+    let missing = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/GetSlave",
+        r#"{"slave":"@0x777"}"#,
+    )
+    .unwrap_err();
+    assert_eq!(missing.0, "5", "NOT_FOUND: {missing:?}");
+    let bad = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/GetSlave",
+        r#"{"slave":"x"}"#,
+    )
+    .unwrap_err();
+    assert_eq!(bad.0, "3", "INVALID_ARGUMENT: {bad:?}");
+
+    let state = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/RequestState",
+        r#"{"slave":"1","state":"AL_STATE_PREOP"}"#,
+    )
+    .unwrap();
+    assert_eq!(state["slave"]["state"], "AL_STATE_PREOP");
+    let status = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/ReadRegister",
+        r#"{"slave":"1","address":304,"length":2}"#,
+    )
+    .unwrap();
+    assert_eq!(
+        bytes(&status["data"])[0] & 0x0f,
+        0x2,
+        "AL status register says PREOP"
+    );
+
+    // Registers: the station address register 0x0010 holds 1001 + position.
+    let reg = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/ReadRegister",
+        r#"{"slave":"2","address":16,"length":2}"#,
+    )
+    .unwrap();
+    assert_eq!(bytes(&reg["data"]), 1003u16.to_le_bytes());
+    call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/WriteRegister",
+        &format!(
+            r#"{{"slave":"2","address":2560,"data":"{}"}}"#,
+            b64::encode(&[0xa5, 0x5a])
+        ),
+    )
+    .unwrap();
+
+    // SII: word 8-9 is the vendor id.
+    let sii = bytes(
+        &call(
+            &ecatd.grpc,
+            &[],
+            "ecat.v1.BusService/ReadSii",
+            r#"{"slave":"0"}"#,
+        )
+        .unwrap()["data"],
+    );
+    assert_eq!(sii[16..20], SIM_VENDOR_ID.to_le_bytes());
+    let alias = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/SetAlias",
+        r#"{"slave":"4","alias":1911}"#,
+    )
+    .unwrap();
+    assert_eq!(alias["alias"], 1911);
+    let by_alias = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/GetSlave",
+        r#"{"slave":"@0x777"}"#,
+    )
+    .unwrap();
+    assert_eq!(by_alias["name"], topology.slaves[4].name.as_str());
+    let rescan = call(&ecatd.grpc, &[], "ecat.v1.BusService/Rescan", "{}").unwrap();
+    assert_eq!(
+        rescan["slaves"].as_array().unwrap().len(),
+        topology.slaves.len()
+    );
+}
+
+#[test]
+fn mailbox_calls_match_the_simulator() {
+    let ecatd = Ecatd::start(&[]);
+    let g = ecatd.grpc.as_str();
+    let upload = call(
+        g,
+        &[],
+        "ecat.v1.CoeService/Upload",
+        r#"{"slave":"0","index":4120,"subindex":1}"#,
+    )
+    .unwrap();
+    assert_eq!(bytes(&upload["data"]), SIM_VENDOR_ID.to_le_bytes());
+    let topology = Topology::default_segment();
+    let store = topology.slaves[3]
+        .objects
+        .iter()
+        .find(|o| o.index == 0x2000)
+        .unwrap();
+    let large = call(
+        g,
+        &[],
+        "ecat.v1.CoeService/Upload",
+        r#"{"slave":"3","index":8192,"subindex":0}"#,
+    )
+    .unwrap();
+    assert_eq!(bytes(&large["data"]), pattern(store.size.unwrap()));
+    // 0x2001 "Parameter" on the CoE store is a plain read-write u32 (not process data).
+    let value = b64::encode(&0xcafe_babeu32.to_le_bytes());
+    call(
+        g,
+        &[],
+        "ecat.v1.CoeService/Download",
+        &format!(r#"{{"slave":"3","index":8193,"subindex":0,"data":"{value}"}}"#),
+    )
+    .unwrap();
+    let back = call(
+        g,
+        &[],
+        "ecat.v1.CoeService/Upload",
+        r#"{"slave":"3","index":8193,"subindex":0}"#,
+    )
+    .unwrap();
+    assert_eq!(bytes(&back["data"]), 0xcafe_babeu32.to_le_bytes());
+    let abort = call(
+        g,
+        &[],
+        "ecat.v1.CoeService/Upload",
+        r#"{"slave":"0","index":24576,"subindex":1}"#,
+    )
+    .unwrap_err();
+    assert_eq!(abort.0, "10", "ABORTED: {abort:?}");
+    assert!(
+        abort.1.contains("0x06020000"),
+        "the abort code is in the message: {abort:?}"
+    );
+    // The details: a google.rpc.ErrorInfo grpcurl decodes through reflection.
+    let status = call_status(
+        g,
+        &[],
+        "ecat.v1.CoeService/Upload",
+        r#"{"slave":"0","index":24576,"subindex":1}"#,
+    )
+    .unwrap_err();
+    let info = &status["details"][0];
+    assert_eq!(
+        info["@type"], "type.googleapis.com/google.rpc.ErrorInfo",
+        "{status}"
+    );
+    assert_eq!(info["reason"], "sdo_abort");
+    assert_eq!(info["domain"], "ecat.v1");
+    assert_eq!(info["metadata"]["code"], "0x6020000");
+    assert_eq!(
+        info["metadata"]["code_text"],
+        "Object does not exist in the object dictionary"
+    );
+
+    let list = call(g, &[], "ecat.v1.CoeService/ObjectList", r#"{"slave":"0"}"#).unwrap();
+    let indices: Vec<u64> = list["indices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    for index in [0x1018, 0x6040, 0x6041, 0x607a, 0x6064] {
+        assert!(
+            indices.contains(&index),
+            "{index:#x} missing from {indices:x?}"
+        );
+    }
+    let object = call(
+        g,
+        &[],
+        "ecat.v1.CoeService/ObjectDescription",
+        r#"{"slave":"0","index":24640}"#,
+    )
+    .unwrap();
+    assert_eq!(object["name"], "Controlword");
+    let entry = call(
+        g,
+        &[],
+        "ecat.v1.CoeService/EntryDescription",
+        r#"{"slave":"0","index":24640,"subindex":0}"#,
+    )
+    .unwrap();
+    assert_eq!(entry["bitLength"], 16);
+
+    // SoE: P-0-0100 motor temperature is 253 (0.1 degC steps).
+    let soe = call(
+        g,
+        &[],
+        "ecat.v1.SoeService/Read",
+        r#"{"slave":"0","idn":32868}"#,
+    )
+    .unwrap();
+    assert_eq!(bytes(&soe["data"]), 253u16.to_le_bytes());
+    let refused = call(
+        g,
+        &[],
+        "ecat.v1.SoeService/Write",
+        &format!(
+            r#"{{"slave":"0","idn":32868,"data":"{}"}}"#,
+            b64::encode(&[1, 0])
+        ),
+    )
+    .unwrap_err();
+    assert_eq!(
+        refused.0, "10",
+        "a read-only IDN is an SoE error: {refused:?}"
+    );
+
+    // FoE: the drive's firmware.bin is the test pattern of 1024 bytes.
+    let chunks = grpcurl(&[
+        "-d",
+        r#"{"slave":"0","name":"firmware.bin"}"#,
+        g,
+        "ecat.v1.FoeService/Read",
+    ]);
+    let mut file = Vec::new();
+    let decoder = serde_json::Deserializer::from_str(&chunks).into_iter::<Value>();
+    for chunk in decoder {
+        file.extend(bytes(&chunk.unwrap()["data"]));
+    }
+    assert_eq!(file, pattern(topology.slaves[0].foe_files[0].size));
+    let missing = call(
+        g,
+        &[],
+        "ecat.v1.FoeService/Read",
+        r#"{"slave":"0","name":"nope.bin"}"#,
+    )
+    .unwrap_err();
+    assert_eq!(missing.0, "10", "{missing:?}");
+
+    // VoE echo inverts every byte.
+    let voe = call(
+        g,
+        &[],
+        "ecat.v1.VoeService/Transfer",
+        &format!(
+            r#"{{"slave":"0","vendorId":4452,"vendorType":1,"data":"{}"}}"#,
+            b64::encode(&[0x00, 0x0f, 0xf0])
+        ),
+    )
+    .unwrap();
+    assert_eq!(bytes(&voe["data"]), [0xff, 0xf0, 0x0f]);
+
+    // EoE: set an IP and read it back.
+    call(
+        g,
+        &[],
+        "ecat.v1.EoeService/SetIp",
+        r#"{"slave":"4","settings":{"ip":"192.168.100.44","subnetMask":"255.255.255.0"}}"#,
+    )
+    .unwrap();
+    let ip = call(g, &[], "ecat.v1.EoeService/GetIp", r#"{"slave":"4"}"#).unwrap();
+    assert_eq!(ip["ip"], "192.168.100.44");
+    let unsupported = call(g, &[], "ecat.v1.EoeService/GetIp", r#"{"slave":"3"}"#).unwrap_err();
+    assert_eq!(
+        unsupported.0, "9",
+        "FAILED_PRECONDITION for a slave without EoE: {unsupported:?}"
+    );
+}

@@ -1,0 +1,326 @@
+//! ecatd's REST API driven by curl: every route answers with the simulator's values,
+//! errors are JSON with the protocol's code, events arrive as server-sent events, and the
+//! OpenAPI document validates (openapi-spec-validator from the venv) and lists every route.
+
+mod server_support;
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
+use std::time::Duration;
+
+use serde_json::Value;
+use server_support::{Ecatd, curl};
+use sim::topology::{SIM_VENDOR_ID, Topology};
+
+/// Every REST route the tests call, as the OpenAPI document must list it.
+const ROUTES: [(&str, &str); 22] = [
+    ("get", "/api/v1/slaves"),
+    ("get", "/api/v1/slaves/{slave}"),
+    ("put", "/api/v1/slaves/{slave}/state"),
+    ("post", "/api/v1/rescan"),
+    ("get", "/api/v1/events"),
+    ("get", "/api/v1/slaves/{slave}/registers/{address}"),
+    ("put", "/api/v1/slaves/{slave}/registers/{address}"),
+    ("get", "/api/v1/slaves/{slave}/sii"),
+    ("put", "/api/v1/slaves/{slave}/sii/{word}"),
+    ("put", "/api/v1/slaves/{slave}/alias"),
+    ("get", "/api/v1/slaves/{slave}/coe/sdo/{index}/{subindex}"),
+    ("put", "/api/v1/slaves/{slave}/coe/sdo/{index}/{subindex}"),
+    ("get", "/api/v1/slaves/{slave}/coe/od"),
+    ("get", "/api/v1/slaves/{slave}/coe/od/{index}"),
+    ("get", "/api/v1/slaves/{slave}/coe/od/{index}/{subindex}"),
+    ("get", "/api/v1/slaves/{slave}/soe/{drive}/{idn}"),
+    ("put", "/api/v1/slaves/{slave}/soe/{drive}/{idn}"),
+    ("get", "/api/v1/slaves/{slave}/foe/{name}"),
+    ("put", "/api/v1/slaves/{slave}/foe/{name}"),
+    ("post", "/api/v1/slaves/{slave}/voe"),
+    ("get", "/api/v1/slaves/{slave}/eoe/ip"),
+    ("put", "/api/v1/slaves/{slave}/eoe/ip"),
+];
+
+fn get(ecatd: &Ecatd, path: &str) -> (u16, Value) {
+    let (status, body) = curl(&["-s", &format!("{}{path}", ecatd.http)]);
+    (
+        status,
+        serde_json::from_str(&body).unwrap_or(Value::String(body)),
+    )
+}
+
+fn send(ecatd: &Ecatd, method: &str, path: &str, body: &str) -> (u16, Value) {
+    let url = format!("{}{path}", ecatd.http);
+    let (status, body) = curl(&[
+        "-s",
+        "-X",
+        method,
+        "-H",
+        "content-type: application/json",
+        "-d",
+        body,
+        &url,
+    ]);
+    (
+        status,
+        serde_json::from_str(&body).unwrap_or(Value::String(body)),
+    )
+}
+
+fn pattern(size: usize) -> Vec<u8> {
+    (0..size).map(|i| (i % 251) as u8).collect()
+}
+
+#[test]
+fn every_route_answers_with_the_simulators_values() {
+    let ecatd = Ecatd::start(&[]);
+    let topology = Topology::default_segment();
+
+    let (status, slaves) = get(&ecatd, "/api/v1/slaves");
+    assert_eq!(status, 200);
+    let names: Vec<&str> = slaves
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap())
+        .collect();
+    let expected: Vec<&str> = topology.slaves.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, expected);
+    let (_, slave) = get(&ecatd, "/api/v1/slaves/%231004");
+    assert_eq!(slave["position"], 3);
+    let (status, missing) = get(&ecatd, "/api/v1/slaves/9");
+    assert_eq!(
+        (status, missing["error"]["kind"].as_str()),
+        (404, Some("unknown_slave"))
+    );
+
+    let (status, state) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/2/state",
+        r#"{"state":"SAFEOP"}"#,
+    );
+    assert_eq!((status, state["state"].as_str()), (200, Some("SAFEOP")));
+    let (status, bad) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/2/state",
+        r#"{"state":"FLYING"}"#,
+    );
+    assert_eq!((status, bad["error"]["grpc_code"].as_i64()), (400, Some(3)));
+    let (status, rescan) = send(&ecatd, "POST", "/api/v1/rescan", "");
+    assert_eq!(status, 200);
+    assert_eq!(
+        rescan["slaves"].as_array().unwrap().len(),
+        topology.slaves.len()
+    );
+
+    let (_, reg) = get(&ecatd, "/api/v1/slaves/1/registers/0x10?length=2");
+    assert_eq!(reg["data"], hex(&1002u16.to_le_bytes()));
+    let (status, _) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/1/registers/0xa00",
+        r#"{"data":"a55a"}"#,
+    );
+    assert_eq!(status, 200);
+    let (_, sii) = get(&ecatd, "/api/v1/slaves/0/sii");
+    assert_eq!(
+        &sii["data"].as_str().unwrap()[32..40],
+        hex(&SIM_VENDOR_ID.to_le_bytes())
+    );
+    // SII word 0x20 is reserved (no meaning to the slave): write it and read it back.
+    let (status, _) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/2/sii/0x20",
+        r#"{"data":"3412"}"#,
+    );
+    assert_eq!(status, 200, "SII write");
+    let (_, sii2) = get(&ecatd, "/api/v1/slaves/2/sii");
+    assert_eq!(
+        &sii2["data"].as_str().unwrap()[0x40 * 2..0x40 * 2 + 4],
+        "3412"
+    );
+    let (status, alias) = send(&ecatd, "PUT", "/api/v1/slaves/4/alias", r#"{"alias":1911}"#);
+    assert_eq!((status, alias["alias"].as_u64()), (200, Some(1911)));
+    let (_, by_alias) = get(&ecatd, "/api/v1/slaves/@0x777");
+    assert_eq!(by_alias["position"], 4);
+
+    let (_, upload) = get(&ecatd, "/api/v1/slaves/0/coe/sdo/0x1018/1");
+    assert_eq!(upload["data"], hex(&SIM_VENDOR_ID.to_le_bytes()));
+    let (status, abort) = get(&ecatd, "/api/v1/slaves/0/coe/sdo/0x6000/1");
+    assert_eq!(status, 409);
+    assert_eq!(abort["error"]["kind"], "sdo_abort");
+    assert_eq!(abort["error"]["code"], 0x0602_0000);
+    let (status, _) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/3/coe/sdo/0x2001/0",
+        r#"{"data":"efbeadde"}"#,
+    );
+    assert_eq!(status, 200);
+    let (_, back) = get(&ecatd, "/api/v1/slaves/3/coe/sdo/0x2001/0");
+    assert_eq!(back["data"], "efbeadde");
+    let (_, list) = get(&ecatd, "/api/v1/slaves/0/coe/od");
+    assert!(
+        list["indices"]
+            .as_array()
+            .unwrap()
+            .contains(&Value::from(0x6041))
+    );
+    let (_, object) = get(&ecatd, "/api/v1/slaves/0/coe/od/0x6041");
+    assert_eq!(object["name"], "Statusword");
+    let (_, entry) = get(&ecatd, "/api/v1/slaves/0/coe/od/0x6041/0");
+    assert_eq!(entry["bit_length"], 16);
+
+    let (_, soe) = get(&ecatd, "/api/v1/slaves/0/soe/0/0x8064");
+    assert_eq!(soe["data"], hex(&253u16.to_le_bytes()));
+    let (status, soe_err) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/0/soe/0/0x8064",
+        r#"{"data":"0100"}"#,
+    );
+    assert_eq!(
+        (status, soe_err["error"]["kind"].as_str()),
+        (409, Some("soe_error"))
+    );
+
+    let url = format!("{}/api/v1/slaves/0/foe/firmware.bin", ecatd.http);
+    let file = Command::new("curl").args(["-sf", &url]).output().unwrap();
+    assert!(file.status.success());
+    assert_eq!(file.stdout, pattern(topology.slaves[0].foe_files[0].size));
+    let upload_file = std::env::temp_dir().join(format!("ecatd-foe-{}.bin", std::process::id()));
+    let content: Vec<u8> = (0..3000u32).map(|i| (i * 7) as u8).collect();
+    std::fs::write(&upload_file, &content).unwrap();
+    let put_url = format!("{}/api/v1/slaves/0/foe/upload.bin", ecatd.http);
+    let (status, _) = curl(&[
+        "-s",
+        "-X",
+        "PUT",
+        "--data-binary",
+        &format!("@{}", upload_file.display()),
+        "-H",
+        "content-type: application/octet-stream",
+        &put_url,
+    ]);
+    std::fs::remove_file(&upload_file).unwrap();
+    assert_eq!(status, 200, "FoE write");
+
+    let (_, voe) = send(
+        &ecatd,
+        "POST",
+        "/api/v1/slaves/0/voe",
+        r#"{"vendor_id":4452,"vendor_type":1,"data":"000ff0"}"#,
+    );
+    assert_eq!(voe["data"], "fff00f");
+    let (status, _) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/4/eoe/ip",
+        r#"{"ip":"192.168.100.45","subnet_mask":"255.255.255.0"}"#,
+    );
+    assert_eq!(status, 200);
+    let (_, ip) = get(&ecatd, "/api/v1/slaves/4/eoe/ip");
+    assert_eq!(ip["ip"], "192.168.100.45");
+    let (status, bad_ip) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/4/eoe/ip",
+        r#"{"ip":"300.1.1.1"}"#,
+    );
+    assert_eq!(
+        (status, bad_ip["error"]["kind"].as_str()),
+        (400, Some("invalid_argument"))
+    );
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+#[test]
+fn state_changes_arrive_as_server_sent_events() {
+    let ecatd = Ecatd::start(&[]);
+    let mut stream = Command::new("curl")
+        .args([
+            "-sN",
+            "--max-time",
+            "30",
+            &format!("{}/api/v1/events", ecatd.http),
+        ])
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = stream.stdout.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if let Some(data) = line.strip_prefix("data: ") {
+                let _ = tx.send(serde_json::from_str::<Value>(data).unwrap());
+            }
+        }
+    });
+    // curl may subscribe after a change, so change the state until an event for the slave
+    // arrives (bounded attempts, each waiting up to a second for the event).
+    let mut found = None;
+    'attempts: for attempt in 0..20 {
+        let state = if attempt % 2 == 0 { "SAFEOP" } else { "OP" };
+        let (status, _) = send(
+            &ecatd,
+            "PUT",
+            "/api/v1/slaves/1/state",
+            &format!(r#"{{"state":"{state}"}}"#),
+        );
+        assert_eq!(status, 200);
+        while let Ok(event) = rx.recv_timeout(Duration::from_secs(1)) {
+            if event["kind"] == "state_changed" && event["position"] == 1 {
+                found = Some(event);
+                break 'attempts;
+            }
+        }
+    }
+    let _ = stream.kill();
+    let _ = stream.wait();
+    let event = found.expect("a state_changed event for slave 1");
+    assert_eq!(event["station"], 1002);
+    assert!(event["to"] == "SAFEOP" || event["to"] == "OP", "{event}");
+}
+
+#[test]
+fn openapi_document_validates_and_lists_every_route() {
+    let ecatd = Ecatd::start(&[]);
+    let (status, body) = curl(&["-s", &format!("{}/api/v1/openapi.json", ecatd.http)]);
+    assert_eq!(status, 200);
+    let doc: Value = serde_json::from_str(&body).unwrap();
+    for (method, path) in ROUTES {
+        assert!(
+            doc["paths"][path][method].is_object(),
+            "{method} {path} missing from the document"
+        );
+    }
+    let documented: usize = doc["paths"]
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|p| p.as_object().unwrap().len())
+        .sum();
+    assert_eq!(
+        documented,
+        ROUTES.len(),
+        "the document has routes the tests do not know"
+    );
+    let file = std::env::temp_dir().join(format!("ecatd-openapi-{}.json", std::process::id()));
+    std::fs::write(&file, &body).unwrap();
+    let validator = server_support::venv_bin().join("openapi-spec-validator");
+    let output = Command::new(&validator)
+        .arg(&file)
+        .output()
+        .unwrap_or_else(|e| panic!("{}: {e}", validator.display()));
+    std::fs::remove_file(&file).unwrap();
+    assert!(
+        output.status.success(),
+        "openapi-spec-validator refused the document:\n{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+}

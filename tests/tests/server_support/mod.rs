@@ -1,0 +1,381 @@
+//! Running `ecatd --simulate` for the server tests: the binary built fresh, free loopback
+//! ports (port 0, the bound ports read from ecatd's JSON "listening" log line), readiness by
+//! polling `/readyz` with a deadline, SIGTERM on drop; and the real clients: grpcurl from the
+//! venv `scripts/test` makes, curl.
+
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::mpsc;
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::{Duration, Instant};
+
+/// How long ecatd may take to come up (build excluded) or go down.
+const DEADLINE: Duration = Duration::from_secs(30);
+
+/// The workspace root.
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// Builds `ecatd` and `ecat` (once per test binary) with the cargo running the tests and
+/// returns the directory holding them. The tests crate cannot depend on a binary of another
+/// package, so it asks cargo, which also makes sure the binaries are current.
+pub fn bin_dir() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let output = Command::new(cargo)
+            .args([
+                "build",
+                "-p",
+                "server",
+                "--bins",
+                "--message-format",
+                "json",
+            ])
+            .current_dir(root())
+            .output()
+            .expect("cargo runs");
+        assert!(
+            output.status.success(),
+            "building ecatd failed:\n{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        let exe = stdout
+            .lines()
+            .filter_map(|line| serde_json::from_str::<serde_json::Value>(line).ok())
+            .find_map(|v| {
+                let exe = v.get("executable")?.as_str()?;
+                exe.ends_with("/ecatd").then(|| PathBuf::from(exe))
+            })
+            .expect("cargo names the ecatd executable");
+        exe.parent()
+            .expect("the executable has a directory")
+            .to_path_buf()
+    })
+}
+
+/// A running `ecatd`, stopped with SIGTERM on drop.
+pub struct Ecatd {
+    child: Option<Child>,
+    /// gRPC address (`127.0.0.1:port`).
+    pub grpc: String,
+    /// HTTP base URL (`http://127.0.0.1:port`).
+    pub http: String,
+    log: Arc<Mutex<Vec<String>>>,
+}
+
+impl Ecatd {
+    /// Starts `ecatd --simulate` with `extra` flags, on free loopback ports, and waits until
+    /// it is ready.
+    pub fn start(extra: &[&str]) -> Ecatd {
+        Ecatd::start_with(&["--simulate"], extra)
+    }
+
+    /// Starts `ecatd` with `segment` flags and `extra` flags; waits until ready.
+    pub fn start_with(segment: &[&str], extra: &[&str]) -> Ecatd {
+        let mut child = Command::new(bin_dir().join("ecatd"))
+            .args(segment)
+            .args([
+                "--grpc-listen",
+                "127.0.0.1:0",
+                "--http-listen",
+                "127.0.0.1:0",
+            ])
+            .args(["--log-format", "json", "--log", "info"])
+            .args(extra)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("ecatd starts");
+        let stderr = child.stderr.take().expect("stderr is piped");
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let (tx, rx) = mpsc::channel();
+        let keep = Arc::clone(&log);
+        std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                if let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) {
+                    let _ = tx.send(v);
+                }
+                keep.lock().unwrap().push(line);
+            }
+        });
+        let deadline = Instant::now() + DEADLINE;
+        let listening = loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match rx.recv_timeout(left) {
+                Ok(v) if v["fields"]["message"] == "listening" => break v,
+                Ok(_) => continue,
+                Err(_) => {
+                    let _ = child.kill();
+                    panic!(
+                        "ecatd did not report its ports:\n{}",
+                        log.lock().unwrap().join("\n")
+                    );
+                }
+            }
+        };
+        let field = |name: &str| {
+            listening["fields"][name]
+                .as_str()
+                .expect("address field")
+                .to_owned()
+        };
+        let mut ecatd = Ecatd {
+            grpc: field("grpc"),
+            http: format!("http://{}", field("http")),
+            child: Some(child),
+            log,
+        };
+        ecatd.wait_ready(deadline);
+        ecatd
+    }
+
+    fn wait_ready(&mut self, deadline: Instant) {
+        let url = format!("{}/readyz", self.http);
+        loop {
+            let (status, _) = curl(&["-s", &url]);
+            if status == 200 {
+                return;
+            }
+            if Instant::now() > deadline {
+                panic!("ecatd not ready in time:\n{}", self.log());
+            }
+            if let Some(Ok(Some(status))) = self.child.as_mut().map(Child::try_wait) {
+                panic!("ecatd exited ({status}):\n{}", self.log());
+            }
+            // Poll interval of the readiness check (not a synchronisation by time: the loop
+            // ends on the condition or the deadline).
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// Everything ecatd logged so far.
+    pub fn log(&self) -> String {
+        self.log.lock().unwrap().join("\n")
+    }
+
+    /// Sends SIGTERM and waits for the exit; returns whether it exited with success.
+    pub fn stop(&mut self) -> bool {
+        let Some(mut child) = self.child.take() else {
+            return false;
+        };
+        // SAFETY: `kill` on our own child's pid, which has not been reaped yet.
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) };
+        let deadline = Instant::now() + DEADLINE;
+        loop {
+            match child.try_wait() {
+                Ok(Some(status)) => return status.success(),
+                Ok(None) if Instant::now() < deadline => {
+                    std::thread::sleep(Duration::from_millis(20));
+                }
+                _ => {
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    return false;
+                }
+            }
+        }
+    }
+}
+
+impl Drop for Ecatd {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// The venv's bin directory (`$ECATD_PYTHON`'s, else `target/pyenv/bin`).
+pub fn venv_bin() -> PathBuf {
+    match std::env::var_os("ECATD_PYTHON") {
+        Some(python) => PathBuf::from(python)
+            .parent()
+            .expect("python has a directory")
+            .to_path_buf(),
+        None => root().join("target/pyenv/bin"),
+    }
+}
+
+/// grpcurl from the venv.
+pub fn grpcurl_path() -> PathBuf {
+    let path = venv_bin().join("grpcurl");
+    assert!(
+        path.is_file(),
+        "no grpcurl at {}: run scripts/test (it installs tests/py/requirements.txt into target/pyenv)",
+        path.display()
+    );
+    path
+}
+
+/// Runs `grpcurl -plaintext <args>`: stdout, after checking it succeeded.
+pub fn grpcurl(args: &[&str]) -> String {
+    let output: Output = Command::new(grpcurl_path())
+        .arg("-plaintext")
+        .args(args)
+        .output()
+        .expect("grpcurl runs");
+    assert!(
+        output.status.success(),
+        "grpcurl {args:?} failed:\n{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+/// Calls `method` with the JSON `body` through grpcurl; the JSON answer, or the failure's
+/// code and message.
+pub fn call(
+    addr: &str,
+    headers: &[&str],
+    method: &str,
+    body: &str,
+) -> Result<serde_json::Value, (String, String)> {
+    call_status(addr, headers, method, body).map_err(|status| {
+        (
+            status["code"]
+                .as_u64()
+                .map(|c| c.to_string())
+                .unwrap_or_default(),
+            status["message"].as_str().unwrap_or_default().to_owned(),
+        )
+    })
+}
+
+/// Like [`call`], but a failure is grpcurl's whole status as JSON (code, message, details).
+pub fn call_status(
+    addr: &str,
+    headers: &[&str],
+    method: &str,
+    body: &str,
+) -> Result<serde_json::Value, serde_json::Value> {
+    let mut args: Vec<&str> = vec!["-format-error", "-d", body];
+    for h in headers {
+        args.push("-H");
+        args.push(h);
+    }
+    let output = Command::new(grpcurl_path())
+        .arg("-plaintext")
+        .args(&args)
+        .arg(addr)
+        .arg(method)
+        .output()
+        .expect("grpcurl runs");
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    if output.status.success() {
+        return Ok(serde_json::from_str(&stdout)
+            .unwrap_or_else(|e| panic!("grpcurl output {stdout:?}: {e}")));
+    }
+    // With -format-error grpcurl writes the status as JSON to stderr.
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    Err(serde_json::Deserializer::from_str(&stderr)
+        .into_iter::<serde_json::Value>()
+        .next()
+        .and_then(Result::ok)
+        .unwrap_or_else(|| panic!("grpcurl failed without an error: {stdout}{stderr}")))
+}
+
+/// Runs curl with `args` and appends `-w %{http_code}`: the status and the body.
+pub fn curl(args: &[&str]) -> (u16, String) {
+    let output = Command::new("curl")
+        .args(args)
+        .args(["-w", "\n%{http_code}"])
+        .output()
+        .expect("curl runs");
+    let text = String::from_utf8_lossy(&output.stdout).into_owned();
+    let (body, code) = text.rsplit_once('\n').unwrap_or(("", "0"));
+    (code.trim().parse().unwrap_or(0), body.to_owned())
+}
+
+/// Standard base64 (grpcurl's JSON form of `bytes`). The tests crate has no base64
+/// dependency and its manifest belongs to another part of the project, so this small codec
+/// lives with the test support.
+pub mod b64 {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+    /// Encodes with padding.
+    pub fn encode(data: &[u8]) -> String {
+        let mut out = String::new();
+        for chunk in data.chunks(3) {
+            let b = [
+                chunk[0],
+                *chunk.get(1).unwrap_or(&0),
+                *chunk.get(2).unwrap_or(&0),
+            ];
+            let n = u32::from(b[0]) << 16 | u32::from(b[1]) << 8 | u32::from(b[2]);
+            for i in 0..4 {
+                if i <= chunk.len() {
+                    out.push(ALPHABET[(n >> (18 - 6 * i) & 63) as usize] as char);
+                } else {
+                    out.push('=');
+                }
+            }
+        }
+        out
+    }
+
+    /// Decodes padded or unpadded base64; panics on anything else (test input only).
+    pub fn decode(text: &str) -> Vec<u8> {
+        let mut out = Vec::new();
+        let (mut acc, mut bits) = (0u32, 0u32);
+        for c in text.bytes().filter(|&c| c != b'=') {
+            let v = ALPHABET
+                .iter()
+                .position(|&a| a == c)
+                .expect("base64 character") as u32;
+            acc = acc << 6 | v;
+            bits += 6;
+            if bits >= 8 {
+                bits -= 8;
+                out.push((acc >> bits) as u8);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn round_trip() {
+        for len in 0..10 {
+            let data: Vec<u8> = (0..len).map(|i| (i * 37) as u8).collect();
+            assert_eq!(decode(&encode(&data)), data);
+        }
+        assert_eq!(encode(b"ab"), "YWI=");
+    }
+}
+
+/// Runs `ecatd <args>` expecting it to exit by itself (a refused start); kills it and
+/// panics if it is still running at the deadline. Returns the exit status and stderr.
+pub fn run_to_exit(args: &[&str]) -> (std::process::ExitStatus, String) {
+    let mut child = Command::new(bin_dir().join("ecatd"))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("ecatd starts");
+    let deadline = Instant::now() + DEADLINE;
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait works") {
+            break status;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("ecatd {args:?} kept running");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut stderr = String::new();
+    use std::io::Read;
+    let _ = child
+        .stderr
+        .take()
+        .expect("piped")
+        .read_to_string(&mut stderr);
+    (status, stderr)
+}
