@@ -142,3 +142,66 @@ fn an_assignment_for_a_slave_without_coe_fails_that_slave_only() {
         assert_eq!(slave.al_state, expected, "slave {p}");
     }
 }
+
+#[test]
+fn a_power_cycled_slave_gets_its_configured_assignment_again() {
+    let config = MasterConfig {
+        watch_interval: Some(std::time::Duration::from_millis(10)),
+        ..MasterConfig::default()
+    };
+    let rig = master_support::rig(Topology::default_segment(), config);
+    let drive = SlaveAddress::Position(0);
+    rig.master().set_pdo_assignment(
+        drive,
+        vec![PdoAssignment {
+            sync_manager: 2,
+            pdos: vec![PdoMapping {
+                index: 0x1600,
+                entries: Some(vec![PdoEntryInfo::new(0x6040, 0, 16)]),
+            }],
+        }],
+    );
+    let report = block_on(rig.master().scan()).expect("scan");
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    let dict = rig.handles[0].dictionary.clone().unwrap();
+    // The drive comes back from its power cycle with its own mapping (both entries).
+    {
+        let mut segment = rig.segment();
+        lock_dictionary(&dict)
+            .set(0x1600, 1, &0x6040_0010u32)
+            .unwrap();
+        lock_dictionary(&dict).set(0x1600, 0, &2u8).unwrap();
+        segment.power_cycle(0);
+    }
+    assert_eq!(
+        rig.segment()
+            .slave(0)
+            .unwrap()
+            .device()
+            .process_data_sizes()
+            .outputs,
+        6
+    );
+    // The watch restores it: the configured mapping is written again and OP is reached
+    // with the 2-byte SyncManager the image has room for.
+    assert!(master_support::wait_until(|| {
+        rig.master()
+            .slave(drive)
+            .is_ok_and(|s| s.present && s.al_state == AlState::Op)
+            && rig.segment().esc(0).unwrap().al_state() == AlState::Op
+    }));
+    assert_eq!(
+        lock_dictionary(&dict).mapped_entries(0x1600).len(),
+        1,
+        "mapping written again"
+    );
+    assert_eq!(
+        rig.segment()
+            .slave(0)
+            .unwrap()
+            .device()
+            .process_data_sizes()
+            .outputs,
+        2
+    );
+}

@@ -125,3 +125,100 @@ fn slaves_without_coe_keep_the_sii_layout() {
         .unwrap();
     assert!(store.sync_managers.is_empty() && store.pdos.is_empty());
 }
+
+/// The drive's CoE service, refusing complete access as a slave without it does (SDO abort
+/// 0x06010000 in an SDO response), and counting the refusals.
+struct NoCompleteAccess {
+    coe: sim::device::CoeService,
+    refused: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+}
+
+impl sim::device::mailbox::MailboxService for NoCompleteAccess {
+    fn mailbox_type(&self) -> master_core::wire::mailbox::MailboxType {
+        master_core::wire::mailbox::MailboxType::Coe
+    }
+
+    fn handle(
+        &mut self,
+        request: &master_core::wire::mailbox::MailboxHeader,
+        data: &[u8],
+        ctx: &sim::device::DeviceContext,
+        replies: &mut sim::device::mailbox::ReplySink,
+    ) {
+        use master_core::wire::coe::{AbortCode, CoeFrame, CoeRepr, SdoRequest, SdoResponse};
+        let parsed = CoeFrame::new_checked(data)
+            .ok()
+            .and_then(|f| CoeRepr::parse(&f).ok());
+        if let Some(CoeRepr::SdoRequest(SdoRequest::InitiateUpload {
+            index,
+            subindex,
+            complete_access: true,
+        })) = parsed
+        {
+            self.refused
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let abort = CoeRepr::SdoResponse(SdoResponse::Abort {
+                index,
+                subindex,
+                code: AbortCode::UnsupportedAccess,
+            });
+            let mut buf = vec![0u8; abort.buffer_len()];
+            let built = abort
+                .emit(&mut CoeFrame::new_unchecked(&mut buf[..]))
+                .map(|()| buf);
+            let _ = replies.send_emitted(built);
+            return;
+        }
+        self.coe.handle(request, data, ctx, replies);
+    }
+
+    fn poll(
+        &mut self,
+        ctx: &sim::device::DeviceContext,
+        replies: &mut sim::device::mailbox::ReplySink,
+    ) {
+        self.coe.poll(ctx, replies);
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
+}
+
+#[test]
+fn a_slave_without_complete_access_is_read_subindex_by_subindex() {
+    let rig = rig(Topology::default_segment(), MasterConfig::default());
+    let dict = rig.handles[0].dictionary.clone().expect("drive dictionary");
+    let refused = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let stack = sim::device::mailbox::MailboxStack::new().with(NoCompleteAccess {
+        coe: sim::device::CoeService::shared(dict.clone()),
+        refused: refused.clone(),
+    });
+    rig.segment().slave_mut(0).unwrap().replace_device(Box::new(
+        sim::device::SlaveDevice::new()
+            .with_mailbox(stack)
+            .with_process(sim::device::drive::Drive::new(dict.clone())),
+    ));
+    let report = block_on(rig.master().scan()).expect("scan");
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    // 0x1C12, 0x1C13, 0x1600 and 0x1A00 were each asked for with complete access first.
+    assert_eq!(refused.load(std::sync::atomic::Ordering::Relaxed), 4);
+    let layout = rig
+        .master()
+        .process_data_layout(SlaveAddress::Position(0))
+        .unwrap();
+    let expected = {
+        let d = lock_dictionary(&dict);
+        [
+            expected_pdos(&d, RX_PDO_ASSIGN, 2),
+            expected_pdos(&d, TX_PDO_ASSIGN, 3),
+        ]
+        .concat()
+    };
+    assert_eq!(shape(&layout.pdos), expected);
+    assert_eq!((layout.outputs_len(), layout.inputs_len()), (6, 6));
+}

@@ -21,7 +21,7 @@ pub struct Histogram {
     counts: [AtomicU64; BUCKETS],
 }
 
-/// A copy of a [`Histogram`]'s counters at one moment.
+/// A copy of a histogram's counters at one moment.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct HistogramSnapshot {
     counts: [u64; BUCKETS],

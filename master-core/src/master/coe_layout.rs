@@ -21,8 +21,11 @@ pub(crate) const ASSIGN_BASE: u16 = 0x1C10;
 /// Most PDOs or entries accepted in one assignment or mapping object (SI0 is a u8).
 const MAX_ITEMS: usize = 255;
 
-/// Reads the layout of CoE slaves through their mailbox; see the [module
-/// documentation](self). The master's default source.
+/// Reads the layout of CoE slaves through their mailbox: for every process-data
+/// SyncManager *n* the SII declares, the PDOs assigned in 0x1C10+n and the entries of each
+/// mapping object, each object by complete access first and subindex by subindex when the
+/// slave refuses that. Slaves without CoE, and SyncManagers without an assignment object,
+/// keep what the SII says ([`SiiLayout`]). The master's default source.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct CoeLayout;
 

@@ -53,6 +53,8 @@ pub struct CycleTiming {
 /// The live counters, shared by the cyclic task (bus thread) and the master.
 #[derive(Debug, Default)]
 pub(crate) struct CycleCounters {
+    /// The period the cyclic task runs at, ns.
+    pub period_ns: AtomicU64,
     pub lost: AtomicU64,
     pub wrong_wkc: AtomicU64,
     pub missed: AtomicU64,

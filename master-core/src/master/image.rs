@@ -14,6 +14,7 @@
 //! [`CycleStats::wrong_wkc`]. The task runs on the bus thread; callers read and write the image through the master.
 //! The lock is held only to copy bytes, and a reader sees the inputs of one whole cycle.
 
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
@@ -206,6 +207,8 @@ pub(crate) struct ProcessCycle {
 
 impl ProcessCycle {
     pub fn new(image: Arc<Image>, period: Duration, mailboxes: MailboxEngine) -> ProcessCycle {
+        let period_ns = u64::try_from(period.as_nanos()).unwrap_or(u64::MAX);
+        image.counters.period_ns.store(period_ns, Ordering::Relaxed);
         ProcessCycle {
             image,
             period,

@@ -74,6 +74,7 @@ pub use pdo_config::{PdoAssignment, PdoMapping};
 pub use scan::ScanReport;
 
 use context::{Context, Slaves};
+use cycle_stats::CycleCounters;
 use image::{Image, ProcessCycle};
 
 /// An EtherCAT master over a running bus. See the [module documentation](self).
@@ -451,6 +452,18 @@ impl Master {
         }
     }
 
+    /// Runs the cyclic exchange at `period` from now on (raised to the bus's
+    /// [`MIN_PERIOD`](crate::bus::MIN_PERIOD)); the image and the counters carry on. A
+    /// cyclic frame that is not back within the period counts as lost, so a period shorter
+    /// than the segment's round trip loses every cycle.
+    pub fn set_cycle_period(&self, period: Duration) {
+        self.ctx.bus.set_cyclic(Some(Box::new(ProcessCycle::new(
+            Arc::clone(&self.ctx.image),
+            period.max(crate::bus::MIN_PERIOD),
+            self.ctx.mailboxes.clone(),
+        ))));
+    }
+
     /// The DC slaves of the last scan with their measured delays and offsets, the
     /// reference clock first (empty without DC).
     pub fn dc_slaves(&self) -> Vec<DcSlave> {
@@ -471,7 +484,7 @@ impl Master {
     pub fn cycle_timing(&self) -> CycleTiming {
         let c = &self.ctx.image.counters;
         CycleTiming {
-            period: self.ctx.config.cycle_period,
+            period: Duration::from_nanos(CycleCounters::count(&c.period_ns)),
             cycle_time: c.cycle_time.snapshot(),
             jitter: c.jitter.snapshot(),
             start_delay: self.ctx.bus.stats().cycle_start_delay,
