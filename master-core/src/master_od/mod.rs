@@ -19,6 +19,12 @@
 //! `snapshot` (what the values come from), `dictionary` (building it, write hooks),
 //! `diagnosis` (counters kept from the master's events), `service` (the CoE server),
 //! `text`.
+//!
+//! Values are live: each request takes a [`MasterSnapshot`] and builds the dictionary from
+//! it. Values that cost a bus access are fetched only for the object a request names (the
+//! ESC error counters for an upload of 0xAnnn, the SII order code for 0x8nnn); other
+//! requests show the last counters read. A segmented upload sends the value as it was at
+//! its initiate.
 
 mod device;
 mod diagnosis;

@@ -38,7 +38,8 @@ const INITIATE_UPLOAD: u8 = 2;
 /// One reply message: its mailbox type and data.
 pub type Reply = (MailboxType, Vec<u8>);
 
-/// The master's ETG.1510 dictionary as a CoE server. See the [module documentation](self).
+/// The master's ETG.1510 dictionary as a CoE server: values built per request from the
+/// live master, one SDO server state per client (see [`crate::master_od`]).
 #[derive(Debug)]
 pub struct MasterDictionary {
     master: Arc<Master>,
