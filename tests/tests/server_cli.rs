@@ -63,6 +63,15 @@ fn every_subcommand() {
             .trim(),
         SIM_VENDOR_ID.to_string()
     );
+    // Without --type the slave's SDO Information names the type (0x1018:01 is UNSIGNED32).
+    assert_eq!(
+        ecat.ok(&["upload", "-p", "0", "0x1018", "1"]).trim(),
+        SIM_VENDOR_ID.to_string()
+    );
+    assert_eq!(
+        ecat.ok(&["upload", "-p", "0", "0x1008", "0"]).trim(),
+        topology.slaves[0].name
+    );
     ecat.ok(&[
         "download",
         "-p",

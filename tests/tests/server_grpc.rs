@@ -183,6 +183,14 @@ fn mailbox_calls_match_the_simulator() {
     )
     .unwrap();
     assert_eq!(bytes(&upload["data"]), SIM_VENDOR_ID.to_le_bytes());
+    let typed = call(
+        g,
+        &[],
+        "ecat.v1.CoeService/Upload",
+        r#"{"slave":"0","index":4120,"subindex":1,"valueType":"auto"}"#,
+    )
+    .unwrap();
+    assert_eq!(typed["value"], SIM_VENDOR_ID.to_string());
     let topology = Topology::default_segment();
     let store = topology.slaves[3]
         .objects

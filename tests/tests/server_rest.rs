@@ -147,6 +147,27 @@ fn every_route_answers_with_the_simulators_values() {
 
     let (_, upload) = get(&ecatd, "/api/v1/slaves/0/coe/sdo/0x1018/1");
     assert_eq!(upload["data"], hex(&SIM_VENDOR_ID.to_le_bytes()));
+    let (_, typed) = get(&ecatd, "/api/v1/slaves/0/coe/sdo/0x1018/1?type=auto");
+    assert_eq!(typed["value"], SIM_VENDOR_ID.to_string());
+    let (status, _) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/3/coe/sdo/0x2001/0",
+        r#"{"value":"4660","type":"auto"}"#,
+    );
+    assert_eq!(status, 200);
+    let (_, typed) = get(&ecatd, "/api/v1/slaves/3/coe/sdo/0x2001/0?type=u32");
+    assert_eq!(typed["value"], "4660");
+    let (status, bad) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/3/coe/sdo/0x2001/0",
+        r#"{"value":"-1","type":"auto"}"#,
+    );
+    assert_eq!(
+        (status, bad["error"]["kind"].as_str()),
+        (400, Some("invalid_argument"))
+    );
     let (status, abort) = get(&ecatd, "/api/v1/slaves/0/coe/sdo/0x6000/1");
     assert_eq!(status, 409);
     assert_eq!(abort["error"]["kind"], "sdo_abort");

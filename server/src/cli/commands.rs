@@ -163,7 +163,6 @@ async fn execute(c: &mut Clients, command: Command) -> Result<Out, String> {
             ty,
             complete,
         } => {
-            let ty = typed(&ty)?;
             let r = c
                 .coe
                 .upload(pb::UploadRequest {
@@ -171,12 +170,15 @@ async fn execute(c: &mut Clients, command: Command) -> Result<Out, String> {
                     index: num(&index, "index")?,
                     subindex: num(&subindex, "subindex")?,
                     complete_access: complete,
+                    value_type: ty,
                 })
                 .await
                 .map_err(failed)?
                 .into_inner();
-            let value = decode(ty, &r.data).map_err(|e| e.message)?;
-            out(json!({"data": hex::encode(&r.data), "value": value}), value)
+            out(
+                json!({"data": hex::encode(&r.data), "value": r.value}),
+                r.value,
+            )
         }
         Command::Download {
             slave,
@@ -186,7 +188,12 @@ async fn execute(c: &mut Clients, command: Command) -> Result<Out, String> {
             ty,
             complete,
         } => {
-            let data = encode(typed(&ty)?, &value).map_err(|e| e.message)?;
+            let (data, value, value_type) = if complete {
+                // Complete access takes raw bytes only.
+                (unhex(&value)?, String::new(), String::new())
+            } else {
+                (Vec::new(), value, ty)
+            };
             c.coe
                 .download(pb::DownloadRequest {
                     slave,
@@ -194,6 +201,8 @@ async fn execute(c: &mut Clients, command: Command) -> Result<Out, String> {
                     subindex: num(&subindex, "subindex")?,
                     data,
                     complete_access: complete,
+                    value,
+                    value_type,
                 })
                 .await
                 .map_err(failed)?;

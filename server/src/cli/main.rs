@@ -50,8 +50,9 @@ pub enum Command {
         index: String,
         /// Subindex.
         subindex: String,
-        /// Value type (u8 … u64, i8 … i64, f32, f64, bool, string, hex).
-        #[arg(long = "type", default_value = "hex")]
+        /// Value type: auto (from the slave's SDO Information), u8 … u64, i8 … i64, f32,
+        /// f64, bool, string, hex.
+        #[arg(long = "type", default_value = "auto")]
         ty: String,
         /// Complete access.
         #[arg(long)]
@@ -66,10 +67,10 @@ pub enum Command {
         index: String,
         /// Subindex.
         subindex: String,
-        /// The value, as `--type` says.
+        /// The value, as `--type` says (hex bytes with `--complete`).
         value: String,
-        /// Value type.
-        #[arg(long = "type", default_value = "hex")]
+        /// Value type: auto (from the slave's SDO Information) or a type name.
+        #[arg(long = "type", default_value = "auto")]
         ty: String,
         /// Complete access.
         #[arg(long)]

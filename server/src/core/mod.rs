@@ -22,6 +22,7 @@ use tokio::sync::broadcast;
 
 pub use address::parse_slave;
 pub use error::{ApiError, ErrorKind};
+use value::ValueType;
 pub use view::{EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView};
 
 /// The largest register access in one request (the ESC's whole register space).
@@ -182,6 +183,58 @@ impl Core {
             mailbox.sdo_download(index, subindex, data).await?;
         }
         Ok(())
+    }
+
+    /// The value type `name` stands for at `index:subindex`: `auto` asks the slave (SDO
+    /// Information entry description), anything else is a type name (`u32`, `string`, ...).
+    async fn value_type(
+        &self,
+        slave: &str,
+        index: u16,
+        subindex: u8,
+        name: &str,
+    ) -> Result<ValueType> {
+        if name.eq_ignore_ascii_case("auto") {
+            let entry = self
+                .mailbox(slave)?
+                .sdo_info_entry(index, subindex, 0)
+                .await?;
+            Ok(value::for_data_type(entry.data_type))
+        } else {
+            name.parse()
+        }
+    }
+
+    /// SDO upload with the value as text, typed by `type_name` (see [`Core::coe_download_value`]).
+    pub async fn coe_upload_value(
+        &self,
+        slave: &str,
+        index: u16,
+        subindex: u8,
+        complete: bool,
+        type_name: &str,
+    ) -> Result<(Vec<u8>, String)> {
+        let ty = self.value_type(slave, index, subindex, type_name).await?;
+        let data = self.coe_upload(slave, index, subindex, complete).await?;
+        let text = value::decode(ty, &data)?;
+        Ok((data, text))
+    }
+
+    /// SDO download of a value given as text: `type_name` is `auto` (the type the slave's
+    /// SDO Information names) or a type name (`u8` … `u64`, `i8` … `i64`, `f32`, `f64`,
+    /// `bool`, `string`, `hex`).
+    pub async fn coe_download_value(
+        &self,
+        slave: &str,
+        index: u16,
+        subindex: u8,
+        text: &str,
+        type_name: &str,
+    ) -> Result<()> {
+        let ty = self.value_type(slave, index, subindex, type_name).await?;
+        let data = value::encode(ty, text)?;
+        self.coe_download(slave, index, subindex, &data, false)
+            .await
     }
 
     /// The object list of type `list` (1 all, 2 RxPDO, 3 TxPDO, 4 backup, 5 settings).

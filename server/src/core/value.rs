@@ -1,6 +1,8 @@
 //! Typed values over raw little-endian bytes, for a type the caller names: integers, reals,
 //! bool, strings, or raw hex.
 
+use master_core::wire::coe::DataType;
+
 use super::error::ApiError;
 
 /// A value type a caller can name.
@@ -133,6 +135,26 @@ pub fn parse_number<T: TryFrom<u64>>(text: &str, field: &str) -> Result<T, ApiEr
     T::try_from(value).map_err(|_| bad())
 }
 
+/// The value type for a CoE data type from SDO Information (raw hex for the types without
+/// a plain text form: octet strings, domains, structures).
+pub fn for_data_type(data_type: DataType) -> ValueType {
+    match data_type {
+        DataType::Boolean => ValueType::Bool,
+        DataType::Integer8 => ValueType::I8,
+        DataType::Integer16 => ValueType::I16,
+        DataType::Integer32 => ValueType::I32,
+        DataType::Integer64 => ValueType::I64,
+        DataType::Unsigned8 | DataType::Byte => ValueType::U8,
+        DataType::Unsigned16 | DataType::Word => ValueType::U16,
+        DataType::Unsigned32 | DataType::Dword => ValueType::U32,
+        DataType::Unsigned64 => ValueType::U64,
+        DataType::Real32 => ValueType::F32,
+        DataType::Real64 => ValueType::F64,
+        DataType::VisibleString => ValueType::String,
+        _ => ValueType::Hex,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -162,5 +184,7 @@ mod tests {
         assert!(encode(ValueType::I8, "-129").is_err());
         assert!(decode(ValueType::U16, &[1, 2, 3]).is_err());
         assert!("float".parse::<ValueType>().is_err());
+        assert_eq!(for_data_type(DataType::Unsigned32), ValueType::U32);
+        assert_eq!(for_data_type(DataType::OctetString), ValueType::Hex);
     }
 }

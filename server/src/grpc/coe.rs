@@ -20,32 +20,36 @@ type Reply<T> = Result<Response<T>, Status>;
 impl CoeService for Coe {
     async fn upload(&self, request: Request<pb::UploadRequest>) -> Reply<pb::UploadResponse> {
         let r = request.get_ref();
-        let data = self
-            .core
-            .coe_upload(
-                &r.slave,
-                narrow(r.index, "index")?,
-                narrow(r.subindex, "subindex")?,
-                r.complete_access,
-            )
-            .await
-            .map_err(status)?;
-        Ok(Response::new(pb::UploadResponse { data }))
+        let (index, subindex) = (narrow(r.index, "index")?, narrow(r.subindex, "subindex")?);
+        let (data, value) = if r.value_type.is_empty() {
+            let data = self
+                .core
+                .coe_upload(&r.slave, index, subindex, r.complete_access)
+                .await;
+            (data.map_err(status)?, String::new())
+        } else {
+            self.core
+                .coe_upload_value(&r.slave, index, subindex, r.complete_access, &r.value_type)
+                .await
+                .map_err(status)?
+        };
+        Ok(Response::new(pb::UploadResponse { data, value }))
     }
 
     async fn download(&self, request: Request<pb::DownloadRequest>) -> Reply<pb::DownloadResponse> {
         require_write(&request, "coe_download")?;
         let r = request.get_ref();
-        self.core
-            .coe_download(
-                &r.slave,
-                narrow(r.index, "index")?,
-                narrow(r.subindex, "subindex")?,
-                &r.data,
-                r.complete_access,
-            )
-            .await
-            .map_err(status)?;
+        let (index, subindex) = (narrow(r.index, "index")?, narrow(r.subindex, "subindex")?);
+        let done = if r.value_type.is_empty() {
+            self.core
+                .coe_download(&r.slave, index, subindex, &r.data, r.complete_access)
+                .await
+        } else {
+            self.core
+                .coe_download_value(&r.slave, index, subindex, &r.value, &r.value_type)
+                .await
+        };
+        done.map_err(status)?;
         Ok(Response::new(pb::DownloadResponse {}))
     }
 

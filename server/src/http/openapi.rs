@@ -20,7 +20,7 @@ use crate::core::{EntryView, EventView, IdentityView, IpView, ObjectView, SlaveV
     ),
     components(schemas(
         SlaveView, IdentityView, EventView, IpView, ObjectView, EntryView, VoeView,
-        ErrorBody, ErrorInfo, rest::Data, rest::SdoWrite, rest::StateBody, rest::AliasBody,
+        ErrorBody, ErrorInfo, rest::Data, rest::Upload, rest::SdoWrite, rest::StateBody, rest::AliasBody,
         rest::RescanBody, rest::ObjectList, rest::VoeBody, rest::Done,
     )),
     modifiers(&BearerAuth),

@@ -39,11 +39,19 @@ fn data(bytes: Vec<u8>) -> Json<Data> {
     })
 }
 
-/// Bytes to write, hex, with CoE complete access.
+/// What to write: bytes as hex, or a value as text with its type.
 #[derive(Debug, Deserialize, ToSchema)]
 pub struct SdoWrite {
-    /// The bytes, hex.
+    /// The bytes, hex (when no `type` is given).
+    #[serde(default)]
     pub data: String,
+    /// The value as text (with `type`).
+    #[serde(default)]
+    pub value: String,
+    /// `auto` (the slave's SDO Information type) or a type name (`u8` … `u64`, `i8` … `i64`,
+    /// `f32`, `f64`, `bool`, `string`, `hex`).
+    #[serde(default, rename = "type")]
+    pub value_type: Option<String>,
     /// Complete access from the subindex on.
     #[serde(default)]
     pub complete_access: bool,
@@ -86,12 +94,25 @@ pub struct LengthQuery {
     pub length: Option<usize>,
 }
 
-/// CoE complete access.
+/// CoE upload options.
 #[derive(Debug, Deserialize, IntoParams)]
-pub struct CompleteQuery {
+pub struct UploadQuery {
     /// Complete access from the subindex on.
     #[serde(default)]
     pub complete_access: bool,
+    /// Also decode the value: `auto` (the slave's SDO Information type) or a type name.
+    #[serde(rename = "type")]
+    pub value_type: Option<String>,
+}
+
+/// Uploaded bytes, and the value when a type was asked for.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct Upload {
+    /// The bytes, hex.
+    pub data: String,
+    /// The value as text.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub value: Option<String>,
 }
 
 /// Object list type.
@@ -251,22 +272,32 @@ pub async fn set_alias(
 }
 
 #[utoipa::path(get, path = "/api/v1/slaves/{slave}/coe/sdo/{index}/{subindex}", tag = "coe",
-    params(("slave" = String, Path), ("index" = String, Path), ("subindex" = String, Path), CompleteQuery),
-    responses((status = 200, body = Data), (status = 409, description = "SDO abort", body = super::error::ErrorBody)))]
+    params(("slave" = String, Path), ("index" = String, Path), ("subindex" = String, Path), UploadQuery),
+    responses((status = 200, body = Upload), (status = 409, description = "SDO abort", body = super::error::ErrorBody)))]
 /// SDO upload.
 pub async fn coe_upload(
     State(core): State<Core>,
     Path((slave, index, subindex)): Path<(String, String, String)>,
-    Query(q): Query<CompleteQuery>,
-) -> Result<Json<Data>> {
-    core.coe_upload(
-        &slave,
-        num(&index, "index")?,
-        num(&subindex, "subindex")?,
-        q.complete_access,
-    )
-    .await
-    .map(data)
+    Query(q): Query<UploadQuery>,
+) -> Result<Json<Upload>> {
+    let (index, subindex) = (num(&index, "index")?, num(&subindex, "subindex")?);
+    let (bytes, value) = match &q.value_type {
+        None => (
+            core.coe_upload(&slave, index, subindex, q.complete_access)
+                .await?,
+            None,
+        ),
+        Some(ty) => {
+            let (bytes, value) = core
+                .coe_upload_value(&slave, index, subindex, q.complete_access, ty)
+                .await?;
+            (bytes, Some(value))
+        }
+    };
+    Ok(Json(Upload {
+        data: hex::encode(bytes),
+        value,
+    }))
 }
 
 #[utoipa::path(put, path = "/api/v1/slaves/{slave}/coe/sdo/{index}/{subindex}", tag = "coe", request_body = SdoWrite,
@@ -278,15 +309,24 @@ pub async fn coe_download(
     Path((slave, index, subindex)): Path<(String, String, String)>,
     Json(body): Json<SdoWrite>,
 ) -> Result<Json<Done>> {
-    core.coe_download(
-        &slave,
-        num(&index, "index")?,
-        num(&subindex, "subindex")?,
-        &unhex(&body.data)?,
-        body.complete_access,
-    )
-    .await
-    .map(|()| DONE)
+    let (index, subindex) = (num(&index, "index")?, num(&subindex, "subindex")?);
+    match &body.value_type {
+        None => {
+            core.coe_download(
+                &slave,
+                index,
+                subindex,
+                &unhex(&body.data)?,
+                body.complete_access,
+            )
+            .await?
+        }
+        Some(ty) => {
+            core.coe_download_value(&slave, index, subindex, &body.value, ty)
+                .await?
+        }
+    }
+    Ok(DONE)
 }
 
 #[utoipa::path(get, path = "/api/v1/slaves/{slave}/coe/od", tag = "coe",
