@@ -33,6 +33,12 @@ pub struct Args {
     /// HTTP listen address (REST, metrics, health).
     #[arg(long, env = "ECATD_HTTP_LISTEN", value_name = "ADDR")]
     pub http_listen: Option<SocketAddr>,
+    /// ETG.8200 mailbox gateway listen address (UDP).
+    #[arg(long, env = "ECATD_GATEWAY_LISTEN", value_name = "ADDR")]
+    pub gateway_listen: Option<SocketAddr>,
+    /// Do not run the mailbox gateway.
+    #[arg(long, env = "ECATD_NO_GATEWAY", conflicts_with = "gateway_listen")]
+    pub no_gateway: bool,
     /// Log format: `human` or `json`.
     #[arg(long, env = "ECATD_LOG_FORMAT", value_name = "FORMAT")]
     pub log_format: Option<LogFormat>,
@@ -74,6 +80,30 @@ pub enum Segment {
     },
 }
 
+/// The mailbox gateway's settings (`[gateway]`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GatewaySettings {
+    /// UDP listen address; default 127.0.0.1:34980 (ETG.8200's port). Port 0: any free port.
+    /// A taken port falls back to a free one, which the log and the metrics report.
+    pub listen: SocketAddr,
+    /// Client networks allowed to send requests (CIDR, e.g. `10.0.0.0/8`); empty: loopback
+    /// only.
+    pub allow: Vec<String>,
+    /// Strict mode: no error replies from the gateway itself (ETG.8200 permits silence).
+    pub strict: bool,
+}
+
+impl Default for GatewaySettings {
+    fn default() -> GatewaySettings {
+        GatewaySettings {
+            listen: SocketAddr::from(([127, 0, 0, 1], master_core::gateway::DEFAULT_PORT)),
+            allow: Vec::new(),
+            strict: false,
+        }
+    }
+}
+
 /// The effective configuration.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -84,6 +114,8 @@ pub struct Config {
     pub grpc_listen: SocketAddr,
     /// HTTP listen address.
     pub http_listen: SocketAddr,
+    /// The ETG.8200 mailbox gateway (UDP); absent: no gateway.
+    pub gateway: Option<GatewaySettings>,
     /// Log format.
     pub log_format: LogFormat,
     /// Log filter.
@@ -100,6 +132,7 @@ impl Default for Config {
             segment: None,
             grpc_listen: SocketAddr::from(([127, 0, 0, 1], 50051)),
             http_listen: SocketAddr::from(([127, 0, 0, 1], 8080)),
+            gateway: Some(GatewaySettings::default()),
             log_format: LogFormat::Human,
             log: "info".into(),
             insecure: false,
@@ -132,6 +165,14 @@ impl Config {
         }
         if let Some(addr) = args.http_listen {
             config.http_listen = addr;
+        }
+        if args.no_gateway {
+            config.gateway = None;
+        } else if let Some(addr) = args.gateway_listen {
+            config
+                .gateway
+                .get_or_insert_with(GatewaySettings::default)
+                .listen = addr;
         }
         if let Some(format) = args.log_format {
             config.log_format = format;

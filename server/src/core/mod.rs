@@ -13,6 +13,7 @@ pub mod view;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use master_core::gateway::{MailboxGateway, MailboxGatewayStats};
 use master_core::mailbox::{FoeOptions, FoeProgress, SlaveMailbox, VoeMessage};
 use master_core::master::{Master, MasterEvent};
 use master_core::wire::coe::info::OdListType;
@@ -33,6 +34,8 @@ pub const MAX_REGISTER_LEN: usize = 0x1000;
 pub struct Core {
     master: Arc<Master>,
     ready: Arc<AtomicBool>,
+    /// The mailbox gateway, when one runs (its statistics feed the metrics).
+    gateway: Arc<std::sync::Mutex<Option<MailboxGateway>>>,
 }
 
 /// What the gRPC and REST layers give the core for each request: the slave name and the
@@ -45,7 +48,31 @@ impl Core {
         Core {
             master,
             ready: Arc::new(AtomicBool::new(false)),
+            gateway: Arc::default(),
         }
+    }
+
+    /// Hands the running mailbox gateway to the core.
+    pub fn set_gateway(&self, gateway: MailboxGateway) {
+        *self.gateway_slot() = Some(gateway);
+    }
+
+    /// Takes the mailbox gateway back (to stop it).
+    pub fn take_gateway(&self) -> Option<MailboxGateway> {
+        self.gateway_slot().take()
+    }
+
+    /// The gateway's statistics and whether it is running; `None` without a gateway.
+    pub fn gateway_stats(&self) -> Option<(MailboxGatewayStats, bool)> {
+        self.gateway_slot()
+            .as_ref()
+            .map(|gateway| (gateway.stats(), gateway.is_running()))
+    }
+
+    fn gateway_slot(&self) -> std::sync::MutexGuard<'_, Option<MailboxGateway>> {
+        self.gateway
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// The master.

@@ -127,7 +127,7 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
     out
 }
 
-fn histogram(
+pub(super) fn histogram(
     name: &str,
     help: &str,
     snapshot: &master_core::bus::HistogramSnapshot,

@@ -78,8 +78,15 @@ impl Ecatd {
 
     /// Starts `ecatd` with `segment` flags and `extra` flags; waits until ready.
     pub fn start_with(segment: &[&str], extra: &[&str]) -> Ecatd {
+        // The gateway on a free port too, so that tests can run side by side.
+        let gateway: &[&str] = if extra.contains(&"--no-gateway") {
+            &[]
+        } else {
+            &["--gateway-listen", "127.0.0.1:0"]
+        };
         let mut child = Command::new(bin_dir().join("ecatd"))
             .args(segment)
+            .args(gateway)
             .args([
                 "--grpc-listen",
                 "127.0.0.1:0",
@@ -152,6 +159,29 @@ impl Ecatd {
             // Poll interval of the readiness check (not a synchronisation by time: the loop
             // ends on the condition or the deadline).
             std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// The address the mailbox gateway serves on, from ecatd's log (it starts before
+    /// ecatd reports ready; the log reader may lag a little behind).
+    pub fn gateway_addr(&self) -> std::net::SocketAddr {
+        let deadline = Instant::now() + DEADLINE;
+        loop {
+            let found = self.log.lock().unwrap().iter().find_map(|line| {
+                let v: serde_json::Value = serde_json::from_str(line).ok()?;
+                (v["fields"]["message"] == "mailbox gateway serving")
+                    .then(|| v["fields"]["gateway"].as_str()?.parse().ok())?
+            });
+            if let Some(addr) = found {
+                return addr;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "ecatd did not report its gateway:\n{}",
+                self.log()
+            );
+            // Poll interval of the log check; the loop ends on the condition or the deadline.
+            std::thread::sleep(Duration::from_millis(20));
         }
     }
 
