@@ -1,8 +1,10 @@
 //! The per-slave objects (digest §12.2-§12.4): 0x8nnn configuration, 0x9nnn detected
 //! information, 0xAnnn diagnosis, with n the slave's ring position.
 
+use crate::master::Identity;
 use crate::master::SlaveInfo;
 use crate::od::DictionaryBuilder;
+use crate::od::ObjectBuilder;
 use crate::wire::coe::{DataType, ObjectAccess};
 use crate::wire::register::{AlState, DlStatus, ErrorCountersRepr, PortType};
 
@@ -100,6 +102,33 @@ fn frame_errors(counters: &ErrorCountersRepr, port: usize) -> u32 {
     u32::from(counters.invalid_frame[port]) + u32::from(counters.rx_error[port])
 }
 
+/// Subindexes 5-8 of the configuration and information records: the identity.
+fn identity_entries(r: ObjectBuilder, identity: &Identity) -> ObjectBuilder {
+    let ro = ObjectAccess::RO;
+    r.entry(5, "Vendor ID", DataType::Unsigned32, ro, identity.vendor_id)
+        .entry(
+            6,
+            "Product code",
+            DataType::Unsigned32,
+            ro,
+            identity.product_code,
+        )
+        .entry(
+            7,
+            "Revision number",
+            DataType::Unsigned32,
+            ro,
+            identity.revision,
+        )
+        .entry(
+            8,
+            "Serial number",
+            DataType::Unsigned32,
+            ro,
+            identity.serial,
+        )
+}
+
 /// Declares the three objects of every slave.
 pub(crate) fn declare(mut b: DictionaryBuilder, snap: &MasterSnapshot) -> DictionaryBuilder {
     let ro = ObjectAccess::RO;
@@ -109,131 +138,77 @@ pub(crate) fn declare(mut b: DictionaryBuilder, snap: &MasterSnapshot) -> Dictio
         let mailbox = info.mailbox;
         let protocols = mailbox.map_or(0, |m| m.protocols.0);
         b = b.record(CONFIGURATION + n, "Configuration data", |r| {
-            r.entry(
-                1,
-                "Fixed station address",
-                DataType::Unsigned16,
-                ro,
-                info.station,
-            )
-            .string(2, "Type", ro, fit(order, SLAVE_TEXT_LEN), SLAVE_TEXT_LEN)
-            .string(
-                3,
-                "Name",
-                ro,
-                fit(&info.name, SLAVE_TEXT_LEN),
-                SLAVE_TEXT_LEN,
-            )
-            .entry(4, "Device type", DataType::Unsigned32, ro, 0u32)
-            .entry(
-                5,
-                "Vendor ID",
-                DataType::Unsigned32,
-                ro,
-                info.identity.vendor_id,
-            )
-            .entry(
-                6,
-                "Product code",
-                DataType::Unsigned32,
-                ro,
-                info.identity.product_code,
-            )
-            .entry(
-                7,
-                "Revision number",
-                DataType::Unsigned32,
-                ro,
-                info.identity.revision,
-            )
-            .entry(
-                8,
-                "Serial number",
-                DataType::Unsigned32,
-                ro,
-                info.identity.serial,
-            )
-            .entry(
-                0x21,
-                "Mailbox out size",
-                DataType::Unsigned16,
-                ro,
-                mailbox.map_or(0, |m| m.sm0_length),
-            )
-            .entry(
-                0x22,
-                "Mailbox in size",
-                DataType::Unsigned16,
-                ro,
-                mailbox.map_or(0, |m| m.sm1_length),
-            )
-            .entry(
-                0x23,
-                "Link status",
-                DataType::Unsigned8,
-                ro,
-                link_status(&info.dl_status),
-            )
-            .entry(
-                0x24,
-                "Link preset",
-                DataType::Unsigned8,
-                ro,
-                link_preset(&info.dl_status),
-            )
-            .entry(0x25, "Flags", DataType::Unsigned8, ro, 0u8)
-            .entry(
-                0x26,
-                "Port physics",
-                DataType::Unsigned16,
-                ro,
-                port_physics(&info.esc.ports),
-            )
-            .entry(
-                0x27,
-                "Mailbox protocols supported",
-                DataType::Unsigned16,
-                ro,
-                protocols,
-            )
+            let r = r
+                .entry(
+                    1,
+                    "Fixed station address",
+                    DataType::Unsigned16,
+                    ro,
+                    info.station,
+                )
+                .string(2, "Type", ro, fit(order, SLAVE_TEXT_LEN), SLAVE_TEXT_LEN)
+                .string(
+                    3,
+                    "Name",
+                    ro,
+                    fit(&info.name, SLAVE_TEXT_LEN),
+                    SLAVE_TEXT_LEN,
+                )
+                .entry(4, "Device type", DataType::Unsigned32, ro, 0u32);
+            identity_entries(r, &info.identity)
+                .entry(
+                    0x21,
+                    "Mailbox out size",
+                    DataType::Unsigned16,
+                    ro,
+                    mailbox.map_or(0, |m| m.sm0_length),
+                )
+                .entry(
+                    0x22,
+                    "Mailbox in size",
+                    DataType::Unsigned16,
+                    ro,
+                    mailbox.map_or(0, |m| m.sm1_length),
+                )
+                .entry(
+                    0x23,
+                    "Link status",
+                    DataType::Unsigned8,
+                    ro,
+                    link_status(&info.dl_status),
+                )
+                .entry(
+                    0x24,
+                    "Link preset",
+                    DataType::Unsigned8,
+                    ro,
+                    link_preset(&info.dl_status),
+                )
+                .entry(0x25, "Flags", DataType::Unsigned8, ro, 0u8)
+                .entry(
+                    0x26,
+                    "Port physics",
+                    DataType::Unsigned16,
+                    ro,
+                    port_physics(&info.esc.ports),
+                )
+                .entry(
+                    0x27,
+                    "Mailbox protocols supported",
+                    DataType::Unsigned16,
+                    ro,
+                    protocols,
+                )
         });
         b = b.record(INFORMATION + n, "Information data", |r| {
-            r.entry(
+            let r = r.entry(
                 1,
                 "Fixed station address",
                 DataType::Unsigned16,
                 ro,
                 info.station,
-            )
-            .entry(
-                5,
-                "Vendor ID",
-                DataType::Unsigned32,
-                ro,
-                info.identity.vendor_id,
-            )
-            .entry(
-                6,
-                "Product code",
-                DataType::Unsigned32,
-                ro,
-                info.identity.product_code,
-            )
-            .entry(
-                7,
-                "Revision number",
-                DataType::Unsigned32,
-                ro,
-                info.identity.revision,
-            )
-            .entry(
-                8,
-                "Serial number",
-                DataType::Unsigned32,
-                ro,
-                info.identity.serial,
-            )
-            .entry(
+            );
+            identity_entries(r, &info.identity).entry(
                 0x20,
                 "DL status",
                 DataType::Unsigned16,
