@@ -1,10 +1,8 @@
 //! The per-slave objects (digest §12.2-§12.4): 0x8nnn configuration, 0x9nnn detected
 //! information, 0xAnnn diagnosis, with n the slave's ring position.
 
-use crate::master::Identity;
-use crate::master::SlaveInfo;
-use crate::od::DictionaryBuilder;
-use crate::od::ObjectBuilder;
+use crate::master::{Identity, SlaveInfo};
+use crate::od::{DictionaryBuilder, ObjectBuilder};
 use crate::wire::coe::{DataType, ObjectAccess};
 use crate::wire::register::{AlState, DlStatus, ErrorCountersRepr, PortType};
 
