@@ -4,6 +4,7 @@
 //! Runs as root (CI does): opening a raw socket needs CAP_NET_RAW before the interface is
 //! even looked up, and the CAP_NET_RAW test drops to an unprivileged user.
 
+use std::os::unix::fs::PermissionsExt;
 use std::os::unix::process::CommandExt;
 use std::process::{Command, Output};
 
@@ -50,13 +51,20 @@ fn an_unknown_interface_is_named_and_exits_1() {
 #[test]
 fn without_cap_net_raw_the_message_says_so_and_exits_1() {
     require_root();
+    // `nobody` may not be able to reach the build directory (a checkout under a private
+    // directory): run a copy from the world-readable temporary directory.
+    let copy = std::env::temp_dir().join(format!("ecat-sim-nobody-{}", std::process::id()));
+    std::fs::copy(BIN, &copy).expect("copy ecat-sim");
+    std::fs::set_permissions(&copy, std::fs::Permissions::from_mode(0o755))
+        .expect("make the copy executable for everyone");
     // `nobody`: no capabilities at all.
-    let out = Command::new(BIN)
+    let out = Command::new(&copy)
         .args(["--iface", "lo"])
         .uid(65534)
         .gid(65534)
-        .output()
-        .expect("run ecat-sim as nobody");
+        .output();
+    let _ = std::fs::remove_file(&copy);
+    let out = out.expect("run ecat-sim as nobody");
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     assert!(stderr(&out).contains("CAP_NET_RAW"), "{}", stderr(&out));
 }
