@@ -4,8 +4,6 @@
 
 mod mailbox_support;
 
-use std::any::Any;
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use mailbox_support::{COE_STORE, DRIVE, Rig, station};
@@ -16,8 +14,6 @@ use master_core::wire::coe::sdo::SdoFrame;
 use master_core::wire::coe::{AbortCode, SdoPayload, SdoRequest, SdoResponse};
 use master_core::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
 use sim::device::coe::{SharedDictionary, lock_dictionary};
-use sim::device::mailbox::{MailboxService, MailboxStack, ReplySink};
-use sim::device::{CoeService, DeviceContext, SlaveDevice};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 fn dictionary(rig: &Rig, position: usize) -> SharedDictionary {
@@ -292,65 +288,10 @@ async fn a_protocol_the_slave_does_not_announce_is_refused_by_the_master() {
 /// An emergency to raise: error code, error register, manufacturer data.
 type Raise = (u16, u8, [u8; 5]);
 
-/// The CoE store's CoE service, plus emergencies a test asks for: posted on the next poll.
-struct Emergencies {
-    coe: CoeService,
-    raise: Arc<Mutex<Vec<Raise>>>,
-}
-
-impl MailboxService for Emergencies {
-    fn mailbox_type(&self) -> MailboxType {
-        MailboxType::Coe
-    }
-
-    fn handle(
-        &mut self,
-        request: &MailboxHeader,
-        data: &[u8],
-        ctx: &DeviceContext,
-        replies: &mut ReplySink,
-    ) {
-        self.coe.handle(request, data, ctx, replies);
-    }
-
-    fn poll(&mut self, ctx: &DeviceContext, replies: &mut ReplySink) {
-        for (code, register, data) in self.raise.lock().unwrap().drain(..) {
-            assert!(self.coe.raise_emergency(code, register, data));
-        }
-        self.coe.poll(ctx, replies);
-    }
-
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-
-    fn as_any_mut(&mut self) -> &mut dyn Any {
-        self
-    }
-}
-
 #[tokio::test]
 async fn emergencies_go_to_history_and_subscribers_never_to_a_transfer() {
-    let raise = Arc::new(Mutex::new(Vec::new()));
-    let hook = Arc::clone(&raise);
-    let rig = Rig::start_with(
-        &Topology::default_segment(),
-        Default::default(),
-        1,
-        mailbox_support::bus_config(),
-        Default::default(),
-        move |segment, handles| {
-            let dict = handles[COE_STORE].dictionary.clone().unwrap();
-            let stack = MailboxStack::new().with(Emergencies {
-                coe: CoeService::shared(dict),
-                raise: hook,
-            });
-            segment
-                .slave_mut(COE_STORE)
-                .unwrap()
-                .replace_device(Box::new(SlaveDevice::new().with_mailbox(stack)));
-        },
-    );
+    let rig = Rig::default_segment();
+    let trigger = rig.handles[COE_STORE].emergencies.clone().unwrap();
     let store = rig.slave(COE_STORE);
     let mut events = store.subscribe_emergencies();
     let raised: Vec<Raise> = (0..40u16)
@@ -358,7 +299,9 @@ async fn emergencies_go_to_history_and_subscribers_never_to_a_transfer() {
         .collect();
     let value = pattern(4096, 9);
     for chunk in raised.chunks(4) {
-        raise.lock().unwrap().extend_from_slice(chunk);
+        for &(code, register, data) in chunk {
+            assert!(trigger.raise(code, register, data));
+        }
         // A segmented transfer while emergencies come in between its answers.
         store.sdo_download(0x2000, 0, &value).await.unwrap();
         assert_eq!(store.sdo_upload(0x2000, 0).await.unwrap(), value);

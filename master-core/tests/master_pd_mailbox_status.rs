@@ -6,19 +6,15 @@
 mod master_pd_support;
 mod master_support;
 
-use std::any::Any;
-use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
 use master_core::bus::BusConfig;
 use master_core::mailbox::MailboxConfig;
 use master_core::master::{MasterConfig, SlaveAddress};
 use master_core::wire::command::{Command, DatagramAddress};
-use master_core::wire::mailbox::{MailboxHeader, MailboxType};
 use master_pd_support::{Recording, Returned, count_node, datagrams};
 use master_support::{Rig, block_on, rig_with, wait_until};
-use sim::device::mailbox::{MailboxService, MailboxStack, ReplySink};
-use sim::device::{CoeService, DeviceContext, SlaveDevice};
+use sim::device::coe::EmergencyTrigger;
 use sim::topology::Topology;
 
 /// The CoE store's position in the default segment.
@@ -27,58 +23,12 @@ const STORE: u16 = 3;
 /// Logical address of the mailbox-status bits (the seed capture's 0x40000).
 const STATUS_BASE: u32 = 0x0004_0000;
 
-type Raise = (u16, u8, [u8; 5]);
-
 /// A master on the recorded in-process link.
 type PdRig = Rig<Recording<sim::link::InProcessLink>>;
 
-/// The CoE store's service, raising the emergencies a test queues (at the slave's next
-/// poll, i.e. while frames pass).
-struct Emergencies {
-    coe: CoeService,
-    raise: Arc<Mutex<Vec<Raise>>>,
-}
-
-impl MailboxService for Emergencies {
-    fn mailbox_type(&self) -> MailboxType {
-        MailboxType::Coe
-    }
-
-    fn handle(
-        &mut self,
-        request: &MailboxHeader,
-        data: &[u8],
-        ctx: &DeviceContext,
-        replies: &mut ReplySink,
-    ) {
-        self.coe.handle(request, data, ctx, replies);
-    }
-
-    fn poll(&mut self, ctx: &DeviceContext, replies: &mut ReplySink) {
-        let queued: Vec<Raise> = self
-            .raise
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .drain(..)
-            .collect();
-        for (code, register, data) in queued {
-            assert!(self.coe.raise_emergency(code, register, data));
-        }
-        self.coe.poll(ctx, replies);
-    }
-
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-
-    fn as_any_mut(&mut self) -> &mut dyn Any {
-        self
-    }
-}
-
 /// A scanned default segment whose CoE store can raise emergencies; every returned frame
 /// is kept.
-fn rig(config: MasterConfig) -> (PdRig, Returned, Arc<Mutex<Vec<Raise>>>) {
+fn rig(config: MasterConfig) -> (PdRig, Returned, EmergencyTrigger) {
     let returned = Returned::default();
     let recorder = returned.clone();
     let rig = rig_with(
@@ -93,16 +43,7 @@ fn rig(config: MasterConfig) -> (PdRig, Returned, Arc<Mutex<Vec<Raise>>>) {
             returned: recorder,
         },
     );
-    let raise = Arc::new(Mutex::new(Vec::new()));
-    let dict = rig.handles[usize::from(STORE)].dictionary.clone().unwrap();
-    let stack = MailboxStack::new().with(Emergencies {
-        coe: CoeService::shared(dict),
-        raise: Arc::clone(&raise),
-    });
-    rig.segment()
-        .slave_mut(usize::from(STORE))
-        .unwrap()
-        .replace_device(Box::new(SlaveDevice::new().with_mailbox(stack)));
+    let raise = rig.handles[usize::from(STORE)].emergencies.clone().unwrap();
     let report = block_on(rig.master().scan()).expect("scan");
     assert!(report.failures.is_empty(), "{:?}", report.failures);
     (rig, returned, raise)
@@ -157,7 +98,7 @@ fn an_emergency_is_noticed_through_the_mapped_bit_not_by_polling() {
 
     // The store raises an emergency: the bit is seen, the mailbox read, the emergency out.
     returned.clear();
-    raise.lock().unwrap().push((0x8110, 0x11, [1, 2, 3, 4, 5]));
+    assert!(raise.raise(0x8110, 0x11, [1, 2, 3, 4, 5]));
     let mut got = None;
     assert!(wait_until(|| {
         got = emergencies.try_recv().ok();

@@ -33,13 +33,58 @@ pub fn lock_dictionary(dict: &SharedDictionary) -> MutexGuard<'_, StaticDictiona
 /// Emergencies a slave keeps before it drops new ones (a real slave's queue is small too).
 const EMERGENCY_QUEUE: usize = 16;
 
+#[derive(Debug, Default)]
+struct EmergencyQueue {
+    pending: VecDeque<[u8; EMERGENCY_LEN]>,
+    dropped: u64,
+}
+
+/// Raises emergencies on a CoE slave from outside its mailbox (a test, the topology's
+/// handles): a clone of the service's own queue, posted at the service's next poll.
+#[derive(Debug, Clone, Default)]
+pub struct EmergencyTrigger(Arc<Mutex<EmergencyQueue>>);
+
+impl EmergencyTrigger {
+    fn lock(&self) -> MutexGuard<'_, EmergencyQueue> {
+        self.0
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// Queues an emergency (error code, error register 0x1001, 5 manufacturer bytes) to be
+    /// posted on the slave's next poll. Returns `false` when the queue is full and it was
+    /// dropped, as a real slave's small queue would.
+    pub fn raise(&self, code: u16, register: u8, data: [u8; 5]) -> bool {
+        let mut queue = self.lock();
+        if queue.pending.len() >= EMERGENCY_QUEUE {
+            queue.dropped += 1;
+            return false;
+        }
+        queue.pending.push_back(emergency(code, register, data));
+        true
+    }
+
+    /// Emergencies waiting for the next poll.
+    pub fn pending(&self) -> usize {
+        self.lock().pending.len()
+    }
+
+    /// Emergencies dropped because the queue was full.
+    pub fn dropped(&self) -> u64 {
+        self.lock().dropped
+    }
+
+    fn pop(&self) -> Option<[u8; EMERGENCY_LEN]> {
+        self.lock().pending.pop_front()
+    }
+}
+
 /// The CoE mailbox service: SDO transfers, SDO Information and emergencies.
 #[derive(Debug)]
 pub struct CoeService {
     dict: SharedDictionary,
     server: SdoServer,
-    emergencies: VecDeque<[u8; EMERGENCY_LEN]>,
-    dropped_emergencies: u64,
+    emergencies: EmergencyTrigger,
     refused: u64,
 }
 
@@ -54,8 +99,7 @@ impl CoeService {
         CoeService {
             dict,
             server: SdoServer::new(),
-            emergencies: VecDeque::new(),
-            dropped_emergencies: 0,
+            emergencies: EmergencyTrigger::default(),
             refused: 0,
         }
     }
@@ -78,22 +122,22 @@ impl CoeService {
     /// Queues an emergency (error code, error register 0x1001, 5 manufacturer bytes) to be
     /// posted on the next poll. Returns `false` when the queue is full and it was dropped.
     pub fn raise_emergency(&mut self, code: u16, register: u8, data: [u8; 5]) -> bool {
-        if self.emergencies.len() >= EMERGENCY_QUEUE {
-            self.dropped_emergencies += 1;
-            return false;
-        }
-        self.emergencies.push_back(emergency(code, register, data));
-        true
+        self.emergencies.raise(code, register, data)
+    }
+
+    /// A handle that raises emergencies on this service from outside its mailbox.
+    pub fn emergency_trigger(&self) -> EmergencyTrigger {
+        self.emergencies.clone()
     }
 
     /// Emergencies waiting for the next poll.
     pub fn pending_emergencies(&self) -> usize {
-        self.emergencies.len()
+        self.emergencies.pending()
     }
 
     /// Emergencies dropped because the queue was full.
     pub fn dropped_emergencies(&self) -> u64 {
-        self.dropped_emergencies
+        self.emergencies.dropped()
     }
 
     /// Requests answered with a mailbox error instead of a CoE reply (malformed or a CoE
@@ -152,7 +196,7 @@ impl MailboxService for CoeService {
 
     fn poll(&mut self, _ctx: &DeviceContext, replies: &mut ReplySink) {
         while replies.room() > 0 {
-            let Some(message) = self.emergencies.pop_front() else {
+            let Some(message) = self.emergencies.pop() else {
                 break;
             };
             let _ = replies.send(message.to_vec());
@@ -248,5 +292,22 @@ mod tests {
         coe.handle(&header(), &request, &ctx(), &mut sink);
         assert_eq!(coe.refused(), 1);
         assert_eq!(sink.len(), 1);
+    }
+
+    #[test]
+    fn a_trigger_raises_on_the_service_and_its_queue_is_bounded() {
+        let coe = CoeService::new(StaticDictionary::default());
+        let trigger = coe.emergency_trigger();
+        let mut coe = coe;
+        for i in 0..EMERGENCY_QUEUE as u16 {
+            assert!(trigger.raise(0x8100 + i, 0x11, [0; 5]));
+        }
+        assert!(!trigger.raise(0x8200, 0x11, [0; 5]), "the queue is full");
+        assert_eq!(coe.pending_emergencies(), EMERGENCY_QUEUE);
+        assert_eq!(coe.dropped_emergencies(), 1);
+        let mut sink = ReplySink::new(MailboxType::Coe, 0, 122, 4);
+        coe.poll(&ctx(), &mut sink);
+        assert_eq!(sink.len(), 4, "as many as the sink has room for");
+        assert_eq!(trigger.pending(), EMERGENCY_QUEUE - 4);
     }
 }

@@ -22,7 +22,7 @@ use master_core::wire::sii::pdo::{Pdo, PdoEntry as SiiPdoEntry, PdoFlags};
 use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 use thiserror::Error;
 
-use crate::device::coe::{CoeService, SharedDictionary};
+use crate::device::coe::{CoeService, EmergencyTrigger, SharedDictionary};
 use crate::device::dio::{DigitalInputs, DigitalOutputs, InputDriver, OutputProbe};
 use crate::device::eoe::{EoeService, IpConfig};
 use crate::device::foe::{BusyPhase, FileStore, FoeFile, FoeService};
@@ -80,6 +80,8 @@ pub struct SlaveHandles {
     pub inputs: Option<InputDriver>,
     /// The FoE file store.
     pub files: Option<FileStore>,
+    /// Raises CoE emergencies on the slave (CoE slaves).
+    pub emergencies: Option<EmergencyTrigger>,
 }
 
 /// A built segment, its time base and per-slave handles.
@@ -142,7 +144,9 @@ fn build_slave(position: usize, spec: &SlaveSpec) -> Result<SlaveParts, BuildErr
     if spec.mailbox.is_some() {
         let mut stack = MailboxStack::new();
         if let Some(dict) = &dictionary {
-            stack = stack.with(CoeService::shared(Arc::clone(dict)));
+            let coe = CoeService::shared(Arc::clone(dict));
+            handles.emergencies = Some(coe.emergency_trigger());
+            stack = stack.with(coe);
         }
         if has(Protocol::Soe) {
             stack = stack.with(soe_service(spec).map_err(invalid)?);
