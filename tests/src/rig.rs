@@ -1,6 +1,6 @@
 //! Two network namespaces joined by a veth pair: the simulator's and the master's.
 
-use crate::netns::NetNs;
+use crate::netns::{NetNs, run_ip, wait_link_ready};
 
 /// The simulator's end of the veth pair.
 pub const SIM_IFACE: &str = "sim0";
@@ -51,5 +51,66 @@ impl Rig {
 impl Default for Rig {
     fn default() -> Self {
         Rig::new()
+    }
+}
+
+/// A namespace for the simulator whose veth pair has its other end here, in the test
+/// process's own namespace, for a master that runs as a separate program (`ecatd --iface`)
+/// and serves its APIs on this namespace's loopback, where the test's clients are.
+///
+/// The host end gets a unique name and no IPv6 (so that the kernel sends nothing on it);
+/// dropping the rig deletes the namespace, and with it both ends of the pair.
+#[derive(Debug)]
+pub struct HostRig {
+    /// Where `ecat-sim` runs, on [`SIM_IFACE`].
+    pub sim: NetNs,
+    /// The master's end of the pair, in the caller's namespace.
+    pub master_iface: String,
+}
+
+impl HostRig {
+    /// Creates the namespace and the veth pair, and returns once both ends carry frames.
+    ///
+    /// # Panics
+    /// Without root or `ip`, or if the pair cannot be made.
+    pub fn new() -> HostRig {
+        use std::sync::atomic::{AtomicU32, Ordering};
+        static NEXT: AtomicU32 = AtomicU32::new(0);
+        let sim = NetNs::new();
+        // At most 15 characters: "em" + the pid and a counter in hex.
+        let master_iface = format!(
+            "em{:x}x{:x}",
+            std::process::id(),
+            NEXT.fetch_add(1, Ordering::Relaxed)
+        );
+        run_ip(&[
+            "link",
+            "add",
+            "name",
+            &master_iface,
+            "type",
+            "veth",
+            "peer",
+            "name",
+            SIM_IFACE,
+            "netns",
+            sim.name(),
+        ]);
+        // From here on the namespace's drop deletes the pair too.
+        let rig = HostRig { sim, master_iface };
+        let ipv6 = format!("/proc/sys/net/ipv6/conf/{}/disable_ipv6", rig.master_iface);
+        // Best effort: without IPv6 in the kernel there is nothing to silence.
+        let _ = std::fs::write(ipv6, "1");
+        rig.sim.ip(&["link", "set", "dev", SIM_IFACE, "up"]);
+        run_ip(&["link", "set", "dev", &rig.master_iface, "up"]);
+        rig.sim.wait_until_ready(SIM_IFACE);
+        wait_link_ready(None, &rig.master_iface);
+        rig
+    }
+}
+
+impl Default for HostRig {
+    fn default() -> Self {
+        HostRig::new()
     }
 }

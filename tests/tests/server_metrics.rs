@@ -111,11 +111,14 @@ fn counters_equal_what_was_done() {
         topology.slaves.len() as f64 - 1.0
     );
     assert!(sample(&states, "ecat_bus_frames_sent_total") > 0.0);
-    assert_eq!(
-        sample(&states, "ecat_bus_frames_lost_total"),
-        0.0,
-        "the in-process link loses nothing"
-    );
+    let lost = sample(&states, "ecat_bus_frames_lost_total");
+    if server_support::on_veth() {
+        // Over veth a loaded machine can hold ecat-sim past the response timeout now and
+        // then; such frames are counted lost and sent again, so only the bound is known.
+        assert!(lost < sample(&states, "ecat_bus_frames_sent_total"));
+    } else {
+        assert_eq!(lost, 0.0, "the in-process link loses nothing");
+    }
     let name = &topology.slaves[0].name;
     assert_eq!(
         sample(

@@ -76,20 +76,7 @@ impl NetNs {
     /// qdisc, which silently drops every frame sent through it. A test that sends at once
     /// would then lose its first frames now and then, so wait for both signs of readiness.
     pub fn wait_until_ready(&self, device: &str) {
-        let deadline = Instant::now() + READY_PATIENCE;
-        loop {
-            let state = self.ip(&["-o", "link", "show", "dev", device]);
-            if state.contains("state UP") && !state.contains("qdisc noop") {
-                return;
-            }
-            // Each check is an `ip` process, which paces this loop by itself.
-            assert!(
-                Instant::now() < deadline,
-                "{device} in {} did not become ready within {READY_PATIENCE:?}: {}",
-                self.name,
-                state.trim()
-            );
-        }
+        wait_link_ready(Some(self), device);
     }
 
     /// Moves the calling thread into the namespace (other threads stay where they are).
@@ -161,9 +148,32 @@ fn require_root() {
     );
 }
 
+/// Waits (at most [`READY_PATIENCE`]) until `device` in `netns` (`None`: the calling
+/// process's own namespace) is up and can transmit; see [`NetNs::wait_until_ready`].
+pub fn wait_link_ready(netns: Option<&NetNs>, device: &str) {
+    let deadline = Instant::now() + READY_PATIENCE;
+    loop {
+        let show = ["-o", "link", "show", "dev", device];
+        let state = match netns {
+            Some(ns) => ns.ip(&show),
+            None => run_ip(&show),
+        };
+        if state.contains("state UP") && !state.contains("qdisc noop") {
+            return;
+        }
+        // Each check is an `ip` process, which paces this loop by itself.
+        assert!(
+            Instant::now() < deadline,
+            "{device} in {} did not become ready within {READY_PATIENCE:?}: {}",
+            netns.map_or("this namespace", NetNs::name),
+            state.trim()
+        );
+    }
+}
+
 /// Runs `ip <args>` and returns its output, panicking with a clear message if `ip` is
 /// missing or fails.
-fn run_ip(args: &[&str]) -> String {
+pub fn run_ip(args: &[&str]) -> String {
     let output = Command::new("ip")
         .args(args)
         .output()

@@ -59,9 +59,24 @@ pub fn bin_dir() -> &'static Path {
     })
 }
 
+/// Whether this test binary runs ecatd on a real interface: the `*_veth` binaries compile a
+/// server suite again (`#[path]`), and in them ecatd runs `--iface` on a veth pair whose other
+/// end is `ecat-sim` in its own namespace, serving the same topology as `--simulate`.
+pub fn on_veth() -> bool {
+    env!("CARGO_CRATE_NAME").ends_with("_veth")
+}
+
+/// The simulated segment behind an `ecatd --iface` (see [`on_veth`]).
+struct VethSegment {
+    // Dropped in this order: the simulator, then its namespace and the veth pair.
+    sim: ecat_tests::sim_process::SimProcess,
+    rig: ecat_tests::rig::HostRig,
+}
+
 /// A running `ecatd`, stopped with SIGTERM on drop.
 pub struct Ecatd {
     child: Option<Child>,
+    veth: Option<VethSegment>,
     /// gRPC address (`127.0.0.1:port`).
     pub grpc: String,
     /// HTTP base URL (`http://127.0.0.1:port`).
@@ -77,7 +92,31 @@ impl Ecatd {
     }
 
     /// Starts `ecatd` with `segment` flags and `extra` flags; waits until ready.
+    ///
+    /// In the `*_veth` binaries ([`on_veth`]) `--simulate [TOPOLOGY]` becomes `ecat-sim
+    /// [--topology TOPOLOGY]` on a veth pair and ecatd runs `--iface` on its other end.
     pub fn start_with(segment: &[&str], extra: &[&str]) -> Ecatd {
+        let veth = (on_veth() && segment.first() == Some(&"--simulate")).then(|| {
+            let rig = ecat_tests::rig::HostRig::new();
+            let topology: Vec<&str> = match segment.get(1) {
+                Some(file) => vec!["--topology", file],
+                None => Vec::new(),
+            };
+            let sim = ecat_tests::sim_process::SimProcess::start(
+                &rig.sim,
+                ecat_tests::rig::SIM_IFACE,
+                &topology,
+            );
+            VethSegment { sim, rig }
+        });
+        let iface;
+        let segment: &[&str] = match &veth {
+            Some(v) => {
+                iface = ["--iface", v.rig.master_iface.as_str()];
+                &iface
+            }
+            None => segment,
+        };
         // The gateway on a free port too, so that tests can run side by side.
         let gateway: &[&str] = if extra.contains(&"--no-gateway") {
             &[]
@@ -134,6 +173,7 @@ impl Ecatd {
                 .to_owned()
         };
         let mut ecatd = Ecatd {
+            veth,
             grpc: field("grpc"),
             http: format!("http://{}", field("http")),
             child: Some(child),
@@ -217,6 +257,12 @@ impl Ecatd {
 impl Drop for Ecatd {
     fn drop(&mut self) {
         self.stop();
+        // A failing test on veth also wants to know what the simulator saw.
+        if let Some(veth) = &self.veth
+            && std::thread::panicking()
+        {
+            eprintln!("ecat-sim's stderr:\n{}", veth.sim.stderr());
+        }
     }
 }
 
