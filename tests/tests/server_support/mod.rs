@@ -225,6 +225,11 @@ impl Ecatd {
         }
     }
 
+    /// ecatd's process id (0 once stopped).
+    pub fn pid(&self) -> u32 {
+        self.child.as_ref().map_or(0, Child::id)
+    }
+
     /// Everything ecatd logged so far.
     pub fn log(&self) -> String {
         self.log.lock().unwrap().join("\n")

@@ -1,0 +1,402 @@
+//! SDO upload latency and throughput through ecatd's APIs (gRPC, REST, the ETG.8200 gateway)
+//! next to the direct API on the same simulated segment, and ecatd's resident memory with 5
+//! and 64 simulated slaves.
+//!
+//! ```text
+//! cargo bench -p ecat-tests --bench server_api
+//! ```
+//!
+//! Every row uploads 0x1018:01 (an expedited upload) from CoE slaves of `ecatd --simulate`:
+//! - direct API: `SlaveMailbox::sdo_upload` on an in-process master over the same built-in
+//!   segment (no process boundary, no serialisation): the floor of every other row;
+//! - ecatd gateway, gRPC (tonic client, one HTTP/2 connection), REST (ureq, HTTP/1.1 with
+//!   keep-alive): one client in sequence, then `PARALLEL` clients at once, spread over the
+//!   segment's CoE slaves.
+//!
+//! Then ecatd's VmRSS (from `/proc`) idle and after `PARALLEL` × `EACH` uploads, with the
+//! built-in 5-slave segment and with 64 slaves (the built-in slaves repeated).
+//! `SERVER_API_COUNT` (default 2000) sets the sequential uploads per row. Not part of CI.
+
+#![allow(missing_docs)]
+
+#[path = "../tests/server_support/mod.rs"]
+mod server_support;
+
+use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
+use std::sync::Barrier;
+use std::time::{Duration, Instant};
+
+use master_core::bus::{Bus, BusConfig};
+use master_core::master::{Master, MasterConfig, SlaveAddress};
+use master_core::wire::coe::{CoeFrame, CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
+use master_core::wire::gateway::{GatewayMessage, GatewayRepr};
+use master_core::wire::mailbox::{MailboxHeader, MailboxType};
+use proto::v1::UploadRequest;
+use proto::v1::coe_service_client::CoeServiceClient;
+use server_support::Ecatd;
+use sim::link::InProcessLink;
+use sim::topology::{Protocol, SIM_VENDOR_ID, Topology, build};
+
+/// Concurrent clients in the parallel rows.
+const PARALLEL: usize = 16;
+/// Uploads per client in the parallel rows.
+const EACH: usize = 200;
+
+/// Positions of the CoE slaves of a segment (the drive and the CoE store in the built-in one).
+fn coe_positions(topology: &Topology) -> Vec<u16> {
+    topology
+        .slaves
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.protocols.contains(&Protocol::Coe))
+        .map(|(p, _)| p as u16)
+        .collect()
+}
+
+struct Row {
+    p50: f64,
+    p99: f64,
+    per_second: f64,
+}
+
+fn row(mut samples: Vec<Duration>, elapsed: Duration) -> Row {
+    samples.sort();
+    let at = |q: f64| samples[((samples.len() - 1) as f64 * q) as usize].as_secs_f64() * 1e6;
+    Row {
+        p50: at(0.50),
+        p99: at(0.99),
+        per_second: samples.len() as f64 / elapsed.as_secs_f64(),
+    }
+}
+
+fn print(name: &str, r: &Row) {
+    println!(
+        "{name:<40} {:>10.1} {:>10.1} {:>12.0}",
+        r.p50, r.p99, r.per_second
+    );
+}
+
+/// Runs `op` `count` times after a warm-up of a tenth, timing each.
+fn sequential(count: usize, mut op: impl FnMut(usize)) -> Row {
+    for i in 0..count / 10 {
+        op(i);
+    }
+    let mut samples = Vec::with_capacity(count);
+    let start = Instant::now();
+    for i in 0..count {
+        let t = Instant::now();
+        op(i);
+        samples.push(t.elapsed());
+    }
+    row(samples, start.elapsed())
+}
+
+/// `PARALLEL` threads, each with its own client from `make`, `EACH` timed uploads each,
+/// started together.
+fn parallel<C, F>(make: impl Fn(usize) -> C, op: F) -> Row
+where
+    C: Send,
+    F: Fn(&mut C, usize) + Sync,
+{
+    let barrier = Barrier::new(PARALLEL + 1);
+    let (samples, elapsed) = std::thread::scope(|scope| {
+        let threads: Vec<_> = (0..PARALLEL)
+            .map(|t| {
+                let mut client = make(t);
+                let (barrier, op) = (&barrier, &op);
+                scope.spawn(move || {
+                    barrier.wait();
+                    (0..EACH)
+                        .map(|_| {
+                            let t0 = Instant::now();
+                            op(&mut client, t);
+                            t0.elapsed()
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        barrier.wait();
+        let start = Instant::now();
+        let samples: Vec<Duration> = threads
+            .into_iter()
+            .flat_map(|t| t.join().expect("client thread"))
+            .collect();
+        (samples, start.elapsed())
+    });
+    row(samples, elapsed)
+}
+
+/// An ETG.8200 client on its own UDP socket.
+struct GatewayClient {
+    socket: UdpSocket,
+    gateway: SocketAddr,
+    counter: u8,
+    request: Vec<u8>,
+    reply: Vec<u8>,
+}
+
+impl GatewayClient {
+    fn new(gateway: SocketAddr) -> GatewayClient {
+        let socket = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("client socket");
+        socket
+            .set_read_timeout(Some(Duration::from_secs(5)))
+            .expect("timeout");
+        let sdo = CoeRepr::SdoRequest(SdoRequest::InitiateUpload {
+            index: 0x1018,
+            subindex: 1,
+            complete_access: false,
+        });
+        let mut request = vec![0u8; sdo.buffer_len()];
+        sdo.emit(&mut CoeFrame::new_unchecked(&mut request[..]))
+            .expect("emit");
+        GatewayClient {
+            socket,
+            gateway,
+            counter: 0,
+            request,
+            reply: vec![0u8; 2048],
+        }
+    }
+
+    /// Uploads 0x1018:01 from the slave at station `address`; returns the vendor id.
+    fn upload(&mut self, address: u16) -> u32 {
+        self.counter = self.counter % 7 + 1;
+        let repr = GatewayRepr {
+            header: MailboxHeader {
+                length: self.request.len() as u16,
+                address,
+                channel: 0,
+                priority: 0,
+                mailbox_type: MailboxType::Coe,
+                counter: self.counter,
+            },
+            data: &self.request,
+        };
+        let mut out = vec![0u8; repr.buffer_len()];
+        repr.emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
+            .expect("emit");
+        self.socket.send_to(&out, self.gateway).expect("send");
+        let (len, _) = self.socket.recv_from(&mut self.reply).expect("a reply");
+        let message = GatewayMessage::new_checked(&self.reply[..len]).expect("reply parses");
+        let reply = GatewayRepr::parse(&message).expect("reply parses");
+        let sdo = SdoFrame::new_checked(reply.data).expect("SDO frame");
+        match SdoResponse::parse(&sdo).expect("SDO response") {
+            SdoResponse::InitiateUpload {
+                payload: SdoPayload::Expedited(data),
+                ..
+            } => u32::from_le_bytes(data.try_into().expect("4 bytes")),
+            other => panic!("unexpected reply {other:?}"),
+        }
+    }
+}
+
+/// One tonic client on one HTTP/2 connection, driven from a current-thread runtime.
+struct GrpcClient {
+    runtime: tokio::runtime::Runtime,
+    client: CoeServiceClient<tonic::transport::Channel>,
+}
+
+impl GrpcClient {
+    fn new(addr: &str) -> GrpcClient {
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .expect("runtime");
+        let client = runtime
+            .block_on(CoeServiceClient::connect(format!("http://{addr}")))
+            .expect("gRPC connects");
+        GrpcClient { runtime, client }
+    }
+
+    fn upload(&mut self, position: u16) -> Vec<u8> {
+        let request = UploadRequest {
+            slave: position.to_string(),
+            index: 0x1018,
+            subindex: 1,
+            ..UploadRequest::default()
+        };
+        self.runtime
+            .block_on(self.client.upload(request))
+            .expect("upload")
+            .into_inner()
+            .data
+    }
+}
+
+/// One HTTP/1.1 agent (keep-alive) against ecatd's REST API.
+struct RestClient {
+    agent: ureq::Agent,
+    base: String,
+}
+
+impl RestClient {
+    fn new(base: &str) -> RestClient {
+        RestClient {
+            agent: ureq::Agent::new_with_defaults(),
+            base: base.to_owned(),
+        }
+    }
+
+    fn upload(&mut self, position: u16) -> String {
+        self.agent
+            .get(format!(
+                "{}/api/v1/slaves/{position}/coe/sdo/0x1018/1",
+                self.base
+            ))
+            .call()
+            .expect("REST upload")
+            .body_mut()
+            .read_to_string()
+            .expect("body")
+    }
+}
+
+/// ecatd's resident set size in KiB.
+fn rss_kib(ecatd: &Ecatd) -> u64 {
+    let status =
+        std::fs::read_to_string(format!("/proc/{}/status", ecatd.pid())).expect("/proc status");
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.split_whitespace().next()?.parse().ok())
+        .expect("VmRSS")
+}
+
+fn direct_row(count: usize) -> Row {
+    let topology = Topology::default_segment();
+    let segment = build(&topology).expect("segment");
+    let (bus, thread) = Bus::start(InProcessLink::new(segment), BusConfig::default()).expect("bus");
+    let master = Master::start(bus.clone(), MasterConfig::default()).expect("master");
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_time()
+        .build()
+        .expect("runtime");
+    runtime.block_on(master.scan()).expect("scan");
+    let position = coe_positions(&topology)[1];
+    let mailbox = master
+        .mailbox(SlaveAddress::Position(position))
+        .expect("mailbox");
+    let r = sequential(count, |_| {
+        let data = runtime
+            .block_on(mailbox.sdo_upload(0x1018, 1))
+            .expect("upload");
+        assert_eq!(data, SIM_VENDOR_ID.to_le_bytes());
+    });
+    drop(mailbox);
+    drop(master);
+    bus.shutdown();
+    let _ = thread.join();
+    r
+}
+
+/// The load whose memory is measured: `PARALLEL` gRPC clients over every CoE slave.
+fn grpc_load(ecatd: &Ecatd, positions: &[u16]) {
+    parallel(
+        |_| GrpcClient::new(&ecatd.grpc),
+        |c, t| {
+            c.upload(positions[t % positions.len()]);
+        },
+    );
+}
+
+fn main() {
+    let count: usize = std::env::var("SERVER_API_COUNT")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(2000)
+        .max(10);
+    let topology = Topology::default_segment();
+    let positions = coe_positions(&topology);
+    let store = positions[1];
+    let station = |p: u16| 1001 + p;
+    println!(
+        "SDO upload of 0x1018:01, ecatd --simulate (built-in segment), {count} sequential, \
+         {PARALLEL} x {EACH} parallel"
+    );
+    println!();
+    println!(
+        "{:<40} {:>10} {:>10} {:>12}",
+        "path", "p50 µs", "p99 µs", "uploads/s"
+    );
+    print("direct API (in-process master)", &direct_row(count));
+
+    let ecatd = Ecatd::start(&[]);
+    let gateway = ecatd.gateway_addr();
+    let vendor = SIM_VENDOR_ID;
+    let mut gw = GatewayClient::new(gateway);
+    print(
+        "ecatd gateway (UDP), 1 client",
+        &sequential(count, |_| assert_eq!(gw.upload(station(store)), vendor)),
+    );
+    let mut grpc = GrpcClient::new(&ecatd.grpc);
+    print(
+        "ecatd gRPC, 1 client",
+        &sequential(count, |_| {
+            assert_eq!(grpc.upload(store), vendor.to_le_bytes())
+        }),
+    );
+    let mut rest = RestClient::new(&ecatd.http);
+    print(
+        "ecatd REST, 1 client",
+        &sequential(count, |_| assert!(!rest.upload(store).is_empty())),
+    );
+    print(
+        &format!("ecatd gateway (UDP), {PARALLEL} clients"),
+        &parallel(
+            |_| GatewayClient::new(gateway),
+            |c, t| {
+                let p = positions[t % positions.len()];
+                assert_eq!(c.upload(station(p)), vendor);
+            },
+        ),
+    );
+    print(
+        &format!("ecatd gRPC, {PARALLEL} clients"),
+        &parallel(
+            |_| GrpcClient::new(&ecatd.grpc),
+            |c, t| {
+                let p = positions[t % positions.len()];
+                assert_eq!(c.upload(p), vendor.to_le_bytes());
+            },
+        ),
+    );
+    print(
+        &format!("ecatd REST, {PARALLEL} clients"),
+        &parallel(
+            |_| RestClient::new(&ecatd.http),
+            |c, t| {
+                assert!(!c.upload(positions[t % positions.len()]).is_empty());
+            },
+        ),
+    );
+    drop(ecatd);
+
+    println!();
+    println!(
+        "{:<40} {:>12} {:>16}",
+        "ecatd", "idle RSS MiB", "after load MiB"
+    );
+    let mib = |kib: u64| kib as f64 / 1024.0;
+    for slaves in [topology.slaves.len(), 64] {
+        let file = std::env::temp_dir().join(format!(
+            "ecatd-server-bench-{}-{slaves}.toml",
+            std::process::id()
+        ));
+        let repeated = Topology::repeated(slaves);
+        std::fs::write(&file, repeated.to_toml().expect("toml")).expect("topology file");
+        let path = file.to_str().expect("utf-8 path");
+        let ecatd = Ecatd::start_with(&["--simulate", path], &[]);
+        let idle = rss_kib(&ecatd);
+        grpc_load(&ecatd, &coe_positions(&repeated));
+        let loaded = rss_kib(&ecatd);
+        println!(
+            "{:<40} {:>12.1} {:>16.1}",
+            format!("--simulate, {slaves} slaves"),
+            mib(idle),
+            mib(loaded)
+        );
+        drop(ecatd);
+        let _ = std::fs::remove_file(&file);
+    }
+}
