@@ -263,6 +263,25 @@ fn coe_through_ecatd_reaches_the_simulators_dictionaries() {
         Ok(drive.name.as_bytes().to_vec())
     );
 
+    // Expedited download on the drive, read back (in PREOP: in OP the cyclic outputs
+    // overwrite the RxPDO-mapped 0x607A).
+    let preop = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/RequestState",
+        r#"{"slave":"0","state":"AL_STATE_PREOP"}"#,
+    )
+    .unwrap();
+    assert_eq!(preop["slave"]["state"], "AL_STATE_PREOP");
+    assert_eq!(
+        client.sdo_download(DRIVE, 0x607A, 0, &(-123_456i32).to_le_bytes(), MAILBOX),
+        Ok(())
+    );
+    assert_eq!(
+        client.sdo_upload(DRIVE, 0x607A, 0),
+        Ok((-123_456i32).to_le_bytes().to_vec())
+    );
+
     // Expedited download and upload on the CoE store's 0x2001.
     let store = &topology.slaves[3];
     let parameter = store.objects.iter().find(|o| o.index == 0x2001).unwrap();
