@@ -3,10 +3,11 @@
 
 use std::path::PathBuf;
 
-const FILES: [&str; 3] = [
+const FILES: [&str; 4] = [
     "ecat/v1/common.proto",
     "ecat/v1/bus.proto",
     "ecat/v1/mailbox.proto",
+    "ecat/v1/gateway.proto",
 ];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -1,11 +1,14 @@
 //! ecatd's configuration: a TOML file, then `ECATD_*` environment variables, then flags
 //! (flags win). `--print-config` shows the result.
 
-use std::net::SocketAddr;
+use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
+use std::str::FromStr;
 
 use clap::Parser;
 use serde::{Deserialize, Serialize};
+
+use master_core::gateway::{ClientNet, GatewayConfig};
 
 use crate::security::Token;
 
@@ -33,9 +36,15 @@ pub struct Args {
     /// HTTP listen address (REST, metrics, health).
     #[arg(long, env = "ECATD_HTTP_LISTEN", value_name = "ADDR")]
     pub http_listen: Option<SocketAddr>,
-    /// ETG.8200 mailbox gateway listen address (UDP).
+    /// ETG.8200 mailbox gateway listen address (UDP): `IP` (port from the master number) or
+    /// `IP:PORT`.
     #[arg(long, env = "ECATD_GATEWAY_LISTEN", value_name = "ADDR")]
-    pub gateway_listen: Option<SocketAddr>,
+    pub gateway_listen: Option<GatewayListen>,
+    /// The master number of the gateway (1-based): without a port in the listen address,
+    /// it serves on 34980 + (number - 1).
+    #[arg(long, env = "ECATD_GATEWAY_MASTER_NUMBER", value_name = "N",
+          value_parser = clap::value_parser!(u16).range(1..), conflicts_with = "no_gateway")]
+    pub gateway_master_number: Option<u16>,
     /// Do not run the mailbox gateway.
     #[arg(long, env = "ECATD_NO_GATEWAY", conflicts_with = "gateway_listen")]
     pub no_gateway: bool,
@@ -80,13 +89,67 @@ pub enum Segment {
     },
 }
 
+/// Where the gateway listens: an IP address and, optionally, a port (`127.0.0.1` or
+/// `127.0.0.1:34980`; port 0: any free port). Without a port the gateway takes ETG.8200's
+/// 34980 + (master number - 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GatewayListen {
+    /// Address to bind.
+    pub ip: IpAddr,
+    /// Port; `None`: from the master number.
+    pub port: Option<u16>,
+}
+
+impl FromStr for GatewayListen {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<GatewayListen, String> {
+        if let Ok(addr) = text.parse::<SocketAddr>() {
+            return Ok(GatewayListen {
+                ip: addr.ip(),
+                port: Some(addr.port()),
+            });
+        }
+        let bare = text.trim_start_matches('[').trim_end_matches(']');
+        bare.parse::<IpAddr>()
+            .map(|ip| GatewayListen { ip, port: None })
+            .map_err(|_| format!("{text:?} is neither IP nor IP:PORT"))
+    }
+}
+
+impl std::fmt::Display for GatewayListen {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.port {
+            Some(port) => SocketAddr::new(self.ip, port).fmt(f),
+            None => self.ip.fmt(f),
+        }
+    }
+}
+
+impl Serialize for GatewayListen {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for GatewayListen {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        String::deserialize(deserializer)?
+            .parse()
+            .map_err(serde::de::Error::custom)
+    }
+}
+
 /// The mailbox gateway's settings (`[gateway]`).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GatewaySettings {
-    /// UDP listen address; default 127.0.0.1:34980 (ETG.8200's port). Port 0: any free port.
-    /// A taken port falls back to a free one, which the log and the metrics report.
-    pub listen: SocketAddr,
+    /// UDP listen address: `IP` or `IP:PORT`; default `127.0.0.1` with the port from
+    /// `master_number` (34980 for master 1). A taken port falls back to a free one, which
+    /// the log, the API and the metrics report.
+    pub listen: GatewayListen,
+    /// This master's number (1-based) when several masters run on one host.
+    pub master_number: u16,
     /// Client networks allowed to send requests (CIDR, e.g. `10.0.0.0/8`); empty: loopback
     /// only.
     pub allow: Vec<String>,
@@ -97,10 +160,42 @@ pub struct GatewaySettings {
 impl Default for GatewaySettings {
     fn default() -> GatewaySettings {
         GatewaySettings {
-            listen: SocketAddr::from(([127, 0, 0, 1], master_core::gateway::DEFAULT_PORT)),
+            listen: GatewayListen {
+                ip: IpAddr::from([127, 0, 0, 1]),
+                port: None,
+            },
+            master_number: 1,
             allow: Vec::new(),
             strict: false,
         }
+    }
+}
+
+impl GatewaySettings {
+    /// The library's configuration for these settings (the rest at its defaults).
+    pub fn gateway_config(&self) -> Result<GatewayConfig, String> {
+        if self.master_number == 0 {
+            return Err("gateway master_number must be 1 or more".into());
+        }
+        let allow = if self.allow.is_empty() {
+            ClientNet::loopback()
+        } else {
+            self.allow
+                .iter()
+                .map(|net| {
+                    net.parse::<ClientNet>()
+                        .map_err(|err| format!("gateway allow {net:?}: {err}"))
+                })
+                .collect::<Result<Vec<_>, _>>()?
+        };
+        Ok(GatewayConfig {
+            bind: self.listen.ip,
+            port: self.listen.port,
+            master_number: self.master_number,
+            allow,
+            strict: self.strict,
+            ..GatewayConfig::default()
+        })
     }
 }
 
@@ -168,11 +263,19 @@ impl Config {
         }
         if args.no_gateway {
             config.gateway = None;
-        } else if let Some(addr) = args.gateway_listen {
-            config
-                .gateway
-                .get_or_insert_with(GatewaySettings::default)
-                .listen = addr;
+        } else {
+            if let Some(addr) = args.gateway_listen {
+                config
+                    .gateway
+                    .get_or_insert_with(GatewaySettings::default)
+                    .listen = addr;
+            }
+            if let Some(number) = args.gateway_master_number {
+                config
+                    .gateway
+                    .get_or_insert_with(GatewaySettings::default)
+                    .master_number = number;
+            }
         }
         if let Some(format) = args.log_format {
             config.log_format = format;
@@ -186,6 +289,9 @@ impl Config {
 
     /// Refuses a non-loopback listen address without tokens, unless `insecure`.
     pub fn check(&self) -> Result<(), String> {
+        if let Some(gateway) = &self.gateway {
+            gateway.gateway_config()?;
+        }
         if self.tokens.is_empty() && !self.insecure {
             for addr in [self.grpc_listen, self.http_listen] {
                 if !addr.ip().is_loopback() {
@@ -273,6 +379,34 @@ mod tests {
         });
         assert!(tokened.check().is_ok());
         assert!(!tokened.to_toml().contains("\"s\""));
+    }
+
+    #[test]
+    fn gateway_port_follows_the_master_number_unless_given() {
+        let default = Config::load(&args(&[])).unwrap().gateway.unwrap();
+        assert_eq!(default.gateway_config().unwrap().wanted_port(), 34980);
+        let second = Config::load(&args(&["--gateway-master-number", "2"]))
+            .unwrap()
+            .gateway
+            .unwrap();
+        assert_eq!(second.listen.to_string(), "127.0.0.1");
+        assert_eq!(second.gateway_config().unwrap().wanted_port(), 34981);
+        let fixed = Config::load(&args(&[
+            "--gateway-master-number",
+            "2",
+            "--gateway-listen",
+            "127.0.0.1:4000",
+        ]))
+        .unwrap()
+        .gateway
+        .unwrap();
+        assert_eq!(fixed.gateway_config().unwrap().wanted_port(), 4000);
+        let file: Config =
+            toml::from_str("[gateway]\nlisten = \"0.0.0.0\"\nmaster_number = 3\n").unwrap();
+        let file = file.gateway.unwrap();
+        assert_eq!(file.gateway_config().unwrap().wanted_port(), 34982);
+        assert!(Args::try_parse_from(["ecatd", "--gateway-master-number", "0"]).is_err());
+        assert!("300.0.0.1".parse::<GatewayListen>().is_err());
     }
 
     #[test]

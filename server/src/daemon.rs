@@ -7,9 +7,7 @@ use master_core::wire::register::AlState;
 use tokio::net::TcpListener;
 use tokio::sync::watch;
 
-use std::net::SocketAddr;
-
-use master_core::gateway::{ClientNet, GatewayConfig, MailboxGateway};
+use master_core::gateway::MailboxGateway;
 
 use crate::config::{Config, GatewaySettings};
 use crate::core::Core;
@@ -65,11 +63,10 @@ pub async fn run(config: Config) -> Result<(), String> {
         Err(err) => tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan"),
     }
     core.master().start_watch(Duration::from_millis(100));
-    if let Some(settings) = &config.gateway {
-        match start_gateway(&core, settings).await {
-            Ok(addr) => tracing::info!(gateway = %addr, "mailbox gateway serving"),
-            Err(err) => tracing::error!(%err, "mailbox gateway not started"),
-        }
+    if let Some(settings) = &config.gateway
+        && let Err(err) = start_gateway(&core, settings).await
+    {
+        tracing::error!(%err, "mailbox gateway not started");
     }
     core.set_ready(true);
     tracing::info!("ready");
@@ -102,40 +99,13 @@ pub async fn run(config: Config) -> Result<(), String> {
     Ok(())
 }
 
-/// Starts the ETG.8200 gateway next to the APIs and hands it to the core; returns the
-/// address bound (after a fallback, the fallback port).
-async fn start_gateway(core: &Core, settings: &GatewaySettings) -> Result<SocketAddr, String> {
-    let allow = if settings.allow.is_empty() {
-        ClientNet::loopback()
-    } else {
-        settings
-            .allow
-            .iter()
-            .map(|net| {
-                net.parse::<ClientNet>()
-                    .map_err(|err| format!("gateway allow {net:?}: {err}"))
-            })
-            .collect::<Result<Vec<_>, _>>()?
-    };
-    let config = GatewayConfig {
-        bind: settings.listen.ip(),
-        port: Some(settings.listen.port()),
-        allow,
-        strict: settings.strict,
-        ..GatewayConfig::default()
-    };
-    let mut gateway = MailboxGateway::new(core.master().clone(), config);
-    // The gateway builds its own runtime and thread: not on an async worker.
-    let (gateway, bound) = tokio::task::spawn_blocking(move || {
-        let bound = gateway.start();
-        (gateway, bound)
-    })
-    .await
-    .map_err(|err| format!("gateway start: {err}"))?;
-    let bound =
-        bound.map_err(|err| format!("cannot serve the gateway on {}: {err}", settings.listen))?;
-    core.set_gateway(gateway);
-    Ok(bound)
+/// Hands the ETG.8200 gateway to the core and starts it next to the APIs (the core logs
+/// the address bound).
+async fn start_gateway(core: &Core, settings: &GatewaySettings) -> Result<(), String> {
+    let config = settings.gateway_config()?;
+    core.set_gateway(MailboxGateway::new(core.master().clone(), config));
+    core.start_gateway().await.map_err(|err| err.message)?;
+    Ok(())
 }
 
 async fn bind(addr: std::net::SocketAddr, what: &str) -> Result<TcpListener, String> {

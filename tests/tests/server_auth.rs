@@ -62,6 +62,17 @@ fn rest_writes_need_a_write_token() {
     let (status, body) = curl(&["-s", "-H", "authorization: Bearer read-secret-1", &url]);
     assert_eq!(status, 200);
     assert!(body.contains("01020304"), "the write took effect: {body}");
+    // Stopping the gateway is a write too.
+    let stop = format!("{}/api/v1/gateway/stop", ecatd.http);
+    let post = |token: &str| {
+        let header = format!("authorization: Bearer {token}");
+        curl(&["-s", "-X", "POST", "-H", &header, &stop])
+    };
+    assert_eq!(curl(&["-s", "-X", "POST", &stop]).0, 401);
+    assert_eq!(post("read-secret-1").0, 403);
+    let (status, body) = post("write-secret-2");
+    assert_eq!(status, 200, "{body}");
+    assert!(body.contains("\"running\":false"), "{body}");
     // Health stays open for probes.
     assert_eq!(curl(&["-s", &format!("{}/readyz", ecatd.http)]).0, 200);
     let log = ecatd.log();
@@ -70,6 +81,12 @@ fn rest_writes_need_a_write_token() {
             && l.contains("engineer")
             && l.contains("PUT /slaves/3/coe/sdo/0x2001/0")),
         "no audit line for the write:\n{log}"
+    );
+    assert!(
+        log.lines().any(|l| l.contains("\"target\":\"audit\"")
+            && l.contains("engineer")
+            && l.contains("POST /gateway/stop")),
+        "no audit line for the gateway stop:\n{log}"
     );
 }
 
@@ -97,13 +114,42 @@ fn grpc_writes_need_a_write_token() {
     )
     .unwrap();
     assert_eq!(upload["data"], "BQYHCA==");
-    let log = ecatd.log();
-    assert!(
-        log.lines().any(|l| l.contains("\"target\":\"audit\"")
-            && l.contains("engineer")
-            && l.contains("coe_download")),
-        "no audit line for the write:\n{log}"
+    let stop = |headers: &[&str]| {
+        call(
+            &ecatd.grpc,
+            headers,
+            "ecat.v1.GatewayService/StopGateway",
+            "{}",
+        )
+    };
+    assert_eq!(stop(&[]).unwrap_err().0, "16", "UNAUTHENTICATED");
+    assert_eq!(
+        stop(&["authorization: Bearer read-secret-1"])
+            .unwrap_err()
+            .0,
+        "7",
+        "PERMISSION_DENIED"
     );
+    let stopped = stop(&["authorization: Bearer write-secret-2"]).unwrap();
+    assert!(stopped["running"].is_null(), "stopped: {stopped}");
+    let status = call(
+        &ecatd.grpc,
+        &["authorization: Bearer read-secret-1"],
+        "ecat.v1.GatewayService/GetGateway",
+        "{}",
+    )
+    .unwrap();
+    assert_eq!(status["enabled"], true, "reading needs a read token only");
+    assert!(status["running"].is_null());
+    let log = ecatd.log();
+    for operation in ["coe_download", "stop_gateway"] {
+        assert!(
+            log.lines().any(|l| l.contains("\"target\":\"audit\"")
+                && l.contains("engineer")
+                && l.contains(operation)),
+            "no audit line for {operation}:\n{log}"
+        );
+    }
 }
 
 #[test]

@@ -157,6 +157,25 @@ fn every_subcommand() {
         "{all}"
     );
 
-    let (ok, _, stderr) = ecat.run(&["gateway"]);
-    assert!(!ok && stderr.contains("gateway"), "{stderr}");
+    let bound = ecatd.gateway_addr();
+    let human = ecat.ok(&["gateway"]);
+    assert!(
+        human.contains(&format!("running on {bound}")),
+        "gateway table:\n{human}"
+    );
+    assert!(human.contains("master 1"), "{human}");
+    let status = ecat.json(&["gateway"]);
+    assert_eq!(status["running"], true);
+    assert_eq!(status["port"], bound.port());
+    assert_eq!(status["stats"]["total_requests"], 0);
+    let stopped = ecat.json(&["gateway", "stop"]);
+    assert_eq!(stopped["running"], false);
+    assert_eq!(stopped["bound_address"], "");
+    assert!(ecat.ok(&["gateway"]).contains("gateway      stopped"));
+    let started = ecat.json(&["gateway", "start"]);
+    assert_eq!(started["running"], true);
+    assert_eq!(
+        started["bound_address"],
+        format!("127.0.0.1:{}", started["port"])
+    );
 }

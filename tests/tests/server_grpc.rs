@@ -4,6 +4,7 @@
 mod server_support;
 
 use serde_json::Value;
+use server_support::gateway_client::GatewayClient;
 use server_support::{Ecatd, b64, call, call_status, grpcurl};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
@@ -28,6 +29,7 @@ fn reflection_lists_and_describes_every_service() {
         "ecat.v1.FoeService",
         "ecat.v1.VoeService",
         "ecat.v1.EoeService",
+        "ecat.v1.GatewayService",
         "grpc.health.v1.Health",
         "grpc.reflection.v1alpha.ServerReflection",
     ] {
@@ -358,5 +360,82 @@ fn mailbox_calls_match_the_simulator() {
     assert_eq!(
         unsupported.0, "9",
         "FAILED_PRECONDITION for a slave without EoE: {unsupported:?}"
+    );
+}
+
+/// A uint64 field as grpcurl prints it (a string; absent when 0).
+fn u64_field(v: &Value) -> u64 {
+    match v {
+        Value::Null => 0,
+        Value::String(s) => s.parse().expect("a uint64 string"),
+        other => other.as_u64().expect("a number"),
+    }
+}
+
+#[test]
+fn gateway_service_reports_stops_and_starts_the_gateway() {
+    let ecatd = Ecatd::start(&[]);
+    let g = &ecatd.grpc;
+    let bound = ecatd.gateway_addr();
+    let status = call(g, &[], "ecat.v1.GatewayService/GetGateway", "{}").unwrap();
+    assert_eq!(status["enabled"], true);
+    assert_eq!(status["running"], true);
+    assert_eq!(status["boundAddress"], bound.to_string());
+    assert_eq!(status["port"], bound.port());
+    assert_eq!(status["configuredAddress"], "127.0.0.1:0");
+    assert_eq!(status["masterNumber"], 1);
+    assert_eq!(
+        status["allow"],
+        serde_json::json!(["127.0.0.0/8", "::1/128"])
+    );
+    assert!(status["strict"].is_null(), "not strict: {status}");
+    assert_eq!(status["stats"]["port"], bound.port());
+
+    // Three uploads of the CoE store's vendor ID through the gateway, then the counters.
+    let vendor = Topology::default_segment().slaves[3].vendor_id;
+    let mut client = GatewayClient::new(bound);
+    for _ in 0..3 {
+        assert_eq!(
+            client.sdo_upload(1004, 0x1018, 1),
+            Ok(vendor.to_le_bytes().to_vec())
+        );
+    }
+    let stats = &call(g, &[], "ecat.v1.GatewayService/GetGateway", "{}").unwrap()["stats"];
+    assert_eq!(u64_field(&stats["totalRequests"]), 3, "{stats}");
+    assert_eq!(u64_field(&stats["forwardedRequests"]), 3);
+    assert_eq!(u64_field(&stats["failedRequests"]), 0);
+    assert_eq!(u64_field(&stats["coeCount"]), 3);
+    assert_eq!(u64_field(&stats["soeCount"]), 0);
+    assert_eq!(u64_field(&stats["latency"]["count"]), 3);
+    assert!(u64_field(&stats["latency"]["p50Us"]) > 0, "{stats}");
+    assert!(u64_field(&stats["startedAtMs"]) > 0);
+
+    let stopped = call(g, &[], "ecat.v1.GatewayService/StopGateway", "{}").unwrap();
+    assert!(stopped["running"].is_null(), "stopped: {stopped}");
+    assert!(stopped["boundAddress"].is_null(), "{stopped}");
+    assert_eq!(u64_field(&stopped["stats"]["startedAtMs"]), 0);
+    assert_eq!(
+        u64_field(&stopped["stats"]["totalRequests"]),
+        3,
+        "counters stay readable"
+    );
+
+    let started = call(g, &[], "ecat.v1.GatewayService/StartGateway", "{}").unwrap();
+    assert_eq!(started["running"], true);
+    let port = started["port"].as_u64().expect("a port") as u16;
+    assert_eq!(
+        started["boundAddress"],
+        format!("127.0.0.1:{port}"),
+        "{started}"
+    );
+    assert_eq!(
+        u64_field(&started["stats"]["totalRequests"]),
+        0,
+        "counters restart"
+    );
+    let mut client = GatewayClient::new(std::net::SocketAddr::from(([127, 0, 0, 1], port)));
+    assert_eq!(
+        client.sdo_upload(1004, 0x1018, 1),
+        Ok(vendor.to_le_bytes().to_vec())
     );
 }

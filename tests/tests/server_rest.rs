@@ -10,11 +10,12 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use serde_json::Value;
+use server_support::gateway_client::GatewayClient;
 use server_support::{Ecatd, curl};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
-const ROUTES: [(&str, &str); 22] = [
+const ROUTES: [(&str, &str); 25] = [
     ("get", "/api/v1/slaves"),
     ("get", "/api/v1/slaves/{slave}"),
     ("put", "/api/v1/slaves/{slave}/state"),
@@ -37,6 +38,9 @@ const ROUTES: [(&str, &str); 22] = [
     ("post", "/api/v1/slaves/{slave}/voe"),
     ("get", "/api/v1/slaves/{slave}/eoe/ip"),
     ("put", "/api/v1/slaves/{slave}/eoe/ip"),
+    ("get", "/api/v1/gateway"),
+    ("post", "/api/v1/gateway/start"),
+    ("post", "/api/v1/gateway/stop"),
 ];
 
 fn get(ecatd: &Ecatd, path: &str) -> (u16, Value) {
@@ -305,6 +309,69 @@ fn state_changes_arrive_as_server_sent_events() {
     let event = found.expect("a state_changed event for slave 1");
     assert_eq!(event["station"], 1002);
     assert!(event["to"] == "SAFEOP" || event["to"] == "OP", "{event}");
+}
+
+#[test]
+fn gateway_routes_report_stop_and_start_the_gateway() {
+    let ecatd = Ecatd::start(&[]);
+    let bound = ecatd.gateway_addr();
+    let (status, gateway) = get(&ecatd, "/api/v1/gateway");
+    assert_eq!(status, 200);
+    assert_eq!(gateway["enabled"], true);
+    assert_eq!(gateway["running"], true);
+    assert_eq!(gateway["bound_address"], bound.to_string());
+    assert_eq!(gateway["port"], bound.port());
+    assert_eq!(gateway["configured_address"], "127.0.0.1:0");
+    assert_eq!(gateway["master_number"], 1);
+    assert_eq!(gateway["strict"], false);
+    assert_eq!(gateway["stats"]["total_requests"], 0);
+
+    // Two SDO uploads (one of a missing object) and one malformed datagram.
+    let mut client = GatewayClient::new(bound);
+    let device_type = Topology::default_segment().slaves[0].device_type;
+    assert_eq!(
+        client.sdo_upload(1001, 0x1000, 0),
+        Ok(device_type.to_le_bytes().to_vec())
+    );
+    assert_eq!(
+        client.sdo_upload(1001, 0x5FFF, 0),
+        Err(server_support::gateway_client::object_missing()),
+        "the slave's own abort, forwarded"
+    );
+    client.send_raw(&[0x01]);
+    // The malformed datagram gets no answer: wait for its count instead.
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    let stats = loop {
+        let (_, gateway) = get(&ecatd, "/api/v1/gateway");
+        if gateway["stats"]["total_requests"] == 3 || std::time::Instant::now() > deadline {
+            break gateway["stats"].clone();
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(stats["total_requests"], 3, "{stats}");
+    assert_eq!(stats["forwarded_requests"], 2);
+    assert_eq!(stats["failed_requests"], 1);
+    assert_eq!(stats["coe_count"], 2);
+    assert_eq!(stats["failures"]["malformed"], 1);
+    assert_eq!(stats["latency"]["count"], 2);
+    assert_eq!(stats["port"], bound.port());
+
+    let (status, stopped) = send(&ecatd, "POST", "/api/v1/gateway/stop", "");
+    assert_eq!(status, 200, "{stopped}");
+    assert_eq!(stopped["running"], false);
+    assert_eq!(stopped["bound_address"], "");
+    assert_eq!(stopped["stats"]["started_at_ms"], 0);
+    let (status, started) = send(&ecatd, "POST", "/api/v1/gateway/start", "");
+    assert_eq!(status, 200, "{started}");
+    assert_eq!(started["running"], true);
+    assert_eq!(started["stats"]["total_requests"], 0);
+    let port = started["port"].as_u64().unwrap() as u16;
+    assert_eq!(started["stats"]["port"], port);
+    let mut client = GatewayClient::new(std::net::SocketAddr::from(([127, 0, 0, 1], port)));
+    assert_eq!(
+        client.sdo_upload(1001, 0x1000, 0),
+        Ok(device_type.to_le_bytes().to_vec())
+    );
 }
 
 #[test]

@@ -4,6 +4,7 @@ use proto::v1::bus_service_client::BusServiceClient;
 use proto::v1::coe_service_client::CoeServiceClient;
 use proto::v1::eoe_service_client::EoeServiceClient;
 use proto::v1::foe_service_client::FoeServiceClient;
+use proto::v1::gateway_service_client::GatewayServiceClient;
 use proto::v1::soe_service_client::SoeServiceClient;
 use proto::v1::voe_service_client::VoeServiceClient;
 use tonic::metadata::MetadataValue;
@@ -42,6 +43,8 @@ pub struct Clients {
     pub voe: VoeServiceClient<Svc>,
     /// EoE.
     pub eoe: EoeServiceClient<Svc>,
+    /// The mailbox gateway.
+    pub gateway: GatewayServiceClient<Svc>,
 }
 
 /// Connects to `address` (`http://host:port`).
@@ -65,6 +68,7 @@ pub async fn connect(address: &str, token: Option<&str>) -> Result<Clients, Stri
         soe: SoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
         foe: FoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
         voe: VoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
-        eoe: EoeServiceClient::with_interceptor(channel, auth),
+        eoe: EoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
+        gateway: GatewayServiceClient::with_interceptor(channel, auth),
     })
 }

@@ -8,9 +8,6 @@ use tonic::Status;
 use crate::client::{Clients, connect};
 use crate::{Cli, Command};
 
-/// Until the gateway exists (and its API is in ecat.v1), `ecat gateway` says so.
-const GATEWAY_MISSING: &str = "the mailbox gateway is not part of ecat.v1 yet";
-
 fn failed(status: Status) -> String {
     format!("{:?}: {}", status.code(), status.message())
 }
@@ -77,9 +74,6 @@ fn out(json: Value, human: impl Into<String>) -> Out {
 
 /// Runs the command line.
 pub async fn run(cli: Cli) -> Result<(), String> {
-    if matches!(cli.command, Command::Gateway) {
-        return Err(GATEWAY_MISSING.into());
-    }
     let mut c = connect(&cli.address, cli.token.as_deref()).await?;
     let result = execute(&mut c, cli.command).await?;
     if cli.json {
@@ -517,6 +511,9 @@ async fn execute(c: &mut Clients, command: Command) -> Result<Out, String> {
                 .map_err(failed)?;
             out(json!({"ok": true}), "")
         }
-        Command::Gateway => return Err(GATEWAY_MISSING.into()),
+        Command::Gateway { action } => {
+            let (json, human) = crate::gateway::run(c, action).await?;
+            out(json, human)
+        }
     })
 }

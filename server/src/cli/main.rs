@@ -4,6 +4,7 @@
 
 mod client;
 mod commands;
+mod gateway;
 
 use std::process::ExitCode;
 
@@ -231,8 +232,12 @@ pub enum Command {
         /// Data, hex (little-endian words).
         data: String,
     },
-    /// The mailbox gateway's state and statistics.
-    Gateway,
+    /// The mailbox gateway's state and statistics; `start` or `stop` it.
+    Gateway {
+        /// What to do (nothing: show the state).
+        #[command(subcommand)]
+        action: Option<gateway::Action>,
+    },
 }
 
 fn main() -> ExitCode {

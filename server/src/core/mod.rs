@@ -2,10 +2,12 @@
 //! master or a slave's mailbox, errors as [`ApiError`].
 //!
 //! Files: `address` (slave names), `error` (the one error type), `view` (what the APIs
-//! serialise), `ip` (EoE IP parameter text forms).
+//! serialise), `ip` (EoE IP parameter text forms), `gateway` (the mailbox gateway's state,
+//! start and stop).
 
 pub mod address;
 pub mod error;
+pub mod gateway;
 pub mod ip;
 pub mod value;
 pub mod view;
@@ -23,6 +25,7 @@ use tokio::sync::broadcast;
 
 pub use address::parse_slave;
 pub use error::{ApiError, ErrorKind};
+pub use gateway::GatewayView;
 use value::ValueType;
 pub use view::{EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView};
 
@@ -52,7 +55,7 @@ impl Core {
         }
     }
 
-    /// Hands the running mailbox gateway to the core.
+    /// Hands the mailbox gateway (running or not) to the core.
     pub fn set_gateway(&self, gateway: MailboxGateway) {
         *self.gateway_slot() = Some(gateway);
     }

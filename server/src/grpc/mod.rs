@@ -1,12 +1,13 @@
 //! The gRPC API (`ecat.v1`), server reflection (v1 and v1alpha) and `grpc.health.v1`.
 //!
-//! Files: one per service (`bus`, `coe`, `foe`, `protocols` for SoE/VoE/EoE), `convert`
+//! Files: one per service (`bus`, `coe`, `foe`, `gateway`, `protocols` for SoE/VoE/EoE), `convert`
 //! (views to messages), `status` (the error mapping).
 
 pub mod bus;
 pub mod coe;
 pub mod convert;
 pub mod foe;
+pub mod gateway;
 pub mod protocols;
 pub mod status;
 
@@ -17,6 +18,7 @@ use proto::v1::bus_service_server::BusServiceServer;
 use proto::v1::coe_service_server::CoeServiceServer;
 use proto::v1::eoe_service_server::EoeServiceServer;
 use proto::v1::foe_service_server::FoeServiceServer;
+use proto::v1::gateway_service_server::GatewayServiceServer;
 use proto::v1::soe_service_server::SoeServiceServer;
 use proto::v1::voe_service_server::VoeServiceServer;
 use tonic::service::interceptor::InterceptedService;
@@ -55,6 +57,7 @@ pub async fn serve(
         "ecat.v1.FoeService",
         "ecat.v1.VoeService",
         "ecat.v1.EoeService",
+        "ecat.v1.GatewayService",
     ] {
         health
             .set_service_status(name, tonic_health::ServingStatus::Serving)
@@ -78,6 +81,10 @@ pub async fn serve(
         .add_service(svc!(BusServiceServer, bus::Bus { core: core.clone() }))
         .add_service(svc!(CoeServiceServer, coe::Coe { core: core.clone() }))
         .add_service(svc!(FoeServiceServer, foe::Foe { core: core.clone() }))
+        .add_service(svc!(
+            GatewayServiceServer,
+            gateway::Gateway { core: core.clone() }
+        ))
         .add_service(svc!(
             SoeServiceServer,
             protocols::Protocols { core: core.clone() }

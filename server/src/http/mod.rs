@@ -1,10 +1,12 @@
 //! The HTTP side: REST under `/api/v1` (with its OpenAPI document), `/metrics`,
 //! `/healthz`, `/readyz`.
 //!
-//! Files: `rest` (handlers), `openapi`, `error` (errors as JSON), `auth` (tokens), `health`.
+//! Files: `rest` (handlers), `gateway` (the gateway's handlers), `openapi`, `error`
+//! (errors as JSON), `auth` (tokens), `health`.
 
 pub mod auth;
 pub mod error;
+pub mod gateway;
 pub mod health;
 pub mod openapi;
 pub mod rest;
@@ -55,6 +57,9 @@ pub fn router(core: Core, tokens: Tokens) -> Router {
         .route("/slaves/{slave}/foe/{name}", get(foe_read).put(foe_write))
         .route("/slaves/{slave}/voe", post(voe))
         .route("/slaves/{slave}/eoe/ip", get(eoe_get_ip).put(eoe_set_ip))
+        .route("/gateway", get(gateway::get_gateway))
+        .route("/gateway/start", post(gateway::start_gateway))
+        .route("/gateway/stop", post(gateway::stop_gateway))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::GATEWAY_TIMEOUT,
             TIMEOUT,

@@ -5,6 +5,8 @@
 
 #![allow(dead_code)]
 
+pub mod gateway_client;
+
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -117,12 +119,14 @@ impl Ecatd {
             }
             None => segment,
         };
-        // The gateway on a free port too, so that tests can run side by side.
-        let gateway: &[&str] = if extra.contains(&"--no-gateway") {
-            &[]
-        } else {
-            &["--gateway-listen", "127.0.0.1:0"]
-        };
+        // The gateway on a free port too, so that tests can run side by side (unless the
+        // test chooses where).
+        let gateway: &[&str] =
+            if extra.contains(&"--no-gateway") || extra.contains(&"--gateway-listen") {
+                &[]
+            } else {
+                &["--gateway-listen", "127.0.0.1:0"]
+            };
         let mut child = Command::new(bin_dir().join("ecatd"))
             .args(segment)
             .args(gateway)

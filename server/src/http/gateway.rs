@@ -1,0 +1,31 @@
+//! REST handlers of the mailbox gateway: `GET /api/v1/gateway`, `POST /api/v1/gateway/start`,
+//! `POST /api/v1/gateway/stop` (writes: write role, audit line, as every POST).
+
+use axum::Json;
+use axum::extract::State;
+
+use crate::core::{ApiError, Core, GatewayView};
+
+#[utoipa::path(get, path = "/api/v1/gateway", tag = "gateway",
+    responses((status = 200, body = GatewayView)))]
+/// The mailbox gateway: running, address bound, settings, statistics.
+pub async fn get_gateway(State(core): State<Core>) -> Json<GatewayView> {
+    Json(core.gateway())
+}
+
+#[utoipa::path(post, path = "/api/v1/gateway/start", tag = "gateway",
+    responses((status = 200, body = GatewayView),
+        (status = 409, description = "no gateway configured", body = super::error::ErrorBody),
+        (status = 503, description = "cannot bind", body = super::error::ErrorBody)))]
+/// Starts the mailbox gateway (a taken port falls back to a free one, reported in `port`).
+pub async fn start_gateway(State(core): State<Core>) -> Result<Json<GatewayView>, ApiError> {
+    core.start_gateway().await.map(Json)
+}
+
+#[utoipa::path(post, path = "/api/v1/gateway/stop", tag = "gateway",
+    responses((status = 200, body = GatewayView),
+        (status = 409, description = "no gateway configured", body = super::error::ErrorBody)))]
+/// Stops the mailbox gateway and releases its port.
+pub async fn stop_gateway(State(core): State<Core>) -> Result<Json<GatewayView>, ApiError> {
+    core.stop_gateway().await.map(Json)
+}

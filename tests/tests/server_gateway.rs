@@ -1,0 +1,728 @@
+//! Issue 7's first acceptance point through the ecatd process: a plain UDP socket talks to
+//! `ecatd --simulate`'s ETG.8200 gateway (messages built and parsed with
+//! `master_core::wire`). Every protocol, the master's dictionary at address 0, position and
+//! broadcast addressing, the error table, strict mode, the allowlist, stop and restart
+//! through the API, and the port of master number 2 with its fallback. Expected values come
+//! from `Topology::default_segment()`.
+
+mod server_support;
+
+use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
+use std::time::{Duration, Instant};
+
+use master_core::gateway::BROADCAST_ADDRESS;
+use master_core::master_od::MasterIdentity;
+use master_core::wire::coe::info::OdListType;
+use master_core::wire::coe::{
+    AbortCode, CoeRepr, SdoInfoRepr, SdoInfoService, SdoRequest, SdoResponse,
+};
+use master_core::wire::foe::{self, FoePacket, FoeRepr};
+use master_core::wire::mailbox::{ErrorReply, ErrorReplyRepr, MailboxErrorCode, MailboxType};
+use master_core::wire::soe::{
+    ElementFlags, Idn, IdnOrFragments, SoeError, SoeOpcode, SoePacket, SoeRepr,
+};
+use master_core::wire::voe::{VoePacket, VoeRepr};
+use serde_json::Value;
+use server_support::gateway_client::{GatewayClient, Reply, coe_bytes, object_missing};
+use server_support::{Ecatd, call, curl};
+use sha2::{Digest, Sha256};
+use sim::topology::{Protocol, Topology};
+
+/// Station addresses of the default segment (1001 + position).
+const DRIVE: u16 = 1001;
+const COE_STORE: u16 = 1004;
+const EOE_PORT: u16 = 1005;
+/// The simulated slaves' mailbox size (default segment: 128/128).
+const MAILBOX: usize = 128;
+/// How long a test waits to be sure that no reply comes.
+const SILENCE: Duration = Duration::from_secs(1);
+
+/// The simulator's fill pattern of sized objects (byte i = i mod 251).
+fn pattern(size: usize) -> Vec<u8> {
+    (0..size).map(|i| (i % 251) as u8).collect()
+}
+
+/// `GET /api/v1/gateway`.
+fn gateway_view(ecatd: &Ecatd) -> Value {
+    let (status, body) = curl(&["-s", &format!("{}/api/v1/gateway", ecatd.http)]);
+    assert_eq!(status, 200, "{body}");
+    serde_json::from_str(&body).expect("JSON")
+}
+
+/// Polls the gateway's state until `done` holds (datagrams without an answer are counted
+/// asynchronously) or a deadline passes; returns the last state.
+fn wait_for_gateway(ecatd: &Ecatd, done: impl Fn(&Value) -> bool) -> Value {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        let view = gateway_view(ecatd);
+        if done(&view) || Instant::now() > deadline {
+            return view;
+        }
+        // Poll interval; the loop ends on the condition or the deadline.
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A sample of `/metrics`.
+fn metric(ecatd: &Ecatd, series: &str) -> f64 {
+    let (status, text) = curl(&["-s", &format!("{}/metrics", ecatd.http)]);
+    assert_eq!(status, 200);
+    text.lines()
+        .find_map(|line| line.strip_prefix(series)?.strip_prefix(' ')?.parse().ok())
+        .unwrap_or_else(|| panic!("no sample {series} in:\n{text}"))
+}
+
+fn loopback(port: u16) -> SocketAddr {
+    SocketAddr::from((Ipv4Addr::LOCALHOST, port))
+}
+
+/// Starts ecatd with a configuration file holding `toml`.
+fn start_with_config(name: &str, toml: &str, extra: &[&str]) -> Ecatd {
+    let file =
+        std::env::temp_dir().join(format!("ecatd-gateway-{name}-{}.toml", std::process::id()));
+    std::fs::write(&file, toml).unwrap();
+    let mut args = vec!["--config", file.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let ecatd = Ecatd::start(&args);
+    std::fs::remove_file(&file).unwrap();
+    ecatd
+}
+
+fn abort_of(reply: &Reply) -> (u16, u8, u32) {
+    match reply.coe() {
+        CoeRepr::SdoResponse(SdoResponse::Abort {
+            index,
+            subindex,
+            code,
+        }) => (index, subindex, u32::from(code)),
+        other => panic!("not an abort: {other:?}"),
+    }
+}
+
+fn upload_request(index: u16, subindex: u8) -> CoeRepr<'static> {
+    CoeRepr::SdoRequest(SdoRequest::InitiateUpload {
+        index,
+        subindex,
+        complete_access: false,
+    })
+}
+
+fn soe_bytes(repr: &SoeRepr<'_>) -> Vec<u8> {
+    let mut out = vec![0u8; repr.buffer_len()];
+    repr.emit(&mut SoePacket::new_unchecked(&mut out[..]))
+        .expect("emit SoE");
+    out
+}
+
+fn soe_of(reply: &Reply) -> SoeRepr<'_> {
+    assert_eq!(reply.header.mailbox_type, MailboxType::Soe, "{reply:?}");
+    SoeRepr::parse(&SoePacket::new_checked(&reply.data[..]).expect("SoE")).expect("parsable")
+}
+
+fn soe_read_request(idn: u16) -> Vec<u8> {
+    soe_bytes(&SoeRepr {
+        opcode: SoeOpcode::ReadRequest,
+        drive: 0,
+        elements: ElementFlags::VALUE,
+        idn_or_fragments: IdnOrFragments::Idn(Idn::from_raw(idn)),
+        error: None,
+        data: &[],
+    })
+}
+
+fn foe_bytes(repr: &FoeRepr<'_>) -> Vec<u8> {
+    let mut out = vec![0u8; repr.buffer_len()];
+    repr.emit(&mut FoePacket::new_unchecked(&mut out[..]))
+        .expect("emit FoE");
+    out
+}
+
+fn foe_of(reply: &Reply) -> FoeRepr<'_> {
+    assert_eq!(reply.header.mailbox_type, MailboxType::Foe, "{reply:?}");
+    FoeRepr::parse(&FoePacket::new_checked(&reply.data[..]).expect("FoE")).expect("parsable")
+}
+
+fn mailbox_error_of(reply: &Reply) -> MailboxErrorCode {
+    assert_eq!(reply.header.mailbox_type, MailboxType::Error, "{reply:?}");
+    let view = ErrorReply::new_checked(&reply.data[..]).expect("error reply");
+    ErrorReplyRepr::parse(&view).expect("parsable").detail
+}
+
+/// Writes `content` as FoE file `name`, one datagram per packet; a packet shorter than a
+/// full one (empty if need be) ends the file.
+fn foe_write(client: &mut GatewayClient, address: u16, name: &str, content: &[u8]) {
+    let request = foe_bytes(&FoeRepr::WriteRequest {
+        password: 0,
+        file_name: name.as_bytes(),
+    });
+    let reply = client.exchange(address, MailboxType::Foe, &request);
+    assert_eq!(foe_of(&reply), FoeRepr::Ack { packet: 0 });
+    let full = foe::max_data(MAILBOX);
+    // One more packet than full ones: the last is short (possibly empty).
+    for (i, start) in (0..=content.len()).step_by(full).enumerate() {
+        let packet = u32::try_from(i + 1).unwrap();
+        let chunk = &content[start..(start + full).min(content.len())];
+        let data = foe_bytes(&FoeRepr::Data {
+            packet,
+            data: chunk,
+        });
+        let reply = client.exchange(address, MailboxType::Foe, &data);
+        assert_eq!(foe_of(&reply), FoeRepr::Ack { packet });
+    }
+}
+
+/// Reads FoE file `name`; the ACK of the last (short) packet gets no answer.
+fn foe_read(client: &mut GatewayClient, address: u16, name: &str, limit: usize) -> Vec<u8> {
+    let request = foe_bytes(&FoeRepr::ReadRequest {
+        password: 0,
+        file_name: name.as_bytes(),
+    });
+    client.send(address, MailboxType::Foe, &request);
+    let full = foe::max_data(MAILBOX);
+    let mut content = Vec::new();
+    for expected in 1..=u32::try_from(limit / full + 1).unwrap() {
+        let reply = client.recv();
+        let (packet, data) = match foe_of(&reply) {
+            FoeRepr::Data { packet, data } => (packet, data.to_vec()),
+            other => panic!("packet {expected}: {other:?}"),
+        };
+        assert_eq!(packet, expected);
+        content.extend_from_slice(&data);
+        client.send(
+            address,
+            MailboxType::Foe,
+            &foe_bytes(&FoeRepr::Ack { packet }),
+        );
+        if data.len() < full {
+            assert!(
+                client.recv_within(SILENCE).is_none(),
+                "the last ACK is not answered"
+            );
+            return content;
+        }
+    }
+    panic!("{name} is longer than {limit} bytes");
+}
+
+/// The object list (SDO Information, all objects), from every fragment.
+fn object_list(client: &mut GatewayClient, address: u16) -> Vec<u16> {
+    let request = CoeRepr::SdoInfo(SdoInfoRepr {
+        incomplete: false,
+        fragments_left: 0,
+        service: SdoInfoService::OdListRequest {
+            list_type: OdListType::All,
+        },
+    });
+    client.send(address, MailboxType::Coe, &coe_bytes(&request));
+    let mut raw = Vec::new();
+    // Bounded: one fragment per datagram, the count given by the first.
+    for _ in 0..1000 {
+        let reply = client.recv();
+        let CoeRepr::SdoInfo(info) = reply.coe() else {
+            panic!("not SDO Information: {reply:?}");
+        };
+        let SdoInfoService::OdListResponse(list) = info.service else {
+            panic!("not an object list: {info:?}");
+        };
+        raw.extend_from_slice(list.raw());
+        if !info.incomplete {
+            let words: Vec<u16> = raw
+                .chunks_exact(2)
+                .map(|w| u16::from_le_bytes([w[0], w[1]]))
+                .collect();
+            assert_eq!(
+                words.first(),
+                Some(&u16::from(OdListType::All)),
+                "list type first"
+            );
+            return words[1..].to_vec();
+        }
+    }
+    panic!("the object list never ended");
+}
+
+#[test]
+fn coe_through_ecatd_reaches_the_simulators_dictionaries() {
+    let ecatd = Ecatd::start(&[]);
+    let topology = Topology::default_segment();
+    let mut client = GatewayClient::new(ecatd.gateway_addr());
+
+    // Expedited upload on the drive: device type and vendor ID from the topology.
+    let drive = &topology.slaves[0];
+    assert_eq!(
+        client.sdo_upload(DRIVE, 0x1000, 0),
+        Ok(drive.device_type.to_le_bytes().to_vec())
+    );
+    assert_eq!(
+        client.sdo_upload(DRIVE, 0x1018, 1),
+        Ok(drive.vendor_id.to_le_bytes().to_vec())
+    );
+    // Normal (non-expedited) upload of the drive's name.
+    assert_eq!(
+        client.sdo_upload(DRIVE, 0x1008, 0),
+        Ok(drive.name.as_bytes().to_vec())
+    );
+
+    // Expedited download on the drive, read back (in PREOP: in OP the cyclic outputs
+    // overwrite the RxPDO-mapped 0x607A).
+    let preop = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/RequestState",
+        r#"{"slave":"0","state":"AL_STATE_PREOP"}"#,
+    )
+    .unwrap();
+    assert_eq!(preop["slave"]["state"], "AL_STATE_PREOP");
+    assert_eq!(
+        client.sdo_download(DRIVE, 0x607A, 0, &(-123_456i32).to_le_bytes(), MAILBOX),
+        Ok(())
+    );
+    assert_eq!(
+        client.sdo_upload(DRIVE, 0x607A, 0),
+        Ok((-123_456i32).to_le_bytes().to_vec())
+    );
+
+    // Expedited download and upload on the CoE store's 0x2001.
+    let store = &topology.slaves[3];
+    let parameter = store.objects.iter().find(|o| o.index == 0x2001).unwrap();
+    let initial = parameter
+        .value
+        .as_ref()
+        .and_then(|v| v.as_integer())
+        .unwrap() as u32;
+    assert_eq!(
+        client.sdo_upload(COE_STORE, 0x2001, 0),
+        Ok(initial.to_le_bytes().to_vec())
+    );
+    assert_eq!(
+        client.sdo_download(COE_STORE, 0x2001, 0, &0xCAFE_F00Du32.to_le_bytes(), MAILBOX),
+        Ok(())
+    );
+    assert_eq!(
+        client.sdo_upload(COE_STORE, 0x2001, 0),
+        Ok(0xCAFE_F00Du32.to_le_bytes().to_vec())
+    );
+
+    // Segmented upload and download of the 4 KiB object 0x2000.
+    let large = store.objects.iter().find(|o| o.index == 0x2000).unwrap();
+    let size = large.size.unwrap();
+    assert_eq!(size, 4096);
+    assert_eq!(client.sdo_upload(COE_STORE, 0x2000, 0), Ok(pattern(size)));
+    let written: Vec<u8> = pattern(size)
+        .iter()
+        .map(|b| b.wrapping_mul(7) ^ 0x5A)
+        .collect();
+    assert_eq!(
+        client.sdo_download(COE_STORE, 0x2000, 0, &written, MAILBOX),
+        Ok(())
+    );
+    assert_eq!(client.sdo_upload(COE_STORE, 0x2000, 0), Ok(written));
+
+    // SDO Information: the store's object list holds its topology objects and equals what
+    // the gRPC API reports.
+    let listed = object_list(&mut client, COE_STORE);
+    for object in &store.objects {
+        assert!(
+            listed.contains(&object.index),
+            "{:#x} missing",
+            object.index
+        );
+    }
+    assert!(listed.contains(&0x1018));
+    let grpc = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.CoeService/ObjectList",
+        r#"{"slave":"3"}"#,
+    )
+    .unwrap();
+    let grpc: Vec<u16> = grpc["indices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap() as u16)
+        .collect();
+    assert_eq!(listed, grpc);
+
+    // 0x8000 + position reaches the slave at that position; the reply keeps the address.
+    let reply = client.coe(0x8003, &upload_request(0x2001, 0));
+    assert_eq!(reply.header.address, 0x8003);
+    match reply.coe() {
+        CoeRepr::SdoResponse(SdoResponse::InitiateUpload { index, payload, .. }) => {
+            assert_eq!(index, 0x2001);
+            assert_eq!(
+                payload,
+                master_core::wire::coe::SdoPayload::Expedited(&0xCAFE_F00Du32.to_le_bytes())
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+
+    // Broadcast: one reply per CoE slave, each with its station address and its value.
+    let coe_slaves: Vec<(u16, u32)> = topology
+        .slaves
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.protocols.contains(&Protocol::Coe))
+        .map(|(position, s)| (1001 + position as u16, s.vendor_id))
+        .collect();
+    assert_eq!(coe_slaves.len(), 2, "drive and CoE store");
+    client.send(
+        BROADCAST_ADDRESS,
+        MailboxType::Coe,
+        &coe_bytes(&upload_request(0x1018, 1)),
+    );
+    let mut answered = Vec::new();
+    for _ in &coe_slaves {
+        let reply = client.recv();
+        let CoeRepr::SdoResponse(SdoResponse::InitiateUpload { payload, .. }) = reply.coe() else {
+            panic!("{reply:?}");
+        };
+        let master_core::wire::coe::SdoPayload::Expedited(value) = payload else {
+            panic!("{payload:?}");
+        };
+        answered.push((
+            reply.header.address,
+            u32::from_le_bytes(value.try_into().unwrap()),
+        ));
+    }
+    answered.sort();
+    assert_eq!(answered, coe_slaves);
+    assert!(
+        client.recv_within(SILENCE).is_none(),
+        "one reply per CoE slave, no more"
+    );
+}
+
+#[test]
+fn soe_foe_and_voe_through_ecatd() {
+    let ecatd = Ecatd::start(&[]);
+    let topology = Topology::default_segment();
+    let drive = &topology.slaves[0];
+    let mut client = GatewayClient::new(ecatd.gateway_addr());
+
+    // SoE: P-0-0100's value, as the topology sets it.
+    let idn = &drive.idns[0];
+    let reply = client.exchange(DRIVE, MailboxType::Soe, &soe_read_request(idn.idn));
+    let repr = soe_of(&reply);
+    assert_eq!(repr.opcode, SoeOpcode::ReadResponse);
+    assert_eq!(repr.error, None);
+    assert_eq!(Some(repr.data.to_vec()), idn.value);
+
+    // VoE: the simulator's echo inverts every byte.
+    let vendor_id = drive.voe_vendor_id.unwrap();
+    let sent: Vec<u8> = (0..40u8).collect();
+    let mut request = vec![
+        0u8;
+        VoeRepr {
+            vendor_id,
+            vendor_type: 7,
+            data: &sent,
+        }
+        .buffer_len()
+    ];
+    VoeRepr {
+        vendor_id,
+        vendor_type: 7,
+        data: &sent,
+    }
+    .emit(&mut VoePacket::new_unchecked(&mut request[..]))
+    .unwrap();
+    let reply = client.exchange(DRIVE, MailboxType::Voe, &request);
+    assert_eq!(reply.header.mailbox_type, MailboxType::Voe);
+    let answer = VoeRepr::parse(&VoePacket::new_checked(&reply.data[..]).unwrap()).unwrap();
+    assert_eq!((answer.vendor_id, answer.vendor_type), (vendor_id, 7));
+    let inverted: Vec<u8> = sent.iter().map(|b| b ^ 0xFF).collect();
+    assert_eq!(answer.data, &inverted[..]);
+
+    // FoE: 1 MiB written packet by packet, read back with the same SHA-256 (the drive's
+    // store holds 1 MiB: the file replaces firmware.bin).
+    const MIB: usize = 1 << 20;
+    let content: Vec<u8> = (0..MIB).map(|i| (i.wrapping_mul(31) >> 3) as u8).collect();
+    foe_write(&mut client, DRIVE, "firmware.bin", &content);
+    let back = foe_read(&mut client, DRIVE, "firmware.bin", MIB);
+    assert_eq!(back.len(), MIB);
+    assert_eq!(Sha256::digest(&back), Sha256::digest(&content));
+
+    let stats = wait_for_gateway(&ecatd, |_| true)["stats"].clone();
+    assert_eq!(stats["soe_count"], 1);
+    assert_eq!(stats["voe_count"], 1);
+    assert_eq!(stats["failed_requests"], 0, "{stats}");
+}
+
+#[test]
+fn the_master_dictionary_at_address_0_describes_the_bus() {
+    let ecatd = Ecatd::start(&[]);
+    let mut client = GatewayClient::new(ecatd.gateway_addr());
+    let identity = MasterIdentity::default();
+    assert_eq!(
+        client.sdo_upload(0, 0x1018, 3),
+        Ok(identity.revision.to_le_bytes().to_vec())
+    );
+    assert_eq!(
+        client.sdo_upload(0, 0x1008, 0),
+        Ok(identity.device_name.as_bytes().to_vec())
+    );
+
+    // 0x8nnn:01 (station address) of every slave, 0xF020 (configured) and 0xF040
+    // (detected) lists: the slave list the gRPC API reports.
+    let list = call(&ecatd.grpc, &[], "ecat.v1.BusService/ListSlaves", "{}").unwrap();
+    let stations: Vec<u16> = list["slaves"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["station"].as_u64().unwrap() as u16)
+        .collect();
+    let topology = Topology::default_segment();
+    assert_eq!(stations.len(), topology.slaves.len());
+    for (position, station) in stations.iter().enumerate() {
+        assert_eq!(
+            client.sdo_upload(0, 0x8000 + position as u16, 1),
+            Ok(station.to_le_bytes().to_vec()),
+            "0x{:04x}:01",
+            0x8000 + position
+        );
+    }
+    for list in [0xF020, 0xF040] {
+        assert_eq!(
+            client.sdo_upload(0, list, 0),
+            Ok(vec![stations.len() as u8]),
+            "{list:#x}:00"
+        );
+        for (i, station) in stations.iter().enumerate() {
+            assert_eq!(
+                client.sdo_upload(0, list, i as u8 + 1),
+                Ok(station.to_le_bytes().to_vec()),
+                "{list:#x}:{:02x}",
+                i + 1
+            );
+        }
+    }
+
+    // Writing 0xA001:02 (AL control) moves slave 1 to PREOP, as both APIs then report.
+    assert_eq!(
+        client.sdo_download(0, 0xA001, 2, &2u16.to_le_bytes(), MAILBOX),
+        Ok(())
+    );
+    let slave = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.BusService/GetSlave",
+        r#"{"slave":"1"}"#,
+    )
+    .unwrap();
+    assert_eq!(slave["state"], "AL_STATE_PREOP");
+    let (status, body) = curl(&["-s", &format!("{}/api/v1/slaves/1", ecatd.http)]);
+    assert_eq!(status, 200);
+    let rest: Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(rest["state"], "PREOP");
+    assert_eq!(
+        client.sdo_upload(0, 0xA001, 1),
+        Ok(2u16.to_le_bytes().to_vec()),
+        "AL status"
+    );
+}
+
+#[test]
+fn errors_follow_the_table() {
+    let ecatd = Ecatd::start(&[]);
+    let mut client = GatewayClient::new(ecatd.gateway_addr());
+
+    // Unknown station: CoE abort 0x06020000 naming the request's object.
+    let reply = client.coe(0x0999, &upload_request(0x1018, 1));
+    assert_eq!(reply.header.address, 0x0999);
+    assert_eq!(abort_of(&reply), (0x1018, 1, object_missing()));
+    // Protocols a slave does not serve: CoE abort 0x06010000 from the EoE port, SoE error
+    // 0x1009 from the CoE store.
+    let reply = client.coe(EOE_PORT, &upload_request(0x1018, 1));
+    assert_eq!(
+        abort_of(&reply),
+        (0x1018, 1, u32::from(AbortCode::UnsupportedAccess))
+    );
+    let reply = client.exchange(COE_STORE, MailboxType::Soe, &soe_read_request(0x8064));
+    assert_eq!(soe_of(&reply).error, Some(SoeError::from(0x1009)));
+    // The master (address 0) speaks CoE only: VoE gets mailbox error 0x0002.
+    let voe = {
+        let repr = VoeRepr {
+            vendor_id: 1,
+            vendor_type: 1,
+            data: &[1, 2],
+        };
+        let mut out = vec![0u8; repr.buffer_len()];
+        repr.emit(&mut VoePacket::new_unchecked(&mut out[..]))
+            .unwrap();
+        out
+    };
+    let reply = client.exchange(0, MailboxType::Voe, &voe);
+    assert_eq!(
+        mailbox_error_of(&reply),
+        MailboxErrorCode::UnsupportedProtocol
+    );
+
+    let failures = gateway_view(&ecatd)["stats"]["failures"].clone();
+    assert_eq!(failures["unknown_address"], 1, "{failures}");
+    assert_eq!(failures["unsupported_protocol"], 3, "{failures}");
+}
+
+#[test]
+fn strict_mode_answers_no_errors_but_relays_the_slaves() {
+    let ecatd = start_with_config("strict", "[gateway]\nstrict = true\n", &[]);
+    assert_eq!(gateway_view(&ecatd)["strict"], true);
+    let mut client = GatewayClient::new(ecatd.gateway_addr());
+    client.send(
+        0x0999,
+        MailboxType::Coe,
+        &coe_bytes(&upload_request(0x1018, 1)),
+    );
+    assert!(
+        client.recv_within(SILENCE).is_none(),
+        "no error reply in strict mode"
+    );
+    // The slave's own abort still comes back.
+    let reply = client.coe(COE_STORE, &upload_request(0x5FFF, 0));
+    assert_eq!(abort_of(&reply), (0x5FFF, 0, object_missing()));
+    let view = wait_for_gateway(&ecatd, |v| v["stats"]["failures"]["unknown_address"] == 1);
+    assert_eq!(view["stats"]["failures"]["unknown_address"], 1, "{view}");
+    assert_eq!(view["stats"]["forwarded_requests"], 1);
+}
+
+#[test]
+fn clients_outside_the_allowlist_get_nothing_and_are_counted() {
+    let ecatd = start_with_config("allow", "[gateway]\nallow = [\"10.0.0.0/8\"]\n", &[]);
+    assert_eq!(
+        gateway_view(&ecatd)["allow"],
+        serde_json::json!(["10.0.0.0/8"])
+    );
+    let mut client = GatewayClient::new(ecatd.gateway_addr());
+    client.send(
+        COE_STORE,
+        MailboxType::Coe,
+        &coe_bytes(&upload_request(0x1018, 1)),
+    );
+    assert!(
+        client.recv_within(SILENCE).is_none(),
+        "127.0.0.1 is not allowed"
+    );
+    let view = wait_for_gateway(&ecatd, |v| v["stats"]["failures"]["denied"] == 1);
+    assert_eq!(view["stats"]["failures"]["denied"], 1, "{view}");
+    assert_eq!(view["stats"]["total_requests"], 1);
+    assert_eq!(view["stats"]["forwarded_requests"], 0);
+    assert_eq!(
+        metric(
+            &ecatd,
+            r#"ecat_mailbox_gateway_failures_total{reason="denied"}"#
+        ),
+        1.0
+    );
+}
+
+#[test]
+fn stop_and_restart_through_the_api() {
+    let ecatd = Ecatd::start(&[]);
+    let first = ecatd.gateway_addr();
+    let mut client = GatewayClient::new(first);
+    let vendor = Topology::default_segment().slaves[3].vendor_id;
+    assert_eq!(
+        client.sdo_upload(COE_STORE, 0x1018, 1),
+        Ok(vendor.to_le_bytes().to_vec())
+    );
+
+    let stopped = call(&ecatd.grpc, &[], "ecat.v1.GatewayService/StopGateway", "{}").unwrap();
+    assert!(stopped["running"].is_null(), "{stopped}");
+    assert_eq!(metric(&ecatd, "ecat_mailbox_gateway_up"), 0.0);
+    client.send(
+        COE_STORE,
+        MailboxType::Coe,
+        &coe_bytes(&upload_request(0x1018, 1)),
+    );
+    assert!(
+        client.recv_within(SILENCE).is_none(),
+        "no reply while stopped"
+    );
+
+    let started = call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.GatewayService/StartGateway",
+        "{}",
+    )
+    .unwrap();
+    assert_eq!(started["running"], true);
+    let port = started["port"].as_u64().unwrap() as u16;
+    assert_eq!(started["boundAddress"], loopback(port).to_string());
+    assert_eq!(metric(&ecatd, "ecat_mailbox_gateway_up"), 1.0);
+    assert_eq!(metric(&ecatd, "ecat_mailbox_gateway_port"), f64::from(port));
+    let mut client = GatewayClient::new(loopback(port));
+    assert_eq!(
+        client.sdo_upload(COE_STORE, 0x1018, 1),
+        Ok(vendor.to_le_bytes().to_vec()),
+        "served again after the restart"
+    );
+    let view = gateway_view(&ecatd);
+    assert_eq!(view["stats"]["total_requests"], 1, "counters restarted");
+}
+
+#[test]
+fn master_number_2_asks_for_34981_and_falls_back_when_it_is_taken() {
+    let wanted = master_core::gateway::port_for_master(2);
+    assert_eq!(wanted, 34981);
+    // Hold the port so that the fallback is certain (if something else holds it, the
+    // fallback is just as certain, and the free-port half below is skipped).
+    let holder = UdpSocket::bind(loopback(wanted)).ok();
+    let ecatd = Ecatd::start(&[
+        "--gateway-listen",
+        "127.0.0.1",
+        "--gateway-master-number",
+        "2",
+    ]);
+    let view = gateway_view(&ecatd);
+    assert_eq!(view["master_number"], 2);
+    assert_eq!(view["configured_address"], loopback(wanted).to_string());
+    let port = view["port"].as_u64().unwrap() as u16;
+    assert_ne!(port, wanted, "34981 is taken: a fallback port");
+    assert_eq!(view["bound_address"], loopback(port).to_string());
+    assert_eq!(ecatd.gateway_addr(), loopback(port), "the log line");
+    assert_eq!(metric(&ecatd, "ecat_mailbox_gateway_port"), f64::from(port));
+    assert!(
+        ecatd
+            .log()
+            .lines()
+            .any(|l| l.contains("mailbox gateway port taken") && l.contains(&wanted.to_string())),
+        "no fallback warning:\n{}",
+        ecatd.log()
+    );
+    let mut client = GatewayClient::new(loopback(port));
+    let vendor = Topology::default_segment().slaves[0].vendor_id;
+    assert_eq!(
+        client.sdo_upload(DRIVE, 0x1018, 1),
+        Ok(vendor.to_le_bytes().to_vec())
+    );
+
+    // With 34981 released, a restart binds it.
+    let Some(holder) = holder else {
+        return;
+    };
+    let (status, _) = curl(&[
+        "-s",
+        "-X",
+        "POST",
+        &format!("{}/api/v1/gateway/stop", ecatd.http),
+    ]);
+    assert_eq!(status, 200);
+    drop(holder);
+    let (status, body) = curl(&[
+        "-s",
+        "-X",
+        "POST",
+        &format!("{}/api/v1/gateway/start", ecatd.http),
+    ]);
+    assert_eq!(status, 200, "{body}");
+    let started: Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(started["port"], wanted, "{started}");
+    assert_eq!(started["bound_address"], loopback(wanted).to_string());
+    let mut client = GatewayClient::new(loopback(wanted));
+    assert_eq!(
+        client.sdo_upload(DRIVE, 0x1018, 1),
+        Ok(vendor.to_le_bytes().to_vec())
+    );
+}

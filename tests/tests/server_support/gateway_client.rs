@@ -1,0 +1,265 @@
+//! A plain UDP client of ecatd's ETG.8200 gateway for the server tests: messages built and
+//! parsed with `master_core::wire` (never by hand), every receive with a deadline.
+
+use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
+use std::time::{Duration, Instant};
+
+use master_core::wire::coe::{
+    AbortCode, CoeFrame, CoeRepr, SdoPayload, SdoRequest, SdoResponse, max_initiate_data,
+    max_segment_data,
+};
+use master_core::wire::gateway::{GatewayMessage, GatewayRepr};
+use master_core::wire::mailbox::{MailboxHeader, MailboxType};
+
+/// How long a reply may take (the gateway's own request timeout is 5 s).
+pub const REPLY_DEADLINE: Duration = Duration::from_secs(10);
+
+/// One reply datagram: its mailbox header and data.
+#[derive(Debug, Clone)]
+pub struct Reply {
+    /// The mailbox header (address: the one the request used, or the slave's station on a
+    /// broadcast).
+    pub header: MailboxHeader,
+    /// The mailbox data.
+    pub data: Vec<u8>,
+}
+
+impl Reply {
+    /// The reply as CoE (panics if it is not CoE: test input).
+    pub fn coe(&self) -> CoeRepr<'_> {
+        assert_eq!(
+            self.header.mailbox_type,
+            MailboxType::Coe,
+            "not a CoE reply: {self:?}"
+        );
+        let frame = CoeFrame::new_checked(&self.data[..]).expect("a CoE frame");
+        CoeRepr::parse(&frame).expect("parsable CoE")
+    }
+}
+
+/// The mailbox data of a CoE message.
+pub fn coe_bytes(repr: &CoeRepr) -> Vec<u8> {
+    let mut data = vec![0u8; repr.buffer_len()];
+    repr.emit(&mut CoeFrame::new_unchecked(&mut data[..]))
+        .expect("emit CoE");
+    data
+}
+
+/// An ETG.8200 datagram carrying `data` of type `ty` for `address`.
+pub fn datagram(address: u16, ty: MailboxType, counter: u8, data: &[u8]) -> Vec<u8> {
+    let repr = GatewayRepr {
+        header: MailboxHeader {
+            length: u16::try_from(data.len()).expect("mailbox length"),
+            address,
+            channel: 0,
+            priority: 0,
+            mailbox_type: ty,
+            counter,
+        },
+        data,
+    };
+    let mut out = vec![0u8; repr.buffer_len()];
+    repr.emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
+        .expect("emit gateway message");
+    out
+}
+
+/// A UDP socket talking to one gateway.
+pub struct GatewayClient {
+    /// The socket (bound to a free loopback port).
+    pub socket: UdpSocket,
+    /// The gateway's address.
+    pub server: SocketAddr,
+    counter: u8,
+}
+
+impl GatewayClient {
+    /// A client of the gateway at `server`.
+    pub fn new(server: SocketAddr) -> GatewayClient {
+        GatewayClient {
+            socket: UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("client socket"),
+            server,
+            counter: 0,
+        }
+    }
+
+    /// Sends one message (the mailbox counter cycles 1..=7).
+    pub fn send(&mut self, address: u16, ty: MailboxType, data: &[u8]) {
+        self.counter = self.counter % 7 + 1;
+        let bytes = datagram(address, ty, self.counter, data);
+        self.send_raw(&bytes);
+    }
+
+    /// Sends bytes as they are (malformed datagrams).
+    pub fn send_raw(&self, bytes: &[u8]) {
+        self.socket.send_to(bytes, self.server).expect("send");
+    }
+
+    /// The next reply within `wait`, or `None`. Panics on a datagram from elsewhere or one
+    /// that is not an ETG.8200 message.
+    pub fn recv_within(&self, wait: Duration) -> Option<Reply> {
+        let deadline = Instant::now() + wait;
+        let mut buf = [0u8; 2048];
+        let left = deadline.saturating_duration_since(Instant::now());
+        self.socket
+            .set_read_timeout(Some(left.max(Duration::from_millis(1))))
+            .expect("timeout");
+        let (len, from) = match self.socket.recv_from(&mut buf) {
+            Ok(got) => got,
+            Err(err)
+                if matches!(
+                    err.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                return None;
+            }
+            Err(err) => panic!("recv: {err}"),
+        };
+        assert_eq!(from, self.server, "a reply from the gateway's socket");
+        let message = GatewayMessage::new_checked(&buf[..len]).expect("a gateway message");
+        let repr = GatewayRepr::parse(&message).expect("parsable");
+        Some(Reply {
+            header: repr.header,
+            data: repr.data.to_vec(),
+        })
+    }
+
+    /// The next reply (panics after [`REPLY_DEADLINE`]).
+    pub fn recv(&self) -> Reply {
+        self.recv_within(REPLY_DEADLINE)
+            .expect("a reply within the deadline")
+    }
+
+    /// Sends one message and returns the reply.
+    pub fn exchange(&mut self, address: u16, ty: MailboxType, data: &[u8]) -> Reply {
+        self.send(address, ty, data);
+        self.recv()
+    }
+
+    /// Sends one CoE message and returns the reply.
+    pub fn coe(&mut self, address: u16, repr: &CoeRepr) -> Reply {
+        self.exchange(address, MailboxType::Coe, &coe_bytes(repr))
+    }
+
+    /// SDO upload (expedited or segmented): the value, or the abort code.
+    pub fn sdo_upload(&mut self, address: u16, index: u16, subindex: u8) -> Result<Vec<u8>, u32> {
+        let reply = self.coe(
+            address,
+            &CoeRepr::SdoRequest(SdoRequest::InitiateUpload {
+                index,
+                subindex,
+                complete_access: false,
+            }),
+        );
+        let (mut value, size) = match reply.coe() {
+            CoeRepr::SdoResponse(SdoResponse::InitiateUpload { payload, .. }) => match payload {
+                SdoPayload::Expedited(v) => return Ok(v.to_vec()),
+                SdoPayload::Normal {
+                    complete_size,
+                    data,
+                } => (data.to_vec(), complete_size as usize),
+                SdoPayload::SizeUnspecified { data } => (data.to_vec(), usize::MAX),
+            },
+            CoeRepr::SdoResponse(SdoResponse::Abort { code, .. }) => return Err(u32::from(code)),
+            other => panic!("unexpected answer {other:?}"),
+        };
+        let mut toggle = false;
+        // Bounded: one segment carries at least one byte.
+        for _ in 0..=size.min(1 << 24) {
+            if value.len() >= size {
+                break;
+            }
+            let reply = self.coe(
+                address,
+                &CoeRepr::SdoRequest(SdoRequest::UploadSegment { toggle }),
+            );
+            match reply.coe() {
+                CoeRepr::SdoResponse(SdoResponse::UploadSegment {
+                    toggle: echoed,
+                    last,
+                    data,
+                }) => {
+                    assert_eq!(echoed, toggle, "toggle echoed");
+                    value.extend_from_slice(data);
+                    if last {
+                        break;
+                    }
+                }
+                CoeRepr::SdoResponse(SdoResponse::Abort { code, .. }) => {
+                    return Err(u32::from(code));
+                }
+                other => panic!("unexpected segment answer {other:?}"),
+            }
+            toggle = !toggle;
+        }
+        Ok(value)
+    }
+
+    /// SDO download, expedited up to 4 bytes, else normal with segments sized for a
+    /// mailbox of `mailbox_size` bytes: `Ok`, or the abort code.
+    pub fn sdo_download(
+        &mut self,
+        address: u16,
+        index: u16,
+        subindex: u8,
+        data: &[u8],
+        mailbox_size: usize,
+    ) -> Result<(), u32> {
+        let first = if data.len() <= 4 {
+            data.len()
+        } else {
+            data.len().min(max_initiate_data(mailbox_size))
+        };
+        let payload = if data.len() <= 4 {
+            SdoPayload::Expedited(data)
+        } else {
+            SdoPayload::Normal {
+                complete_size: u32::try_from(data.len()).expect("size"),
+                data: &data[..first],
+            }
+        };
+        let reply = self.coe(
+            address,
+            &CoeRepr::SdoRequest(SdoRequest::InitiateDownload {
+                index,
+                subindex,
+                complete_access: false,
+                payload,
+            }),
+        );
+        match reply.coe() {
+            CoeRepr::SdoResponse(SdoResponse::InitiateDownload { .. }) => {}
+            CoeRepr::SdoResponse(SdoResponse::Abort { code, .. }) => return Err(u32::from(code)),
+            other => panic!("unexpected answer {other:?}"),
+        }
+        let mut toggle = false;
+        for chunk in data[first..].chunks(max_segment_data(mailbox_size)) {
+            let last = chunk.as_ptr_range().end == data.as_ptr_range().end;
+            let reply = self.coe(
+                address,
+                &CoeRepr::SdoRequest(SdoRequest::DownloadSegment {
+                    toggle,
+                    last,
+                    data: chunk,
+                }),
+            );
+            match reply.coe() {
+                CoeRepr::SdoResponse(SdoResponse::DownloadSegment { toggle: echoed }) => {
+                    assert_eq!(echoed, toggle, "toggle echoed");
+                }
+                CoeRepr::SdoResponse(SdoResponse::Abort { code, .. }) => {
+                    return Err(u32::from(code));
+                }
+                other => panic!("unexpected segment answer {other:?}"),
+            }
+            toggle = !toggle;
+        }
+        Ok(())
+    }
+}
+
+/// The abort code of "object does not exist" (the gateway's answer to an unknown address).
+pub fn object_missing() -> u32 {
+    u32::from(AbortCode::ObjectDoesNotExist)
+}
