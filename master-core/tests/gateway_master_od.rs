@@ -81,17 +81,64 @@ fn every_object_is_listed_described_and_readable() {
             }
         }
         if object.object_code == ObjectCode::Record {
-            // The shared SDO server packs fixed-size entries only (0x8nnn and 0xF002 hold
-            // strings).
+            // Records with strings too (0x8nnn, 0xF002): strings at their declared length.
             let whole = client.upload_with(MASTER, index, 0, true);
-            if has_text {
-                assert_eq!(whole, Err(AbortCode::CompleteAccessUnsupported));
-            } else {
-                assert!(whole.is_ok(), "complete access to {index:#06x}: {whole:?}");
-            }
+            assert!(
+                whole.is_ok(),
+                "complete access to {index:#06x} (text: {has_text}): {whole:?}"
+            );
         }
     }
     assert!(entries_read > 100, "{entries_read}");
+}
+
+/// The complete-access image of `index` built from single-subindex reads: SI0 padded to
+/// 16 bits, then every entry up to SI0 at its declared length (strings padded with zeros).
+fn image_from_entries(client: &mut gateway_support::Client, index: u16) -> Vec<u8> {
+    let count = client.upload(MASTER, index, 0).expect("SI0")[0];
+    let mut image = vec![count, 0];
+    for subindex in 1..=count {
+        let Ok(entry) = client.entry(MASTER, index, subindex) else {
+            continue; // a gap: not in the image
+        };
+        assert_eq!(
+            entry.bit_length % 8,
+            0,
+            "{index:#06x}:{subindex:02x} byte-sized"
+        );
+        let mut value = client.upload(MASTER, index, subindex).expect("entry");
+        let len = usize::from(entry.bit_length) / 8;
+        assert!(value.len() <= len, "{index:#06x}:{subindex:02x}");
+        value.resize(len, 0);
+        image.extend_from_slice(&value);
+    }
+    image
+}
+
+#[test]
+fn complete_access_reads_records_with_strings_field_by_field() {
+    let rig = GwRig::start(test_config());
+    let mut client = rig.client();
+    for index in [0x8000u16, 0x8000 + COE_STORE as u16, 0xF002] {
+        let whole = client
+            .upload_with(MASTER, index, 0, true)
+            .expect("complete access");
+        assert_eq!(
+            whole,
+            image_from_entries(&mut client, index),
+            "{index:#06x}"
+        );
+        // From subindex 1: the same without SI0.
+        let from_one = client.upload_with(MASTER, index, 1, true).expect("from 1");
+        assert_eq!(from_one, whole[2..], "{index:#06x} from 1");
+    }
+    // The name field of 0x8000 (:03, after :01 u16 and :02 type of 64 bytes) is the
+    // topology's name, zero-padded to 64 bytes.
+    let whole = client.upload_with(MASTER, 0x8000, 0, true).unwrap();
+    let name = &rig.topology.slaves[DRIVE].name;
+    let field = &whole[2 + 2 + 64..2 + 2 + 64 + 64];
+    assert_eq!(&field[..name.len()], name.as_bytes());
+    assert!(field[name.len()..].iter().all(|&b| b == 0));
 }
 
 #[test]
