@@ -342,3 +342,73 @@ fn the_scan_command_rescans_and_reports() {
         Err(AbortCode::ValueRange)
     );
 }
+
+#[test]
+fn device_types_are_the_slaves_own_0x1000() {
+    let rig = GwRig::start(test_config());
+    let mut client = rig.client();
+    let mut nonzero = 0;
+    for (n, handles) in rig.handles.iter().enumerate() {
+        // The simulator's dictionary is the truth; slaves without CoE report 0.
+        let expected = handles.dictionary.as_ref().map_or(0, |d| {
+            d.lock()
+                .unwrap()
+                .get::<u32>(0x1000, 0)
+                .expect("0x1000 in the simulated dictionary")
+        });
+        nonzero += usize::from(expected != 0);
+        assert_eq!(
+            u32_of(client.upload(MASTER, 0x8000 + n as u16, 4).unwrap()),
+            expected,
+            "slave {n}"
+        );
+    }
+    assert!(
+        nonzero > 0,
+        "the default segment has a CoE slave with a device type"
+    );
+}
+
+fn wkc_errors(client: &mut gateway_support::Client, slaves: usize) -> Vec<u32> {
+    (0..slaves as u16)
+        .map(|n| u32_of(client.upload(MASTER, 0xA000 + n, 0x0E).unwrap()))
+        .collect()
+}
+
+#[test]
+fn wkc_errors_count_for_the_slaves_that_miss() {
+    let rig = GwRig::start(test_config());
+    let mut client = rig.client();
+    let slaves = rig.topology.slaves.len();
+    let master = rig.master();
+
+    // Healthy cycles: nothing counted.
+    let start = master.cycle_stats().completed;
+    assert!(wait_until(|| master.cycle_stats().completed >= start + 20));
+    assert_eq!(wkc_errors(&mut client, slaves), vec![0; slaves]);
+
+    // The DI8 (position 2, inputs only) loses its configuration: only it is counted.
+    const DI8: usize = 2;
+    rig.segment().power_cycle(DI8);
+    assert!(wait_until(|| wkc_errors(&mut client, slaves)[DI8] > 0));
+    let after_power_cycle = wkc_errors(&mut client, slaves);
+    for (n, count) in after_power_cycle.iter().enumerate() {
+        if n != DI8 {
+            assert_eq!(*count, 0, "slave {n} after the DI8's power cycle");
+        }
+    }
+
+    // The line is cut in front of the CoE store: it and the EoE port behind it miss the
+    // mailbox-status read; the drive and the DO8 in front are not counted.
+    rig.segment().set_plugged(COE_STORE, false);
+    assert!(wait_until(|| {
+        let counts = wkc_errors(&mut client, slaves);
+        counts[COE_STORE] > 0 && counts[COE_STORE + 1] > 0
+    }));
+    let counts = wkc_errors(&mut client, slaves);
+    assert_eq!(counts[DRIVE], 0);
+    assert_eq!(counts[1], 0);
+    // The master's own API says the same.
+    assert_eq!(master.wkc_errors()[DRIVE], 0);
+    assert!(master.wkc_errors()[COE_STORE] > 0);
+}
