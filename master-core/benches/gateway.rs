@@ -4,17 +4,25 @@
 //! Rows: one register read (FPRD, one frame round trip); SDO upload of 0x1018:01 through
 //! `SlaveMailbox::sdo_upload` by 1 and by 64 callers; the same upload as an ETG.8200
 //! datagram over loopback UDP by 1 and by 64 clients; a read of the master's dictionary
-//! (address 0) by one client. The 64-caller rows spread over the segment's two CoE slaves.
+//! (address 0) by one client; the same upload over the optional TCP transport; and, as the
+//! floor of what any UDP request/reply costs here, a loopback UDP echo between two threads
+//! (the gateway's row minus the direct row minus this one is the gateway's own work). The
+//! 64-caller rows spread over the segment's two CoE slaves.
 //!
 //! Run with `cargo bench -p master-core --bench gateway`.
 
 #[path = "../tests/gateway_support/mod.rs"]
 mod gateway_support;
 
+use std::io::{Read, Write};
+use std::net::{Ipv4Addr, TcpStream, UdpSocket};
 use std::sync::Barrier;
 use std::time::{Duration, Instant};
 
-use gateway_support::{COE_STORE, Client, DRIVE, GwRig, block_on, sdo, station, test_config};
+use gateway_support::{
+    COE_STORE, Client, DRIVE, GwRig, block_on, datagram, sdo, station, test_config,
+};
+use master_core::gateway::GatewayConfig;
 use master_core::master::SlaveAddress;
 use master_core::wire::coe::{SdoRequest, SdoResponse};
 use master_core::wire::mailbox::MailboxType;
@@ -96,8 +104,45 @@ fn gateway_upload(client: &mut Client, address: u16) {
     assert!(matches!(reply.sdo(), SdoResponse::InitiateUpload { .. }));
 }
 
+/// Request/reply over loopback UDP with a thread that echoes: two syscalls and a thread
+/// wake-up each way, nothing else.
+fn udp_echo_row() {
+    let server = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("echo socket");
+    let addr = server.local_addr().expect("echo address");
+    let echo = std::thread::spawn(move || {
+        let mut buf = [0u8; 64];
+        for _ in 0..WARMUP + SINGLE {
+            let (len, from) = server.recv_from(&mut buf).expect("echo recv");
+            server.send_to(&buf[..len], from).expect("echo send");
+        }
+    });
+    let client = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("client socket");
+    let message = [0u8; 24];
+    let mut buf = [0u8; 64];
+    let mut round_trip = |_| {
+        client.send_to(&message, addr).expect("send");
+        client.recv_from(&mut buf).expect("recv");
+    };
+    timed(WARMUP, &mut round_trip);
+    let (s, e) = timed(SINGLE, &mut round_trip);
+    print("loopback UDP echo (transport floor)", s, e);
+    echo.join().expect("echo thread");
+}
+
+/// The gateway upload over a TCP connection.
+fn tcp_upload(stream: &mut TcpStream, request: &[u8], reply: &mut Vec<u8>) {
+    stream.write_all(request).expect("TCP write");
+    let mut header = [0u8; 2];
+    stream.read_exact(&mut header).expect("TCP header");
+    reply.resize(usize::from(u16::from_le_bytes(header) & 0x07FF), 0);
+    stream.read_exact(reply).expect("TCP body");
+}
+
 fn main() {
-    let rig = GwRig::start(test_config());
+    let rig = GwRig::start(GatewayConfig {
+        tcp: true,
+        ..test_config()
+    });
     let master = rig.master();
     let store = master
         .mailbox(SlaveAddress::Station(station(COE_STORE)))
@@ -136,6 +181,10 @@ fn main() {
     timed(WARMUP, |_| gateway_upload(&mut client, station(COE_STORE)));
     let (s, e) = timed(SINGLE, |_| gateway_upload(&mut client, station(COE_STORE)));
     print("gateway SDO upload, 1 client", s, e);
+    // The gateway's own view of those requests: from receipt to the reply handed to the
+    // socket (its histogram has 25 % buckets).
+    let own = rig.gateway().stats().latency;
+    let own_p50 = own.p50().unwrap_or_default();
 
     let addr = rig.addr();
     let (s, e) = parallel(CLIENTS, EACH, |t| {
@@ -148,6 +197,28 @@ fn main() {
     let (s, e) = timed(SINGLE / 3, |_| gateway_upload(&mut client, 0));
     print("gateway master dictionary 0x1018:01", s, e);
 
+    let mut stream = TcpStream::connect(addr).expect("TCP connect");
+    stream.set_nodelay(true).expect("nodelay");
+    let request = datagram(
+        station(COE_STORE),
+        MailboxType::Coe,
+        1,
+        &sdo(SdoRequest::InitiateUpload {
+            index: 0x1018,
+            subindex: 1,
+            complete_access: false,
+        }),
+    );
+    let mut reply = Vec::new();
+    timed(WARMUP, |_| tcp_upload(&mut stream, &request, &mut reply));
+    let (s, e) = timed(SINGLE, |_| tcp_upload(&mut stream, &request, &mut reply));
+    print("gateway SDO upload over TCP, 1 client", s, e);
+
+    udp_echo_row();
+
+    println!(
+        "\ngateway SDO upload, 1 client, inside the gateway (receipt to reply): p50 {own_p50:?}"
+    );
     let stats = rig.gateway().stats();
     println!(
         "\ngateway: {} requests, {} failed; its own latency histogram p50 {:?}, p99 {:?}",

@@ -81,17 +81,64 @@ fn every_object_is_listed_described_and_readable() {
             }
         }
         if object.object_code == ObjectCode::Record {
-            // The shared SDO server packs fixed-size entries only (0x8nnn and 0xF002 hold
-            // strings).
+            // Records with strings too (0x8nnn, 0xF002): strings at their declared length.
             let whole = client.upload_with(MASTER, index, 0, true);
-            if has_text {
-                assert_eq!(whole, Err(AbortCode::CompleteAccessUnsupported));
-            } else {
-                assert!(whole.is_ok(), "complete access to {index:#06x}: {whole:?}");
-            }
+            assert!(
+                whole.is_ok(),
+                "complete access to {index:#06x} (text: {has_text}): {whole:?}"
+            );
         }
     }
     assert!(entries_read > 100, "{entries_read}");
+}
+
+/// The complete-access image of `index` built from single-subindex reads: SI0 padded to
+/// 16 bits, then every entry up to SI0 at its declared length (strings padded with zeros).
+fn image_from_entries(client: &mut gateway_support::Client, index: u16) -> Vec<u8> {
+    let count = client.upload(MASTER, index, 0).expect("SI0")[0];
+    let mut image = vec![count, 0];
+    for subindex in 1..=count {
+        let Ok(entry) = client.entry(MASTER, index, subindex) else {
+            continue; // a gap: not in the image
+        };
+        assert_eq!(
+            entry.bit_length % 8,
+            0,
+            "{index:#06x}:{subindex:02x} byte-sized"
+        );
+        let mut value = client.upload(MASTER, index, subindex).expect("entry");
+        let len = usize::from(entry.bit_length) / 8;
+        assert!(value.len() <= len, "{index:#06x}:{subindex:02x}");
+        value.resize(len, 0);
+        image.extend_from_slice(&value);
+    }
+    image
+}
+
+#[test]
+fn complete_access_reads_records_with_strings_field_by_field() {
+    let rig = GwRig::start(test_config());
+    let mut client = rig.client();
+    for index in [0x8000u16, 0x8000 + COE_STORE as u16, 0xF002] {
+        let whole = client
+            .upload_with(MASTER, index, 0, true)
+            .expect("complete access");
+        assert_eq!(
+            whole,
+            image_from_entries(&mut client, index),
+            "{index:#06x}"
+        );
+        // From subindex 1: the same without SI0.
+        let from_one = client.upload_with(MASTER, index, 1, true).expect("from 1");
+        assert_eq!(from_one, whole[2..], "{index:#06x} from 1");
+    }
+    // The name field of 0x8000 (:03, after :01 u16 and :02 type of 64 bytes) is the
+    // topology's name, zero-padded to 64 bytes.
+    let whole = client.upload_with(MASTER, 0x8000, 0, true).unwrap();
+    let name = &rig.topology.slaves[DRIVE].name;
+    let field = &whole[2 + 2 + 64..2 + 2 + 64 + 64];
+    assert_eq!(&field[..name.len()], name.as_bytes());
+    assert!(field[name.len()..].iter().all(|&b| b == 0));
 }
 
 #[test]
@@ -294,4 +341,74 @@ fn the_scan_command_rescans_and_reports() {
         client.download(MASTER, 0xF002, 1, &[9, 0]),
         Err(AbortCode::ValueRange)
     );
+}
+
+#[test]
+fn device_types_are_the_slaves_own_0x1000() {
+    let rig = GwRig::start(test_config());
+    let mut client = rig.client();
+    let mut nonzero = 0;
+    for (n, handles) in rig.handles.iter().enumerate() {
+        // The simulator's dictionary is the truth; slaves without CoE report 0.
+        let expected = handles.dictionary.as_ref().map_or(0, |d| {
+            d.lock()
+                .unwrap()
+                .get::<u32>(0x1000, 0)
+                .expect("0x1000 in the simulated dictionary")
+        });
+        nonzero += usize::from(expected != 0);
+        assert_eq!(
+            u32_of(client.upload(MASTER, 0x8000 + n as u16, 4).unwrap()),
+            expected,
+            "slave {n}"
+        );
+    }
+    assert!(
+        nonzero > 0,
+        "the default segment has a CoE slave with a device type"
+    );
+}
+
+fn wkc_errors(client: &mut gateway_support::Client, slaves: usize) -> Vec<u32> {
+    (0..slaves as u16)
+        .map(|n| u32_of(client.upload(MASTER, 0xA000 + n, 0x0E).unwrap()))
+        .collect()
+}
+
+#[test]
+fn wkc_errors_count_for_the_slaves_that_miss() {
+    let rig = GwRig::start(test_config());
+    let mut client = rig.client();
+    let slaves = rig.topology.slaves.len();
+    let master = rig.master();
+
+    // Healthy cycles: nothing counted.
+    let start = master.cycle_stats().completed;
+    assert!(wait_until(|| master.cycle_stats().completed >= start + 20));
+    assert_eq!(wkc_errors(&mut client, slaves), vec![0; slaves]);
+
+    // The DI8 (position 2, inputs only) loses its configuration: only it is counted.
+    const DI8: usize = 2;
+    rig.segment().power_cycle(DI8);
+    assert!(wait_until(|| wkc_errors(&mut client, slaves)[DI8] > 0));
+    let after_power_cycle = wkc_errors(&mut client, slaves);
+    for (n, count) in after_power_cycle.iter().enumerate() {
+        if n != DI8 {
+            assert_eq!(*count, 0, "slave {n} after the DI8's power cycle");
+        }
+    }
+
+    // The line is cut in front of the CoE store: it and the EoE port behind it miss the
+    // mailbox-status read; the drive and the DO8 in front are not counted.
+    rig.segment().set_plugged(COE_STORE, false);
+    assert!(wait_until(|| {
+        let counts = wkc_errors(&mut client, slaves);
+        counts[COE_STORE] > 0 && counts[COE_STORE + 1] > 0
+    }));
+    let counts = wkc_errors(&mut client, slaves);
+    assert_eq!(counts[DRIVE], 0);
+    assert_eq!(counts[1], 0);
+    // The master's own API says the same.
+    assert_eq!(master.wkc_errors()[DRIVE], 0);
+    assert!(master.wkc_errors()[COE_STORE] > 0);
 }

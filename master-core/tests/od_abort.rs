@@ -238,18 +238,16 @@ mod od {
     #[test]
     fn complete_access_aborts() {
         let mut c = Client::new(128);
-        // Variable-length entries cannot be transferred by complete access.
+        // A DOMAIN has no declared length to lay out (strings do: see
+        // `complete_access_lays_strings_out_at_their_declared_length`).
         assert_eq!(
-            c.abort_of(&ca_up(0x1008, 0)),
+            c.abort_of(&ca_up(BLOB, 0)),
             AbortCode::CompleteAccessUnsupported
         );
-        assert_eq!(
-            c.abort_of(&ca_up(0x2060, 0)),
-            AbortCode::CompleteAccessUnsupported
-        );
+        // A string field cut short.
         assert_eq!(
             c.download(0x2060, 0, true, &[2, 0, 1, b'x']),
-            Err(AbortCode::CompleteAccessUnsupported)
+            Err(AbortCode::LengthMismatch)
         );
         // Only subindex 0 or 1.
         assert_eq!(c.abort_of(&ca_up(0x1018, 2)), AbortCode::UnsupportedAccess);
@@ -284,6 +282,30 @@ mod od {
             c.download(0x1C12, 0, true, &[1, 0, 0x00, 0x16]),
             Err(AbortCode::DeviceState)
         );
+    }
+
+    #[test]
+    fn complete_access_lays_strings_out_at_their_declared_length() {
+        let mut c = Client::new(128);
+        // 0x2060: SI0 = 2 (16 bits), :01 u8 = 1, :02 VISIBLE_STRING of 16 bytes = "abc".
+        let mut expected = vec![2, 0, 1];
+        expected.extend_from_slice(b"abc");
+        expected.resize(3 + 16, 0);
+        assert_eq!(c.upload(0x2060, 0, true).unwrap(), expected);
+        assert_eq!(c.upload(0x2060, 1, true).unwrap(), expected[2..]);
+        // A VAR string: its value at its declared length (0x1008 declares its own length).
+        assert_eq!(c.upload(0x1008, 0, true).unwrap(), b"ecatd test slave");
+        // Download: the zero padding is not part of the stored text.
+        let mut image = vec![2, 0, 7];
+        image.extend_from_slice(b"xy");
+        image.resize(3 + 16, 0);
+        c.download(0x2060, 0, true, &image).unwrap();
+        assert_eq!(c.upload(0x2060, 1, false).unwrap(), [7]);
+        assert_eq!(c.upload(0x2060, 2, false).unwrap(), b"xy");
+        // An OCTET_STRING keeps every byte of its field.
+        let octets: Vec<u8> = (0..100).collect();
+        c.download(OCTETS, 0, true, &octets).unwrap();
+        assert_eq!(c.upload(OCTETS, 0, false).unwrap(), octets);
     }
 
     #[test]

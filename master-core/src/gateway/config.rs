@@ -58,6 +58,16 @@ pub struct GatewayConfig {
     pub master_mailbox_size: u16,
     /// Identity the master's dictionary reports (0x1000-0x1018).
     pub identity: MasterIdentity,
+    /// Also serve TCP (optional in ETG.8200) on the port the UDP socket bound, same
+    /// address: each connection carries a stream of gateway messages delimited by the
+    /// EtherCAT header's length. Default false.
+    pub tcp: bool,
+    /// TCP connections served at once; more are closed as soon as they are accepted.
+    /// Default 16.
+    pub max_tcp_connections: usize,
+    /// A TCP connection that sends nothing (or stops in the middle of a message) for this
+    /// long is closed. Default 60 s.
+    pub tcp_idle_timeout: Duration,
 }
 
 impl Default for GatewayConfig {
@@ -75,6 +85,9 @@ impl Default for GatewayConfig {
             session_timeout: Duration::from_secs(3),
             master_mailbox_size: 1024,
             identity: MasterIdentity::default(),
+            tcp: false,
+            max_tcp_connections: 16,
+            tcp_idle_timeout: Duration::from_secs(60),
         }
     }
 }

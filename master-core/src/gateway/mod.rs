@@ -23,8 +23,9 @@
 //! loop and the request tasks), `route` (addresses), `forward` (one slave), `plan` (what
 //! a message makes the slave do), `session` (multi-message transfers), `normalize`
 //! (tolerated short SDO requests), `answer` (the gateway's own error answers), `reply`
-//! (datagrams back), `admission` (in-flight caps), `stats`, `fuzzing` (the parsing steps
-//! for the fuzz target).
+//! (datagrams back), `admission` (in-flight caps), `stats`, `tcp` (the optional TCP
+//! transport over the same request handling), `fuzzing` (the parsing steps for the fuzz
+//! target).
 
 mod admission;
 mod allow;
@@ -41,6 +42,7 @@ mod route;
 mod serve;
 mod session;
 mod stats;
+mod tcp;
 
 use std::io;
 use std::net::SocketAddr;
@@ -124,7 +126,8 @@ impl MailboxGateway {
         self.config.port = Some(port);
     }
 
-    /// The address bound, while running.
+    /// The address bound, while running (with [`GatewayConfig::tcp`], TCP listens on the
+    /// same address and port).
     pub fn local_addr(&self) -> Option<SocketAddr> {
         self.running.as_ref().map(|r| r.local)
     }
@@ -153,19 +156,28 @@ impl MailboxGateway {
             return Ok(local);
         }
         self.stop();
-        let (std_socket, fell_back) = bind::bind(
+        let bound = bind::bind(
             self.config.bind,
             self.config.wanted_port(),
             self.config.fallback,
+            self.config.tcp,
         )?;
-        std_socket.set_nonblocking(true)?;
-        let local = std_socket.local_addr()?;
+        let fell_back = bound.fell_back;
+        bound.udp.set_nonblocking(true)?;
+        if let Some(listener) = &bound.tcp {
+            listener.set_nonblocking(true)?;
+        }
+        let local = bound.udp.local_addr()?;
         let runtime = tokio::runtime::Builder::new_current_thread()
             .enable_all()
             .build()?;
-        let socket = {
+        let (socket, listener) = {
             let _inside = runtime.enter();
-            tokio::net::UdpSocket::from_std(std_socket)?
+            let listener = bound
+                .tcp
+                .map(tokio::net::TcpListener::from_std)
+                .transpose()?;
+            (tokio::net::UdpSocket::from_std(bound.udp)?, listener)
         };
         if fell_back {
             eprintln!(
@@ -196,7 +208,7 @@ impl MailboxGateway {
         let thread = std::thread::Builder::new()
             .name("ecat-gateway".into())
             .spawn(move || {
-                runtime.block_on(serve::run(shared, stopped));
+                runtime.block_on(serve::run(shared, listener, stopped));
                 // Dropping the runtime drops the request tasks still running, which
                 // cancels their mailbox requests.
             })?;

@@ -1,12 +1,14 @@
 //! The service loop: receive a datagram, check who sent it and what it is, admit it, and
-//! work on it in its own task so a slow slave never holds up the others.
+//! work on it in its own task so a slow slave never holds up the others. TCP connections
+//! (`tcp`) hand their messages to the same [`admit`] and [`serve`]; only where the replies
+//! go differs ([`ReplyTo`]).
 
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Instant as StdInstant;
 
-use tokio::net::UdpSocket;
-use tokio::sync::watch;
+use tokio::net::{TcpListener, UdpSocket};
+use tokio::sync::{mpsc, watch};
 use tokio::task::JoinSet;
 use tokio::time::Instant;
 
@@ -24,6 +26,7 @@ use super::reply;
 use super::route::{self, Target};
 use super::session::Sessions;
 use super::stats::{FailureReason, Stats};
+use super::tcp;
 
 /// The largest UDP payload; a datagram is read whole, whatever its size, so that an
 /// oversized one is seen as such and not cut to something that parses.
@@ -40,18 +43,69 @@ pub(crate) struct Shared {
     pub socket: UdpSocket,
 }
 
-/// One request: who sent it, its header, its (normalised) data.
-struct Request {
+/// Where the replies to a request go.
+#[derive(Debug, Clone)]
+pub(crate) enum ReplyTo {
+    /// A datagram from the bound socket to the client's address and port.
+    Udp,
+    /// The writer of the client's TCP connection, in order.
+    Tcp(mpsc::Sender<Vec<u8>>),
+}
+
+/// One request: who sent it, its header, its (normalised) data, where replies go.
+pub(crate) struct Request {
     client: SocketAddr,
     header: MailboxHeader,
     data: Vec<u8>,
     received: StdInstant,
+    reply_to: ReplyTo,
+}
+
+/// What became of a received message.
+pub(crate) enum Admitted {
+    /// To be served.
+    Serve(Request, Ticket),
+    /// Answered or dropped already (busy), counted.
+    Done,
+    /// Not a gateway message; counted.
+    Malformed,
+}
+
+/// Parses a received message and admits it; counts what it is. The caller counted it as
+/// received and checked the client against the allowlist.
+pub(crate) async fn admit(
+    shared: &Shared,
+    message: &[u8],
+    client: SocketAddr,
+    reply_to: ReplyTo,
+    received: StdInstant,
+) -> Admitted {
+    let Some(request) = parse(message, client, received, reply_to) else {
+        shared.stats.failed(FailureReason::Malformed);
+        return Admitted::Malformed;
+    };
+    shared.stats.parsed(request.header.mailbox_type);
+    match shared.admission.admit(client) {
+        Some(ticket) => Admitted::Serve(request, ticket),
+        None => {
+            shared.fail(&request, Fault::Busy).await;
+            Admitted::Done
+        }
+    }
 }
 
 impl Shared {
-    async fn send(&self, client: SocketAddr, datagram: &[u8]) {
-        // A client that went away is its own problem; UDP has no one to tell.
-        let _ = self.socket.send_to(datagram, client).await;
+    async fn send(&self, request: &Request, datagram: Vec<u8>) {
+        match &request.reply_to {
+            // A client that went away is its own problem; UDP has no one to tell.
+            ReplyTo::Udp => {
+                let _ = self.socket.send_to(&datagram, request.client).await;
+            }
+            // A closed connection drops its writer: nothing left to send to.
+            ReplyTo::Tcp(writer) => {
+                let _ = writer.send(datagram).await;
+            }
+        }
     }
 
     /// Answers a failed request as the error table says (unless strict) and counts it.
@@ -72,7 +126,7 @@ impl Shared {
             && let Some(datagram) =
                 reply::made(request.header.address, ty, request.header.counter, &data)
         {
-            self.send(request.client, &datagram).await;
+            self.send(request, datagram).await;
         }
     }
 
@@ -81,15 +135,29 @@ impl Shared {
     }
 }
 
-/// Runs until `stop` says so; then in-flight requests are dropped with the runtime.
-pub(crate) async fn run(shared: Arc<Shared>, mut stop: watch::Receiver<bool>) {
+/// Runs until `stop` says so; then in-flight requests and TCP connections are dropped
+/// with the runtime.
+pub(crate) async fn run(
+    shared: Arc<Shared>,
+    listener: Option<TcpListener>,
+    mut stop: watch::Receiver<bool>,
+) {
     let mut buf = vec![0u8; RECEIVE_BUFFER];
     let mut tasks = JoinSet::new();
     tasks.spawn(shared.dictionary.tracker());
+    let connections = tcp::Connections::new(shared.config.max_tcp_connections);
     loop {
         let (len, client) = tokio::select! {
             _ = stop.changed() => break,
             Some(_) = tasks.join_next(), if tasks.len() > 1 => continue,
+            accepted = tcp::accept(listener.as_ref()) => {
+                if let Ok((stream, peer)) = accepted
+                    && let Some(connection) = connections.open(&shared, stream, peer)
+                {
+                    tasks.spawn(connection);
+                }
+                continue;
+            }
             received = shared.socket.recv_from(&mut buf) => match received {
                 Ok(r) => r,
                 // ICMP port unreachable from an earlier reply, and the like: not fatal.
@@ -106,21 +174,20 @@ pub(crate) async fn run(shared: Arc<Shared>, mut stop: watch::Receiver<bool>) {
             shared.stats.failed(FailureReason::Malformed);
             continue;
         };
-        let Some(request) = parse(datagram, client, received) else {
-            shared.stats.failed(FailureReason::Malformed);
-            continue;
-        };
-        shared.stats.parsed(request.header.mailbox_type);
-        let Some(ticket) = shared.admission.admit(client) else {
-            shared.fail(&request, Fault::Busy).await;
-            continue;
-        };
-        let shared = Arc::clone(&shared);
-        tasks.spawn(serve(shared, request, ticket));
+        if let Admitted::Serve(request, ticket) =
+            admit(&shared, datagram, client, ReplyTo::Udp, received).await
+        {
+            tasks.spawn(serve(Arc::clone(&shared), request, ticket));
+        }
     }
 }
 
-fn parse(datagram: &[u8], client: SocketAddr, received: StdInstant) -> Option<Request> {
+fn parse(
+    datagram: &[u8],
+    client: SocketAddr,
+    received: StdInstant,
+    reply_to: ReplyTo,
+) -> Option<Request> {
     let message = GatewayMessage::new_checked(datagram).ok()?;
     let repr = GatewayRepr::parse(&message).ok()?;
     let data = match repr.header.mailbox_type {
@@ -132,10 +199,12 @@ fn parse(datagram: &[u8], client: SocketAddr, received: StdInstant) -> Option<Re
         header: repr.header,
         data,
         received,
+        reply_to,
     })
 }
 
-async fn serve(shared: Arc<Shared>, request: Request, _ticket: Ticket) {
+/// Works on one admitted request and sends its replies.
+pub(crate) async fn serve(shared: Arc<Shared>, request: Request, _ticket: Ticket) {
     match route::target(&shared.master, request.header.address) {
         Ok(Target::Master) => to_master(&shared, &request).await,
         Ok(Target::Slave(station)) => to_slave(&shared, &request, station).await,
@@ -157,7 +226,7 @@ async fn to_master(shared: &Shared, request: &Request) {
         if let Some(datagram) =
             reply::made(request.header.address, ty, request.header.counter, &data)
         {
-            shared.send(request.client, &datagram).await;
+            shared.send(request, datagram).await;
         }
     }
 }
@@ -183,7 +252,7 @@ async fn to_slave(shared: &Shared, request: &Request, station: u16) {
             shared.answered(request);
             for message in replies {
                 if let Some(datagram) = reply::from_slave(request.header.address, &message) {
-                    shared.send(request.client, &datagram).await;
+                    shared.send(request, datagram).await;
                 }
             }
         }
@@ -237,7 +306,7 @@ async fn broadcast(shared: &Arc<Shared>, request: &Request) {
                 }
                 for message in replies {
                     if let Some(datagram) = reply::from_slave(station, &message) {
-                        shared.send(request.client, &datagram).await;
+                        shared.send(request, datagram).await;
                     }
                 }
             }

@@ -105,7 +105,8 @@ impl FailureCounts {
 /// are ours. Counters only grow while the gateway runs; a restart sets them to zero.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct MailboxGatewayStats {
-    /// UDP datagrams received, including those that failed to parse or were refused.
+    /// UDP datagrams and TCP messages received, including those that failed to parse or
+    /// were refused (a refused TCP connection counts once).
     pub total_requests: u64,
     /// Requests parsed and answered by a slave or by the master's dictionary (a slave's
     /// own error answer — SDO abort, FoE error — counts here: the gateway did its job).

@@ -130,6 +130,7 @@ pub(crate) async fn identify(
         requested_state: previous.map_or(ctx.config.target_state, |p| p.info.requested_state),
         process_data: previous.map(|p| p.info.process_data).unwrap_or_default(),
         present: true,
+        device_type: previous.map_or(0, |p| p.info.device_type),
         name,
     };
     let layout = previous.map(|p| p.layout.clone()).unwrap_or_default();

@@ -50,6 +50,7 @@ impl SlaveRecord {
                 requested_state,
                 process_data: ProcessDataInfo::default(),
                 present: false,
+                device_type: 0,
             },
             sii: Vec::new(),
             layout: ProcessDataLayout::default(),

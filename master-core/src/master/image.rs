@@ -11,7 +11,8 @@
 //!    reads that slave's mailbox; the engine does not poll idle mailboxes.
 //!
 //! A datagram whose working counter is not the expected one counts the cycle in
-//! [`CycleStats::wrong_wkc`]. The task runs on the bus thread; callers read and write the image through the master.
+//! [`CycleStats::wrong_wkc`], and in the per-slave counts of the slaves that explain the
+//! shortfall (see `wkc_blame`). The task runs on the bus thread; callers read and write the image through the master.
 //! The lock is held only to copy bytes, and a reader sees the inputs of one whole cycle.
 
 use std::sync::atomic::Ordering;
@@ -27,6 +28,7 @@ use crate::wire::register::dc::read_time;
 use super::bits::copy_bits;
 use super::cycle_stats::{CycleCounters, CycleStats};
 use super::pd_entry::{ImageSnapshot, PdEntry};
+use super::wkc_blame::blame;
 
 /// Logical address of the first image byte.
 pub(crate) const LOGICAL_BASE: u32 = 0;
@@ -53,6 +55,10 @@ struct Buffers {
     dc: Option<(u16, u16)>,
     /// The reference clock's system time as the last cycle read it.
     dc_time: Option<u64>,
+    /// Each position's share of the LRW working counter.
+    lrw_shares: Vec<u16>,
+    /// Wrong-WKC cycles put down to each position.
+    wkc_errors: Vec<u32>,
 }
 
 impl Buffers {
@@ -88,6 +94,27 @@ impl Image {
         b.status_stations.clear();
         b.status_stations.resize(usize::from(slaves), None);
         b.status_len = usize::from(slaves).div_ceil(8);
+        b.lrw_shares.clear();
+        b.lrw_shares.resize(usize::from(slaves), 0);
+        b.wkc_errors.clear();
+        b.wkc_errors.resize(usize::from(slaves), 0);
+    }
+
+    /// The share of the slave at `position` in the LRW working counter.
+    pub fn set_lrw_share(&self, position: u16, share: u16) {
+        if let Some(slot) = self.lock().lrw_shares.get_mut(usize::from(position)) {
+            *slot = share;
+        }
+    }
+
+    /// Wrong-WKC cycles put down to each position.
+    pub fn wkc_errors(&self) -> Vec<u32> {
+        self.lock().wkc_errors.clone()
+    }
+
+    /// Zeroes the per-slave wrong-WKC counts.
+    pub fn clear_wkc_errors(&self) {
+        self.lock().wkc_errors.fill(0);
     }
 
     /// Bit `position` of the status area now reads `station`'s "mailbox full" bit (`None`:
@@ -278,6 +305,7 @@ impl CyclicTask for ProcessCycle {
     fn complete(&mut self, reply: &CyclicReply<'_>) {
         self.full.clear();
         let mut wrong = false;
+        let mut deficit = (0i64, 0i64);
         {
             let mut b = self.image.lock();
             if let Some(datagram) = self.dc_at.and_then(|at| reply.datagram(at)) {
@@ -291,9 +319,11 @@ impl CyclicTask for ProcessCycle {
                 }
                 b.last_wkc = datagram.wkc;
                 wrong |= datagram.wkc != b.expected_wkc;
+                deficit.0 = i64::from(b.expected_wkc) - i64::from(datagram.wkc);
             }
             if let Some(datagram) = self.status_at.and_then(|at| reply.datagram(at)) {
                 wrong |= datagram.wkc != b.status_wkc();
+                deficit.1 = i64::from(b.status_wkc()) - i64::from(datagram.wkc);
                 for (position, station) in b.status_stations.iter().enumerate() {
                     let set = datagram
                         .data
@@ -304,6 +334,13 @@ impl CyclicTask for ProcessCycle {
                     }
                 }
             }
+            let Buffers {
+                lrw_shares,
+                status_stations,
+                wkc_errors,
+                ..
+            } = &mut *b;
+            blame(lrw_shares, status_stations, deficit, wkc_errors);
             b.cycle += 1;
         }
         let counters = &self.image.counters;

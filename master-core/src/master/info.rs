@@ -80,6 +80,9 @@ pub struct SlaveInfo {
     pub process_data: ProcessDataInfo,
     /// Whether the slave answered at the last look.
     pub present: bool,
+    /// CoE object 0x1000 (device type), read once in PREOP during the scan; 0 for slaves
+    /// without CoE or whose read failed.
+    pub device_type: u32,
 }
 
 impl SlaveInfo {

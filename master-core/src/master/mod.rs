@@ -45,6 +45,7 @@ mod reset;
 mod scan;
 mod tools;
 mod watch;
+mod wkc_blame;
 
 use std::future::Future;
 use std::io;
@@ -442,6 +443,16 @@ impl Master {
             .ok_or(MasterError::InvalidArgument(
                 "inputs beyond the process image",
             ))
+    }
+
+    /// Cyclic working-counter errors per slave, by ring position (ETG.1510 0xAnnn:0E):
+    /// the cycles since the last scan whose LRW or mailbox-status LRD came back with a
+    /// wrong working counter that is put down to that slave. The frame has one LRW for all
+    /// slaves, so the shortfall is explained by the slaves' shares: the shortest missing
+    /// tail of the ring, else the one slave whose share it is, else every slave in the
+    /// wrong datagram. Lost frames are not counted here ([`CycleStats::lost`]).
+    pub fn wkc_errors(&self) -> Vec<u32> {
+        self.ctx.image.wkc_errors()
     }
 
     /// Counters of the cyclic exchange.

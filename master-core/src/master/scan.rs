@@ -19,6 +19,7 @@ use super::info::{ProcessDataInfo, SlaveInfo};
 use super::mailboxes;
 use super::pdo_config;
 use super::reset::reset_all;
+use crate::mailbox::SlaveMailbox;
 
 /// What a scan found and did.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -161,8 +162,25 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
             }
         }
     }
+    // Wrong working counters while the slaves were on their way up are no errors.
+    ctx.image.clear_wkc_errors();
     let slaves = ctx.lock().list.iter().map(|r| r.info.clone()).collect();
     Ok(ScanReport { slaves, failures })
+}
+
+/// CoE 0x1000 of a slave in PREOP (ETG.1510 0x8nnn:04); 0 without CoE or if the read fails.
+async fn device_type(info: &SlaveInfo, mailbox: Option<&SlaveMailbox>) -> u32 {
+    let coe = info.mailbox.is_some_and(|m| m.protocols.coe());
+    let (true, Some(mailbox)) = (coe, mailbox) else {
+        return 0;
+    };
+    match mailbox.sdo_upload(0x1000, 0).await {
+        Ok(bytes) => bytes
+            .get(..4)
+            .and_then(|b| b.try_into().ok())
+            .map_or(0, u32::from_le_bytes),
+        Err(_) => 0,
+    }
 }
 
 /// Writes the configured PDO assignments and decides the process-data layout of the
@@ -184,18 +202,19 @@ async fn lay_out(
             source,
         })?;
         let mailbox = ctx.mailboxes.slave(record.info.station).ok();
+        let device_type = device_type(&record.info, mailbox.as_ref()).await;
         let layout = ctx
             .layout_source
             .layout(&record.info, &sii, mailbox.as_ref())
             .await?;
-        Ok((layout, written))
+        Ok((layout, written, device_type))
     })
     .await;
     let mut offset: u32 = 0;
     let mut expected_wkc: u16 = 0;
     let mut ready = Vec::new();
     for (position, result) in layouts {
-        let (layout, written) = match result {
+        let (layout, written, device_type) = match result {
             Ok(done) => done,
             Err(err) => {
                 failures.push(err);
@@ -211,10 +230,13 @@ async fn lay_out(
             inputs_offset: offset + outputs as u32,
         };
         offset += (outputs + inputs) as u32;
-        expected_wkc += if outputs > 0 { 2 } else { 0 } + u16::from(inputs > 0);
+        let share = if outputs > 0 { 2 } else { 0 } + u16::from(inputs > 0);
+        expected_wkc += share;
+        ctx.image.set_lrw_share(position, share);
         ctx.update(position, |r| {
             r.layout = layout;
             r.info.process_data = pd;
+            r.info.device_type = device_type;
             r.pdo_written = written;
         });
         ready.push(position);

@@ -133,6 +133,7 @@ impl MasterDictionary {
         let bus = self.master.bus().stats();
         snap.cyclic_lost = bus.cycles_lost;
         snap.acyclic_lost = bus.frames_lost.saturating_sub(bus.cycles_lost);
+        snap.wkc_errors = self.master.wkc_errors();
         snap.slaves = slaves;
         snap
     }

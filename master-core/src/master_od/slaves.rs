@@ -152,7 +152,7 @@ pub(crate) fn declare(mut b: DictionaryBuilder, snap: &MasterSnapshot) -> Dictio
                     fit(&info.name, SLAVE_TEXT_LEN),
                     SLAVE_TEXT_LEN,
                 )
-                .entry(4, "Device type", DataType::Unsigned32, ro, 0u32);
+                .entry(4, "Device type", DataType::Unsigned32, ro, info.device_type);
             identity_entries(r, &info.identity)
                 .entry(
                     0x21,
@@ -275,7 +275,7 @@ pub(crate) fn declare(mut b: DictionaryBuilder, snap: &MasterSnapshot) -> Dictio
                 "Cyclic working counter error counter",
                 DataType::Unsigned32,
                 ro,
-                0u32,
+                snap.wkc_errors.get(position).copied().unwrap_or(0),
             )
             .entry(
                 0x0F,

@@ -65,4 +65,7 @@ pub struct MasterSnapshot {
     pub rates: FrameRates,
     /// The last scan started through 0xF002.
     pub scan: ScanStatus,
+    /// Cyclic working-counter errors put down to each slave, by position (0xAnnn:0E, see
+    /// [`Master::wkc_errors`](crate::master::Master::wkc_errors)).
+    pub wkc_errors: Vec<u32>,
 }

@@ -10,7 +10,7 @@
 //!   declared in code, with the standard objects and write hooks;
 //! - [`access`], [`check`]: access rights per AL state and value checks (abort codes);
 //! - [`value`]: typed values ⇄ bytes by data type;
-//! - [`packing`]: the complete-access image;
+//! - [`packing`]: the complete-access image (strings at their declared length);
 //! - [`server`]: [`SdoServer`], the per-client SDO / SDO Information state machine;
 //! - [`emergency`]: emergency messages for the owner to post.
 

@@ -107,7 +107,7 @@ impl TypeKind {
     }
 
     /// Whether values of this kind have a variable length (strings and DOMAIN): such
-    /// entries store up to a maximum length and cannot take part in complete access.
+    /// entries store up to a maximum length (complete access lays them out at that length).
     pub fn is_variable_length(self) -> bool {
         matches!(
             self,

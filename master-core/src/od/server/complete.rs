@@ -1,17 +1,53 @@
 //! Complete access (digest §6.5): a whole ARRAY/RECORD in one transfer, from subindex 0
 //! (SI0 included, padded to 16 bits) or 1, laid out by [`crate::od::packing`].
+//!
+//! Strings (VISIBLE, OCTET, UNICODE) take part at their declared bit length, as ETG.1510
+//! records such as the master's 0x8nnn need: a shorter value is padded with zeros on
+//! upload, and on download a VISIBLE/UNICODE_STRING loses its zero padding again. (SOES
+//! refuses such objects with 0x06010004; TwinCAT-style masters and ETG.1510 clients read
+//! them whole.) Only DOMAIN, which has no meaningful declared length, is refused.
 
-use crate::wire::coe::{AbortCode, ObjectAccess};
+use crate::wire::coe::{AbortCode, DataType, ObjectAccess};
 use crate::wire::register::AlState;
 
 use super::super::access::{check_read, check_write};
-use super::super::dictionary::{Dictionary, EntryWrite};
+use super::super::dictionary::{Dictionary, EntryInfo, EntryWrite};
 use super::super::packing::{Layout, get_bits, put_bits};
 
 /// What complete access needs of one entry.
 struct Member {
     subindex: u8,
     access: ObjectAccess,
+    data_type: DataType,
+}
+
+/// Bits an entry occupies in the image: its declared length (for strings their capacity);
+/// DOMAIN cannot take part.
+fn image_bits(info: &EntryInfo<'_>) -> Result<u16, AbortCode> {
+    if info.data_type == DataType::Domain || (info.is_variable_length() && info.bit_length == 0) {
+        return Err(AbortCode::CompleteAccessUnsupported);
+    }
+    Ok(info.bit_length)
+}
+
+/// The value a string entry stores from its field in a downloaded image: text strings
+/// lose the zero padding that filled the field; OCTET_STRINGs keep every byte.
+fn stored_value(data_type: DataType, mut field: Vec<u8>) -> Vec<u8> {
+    match data_type {
+        DataType::VisibleString => {
+            let len = field.iter().rposition(|&b| b != 0).map_or(0, |i| i + 1);
+            field.truncate(len);
+        }
+        DataType::UnicodeString => {
+            let len = field
+                .chunks_exact(2)
+                .rposition(|unit| unit != [0, 0])
+                .map_or(0, |i| 2 * (i + 1));
+            field.truncate(len);
+        }
+        _ => {}
+    }
+    field
 }
 
 /// The object's shape: whether it has SI0, its highest subindex.
@@ -44,25 +80,22 @@ fn plan(
         let Ok(info) = dict.entry(index, subindex) else {
             continue;
         };
-        if info.is_variable_length() {
-            return Err(AbortCode::CompleteAccessUnsupported);
-        }
-        layout.push(subindex, info.data_type, info.bit_length);
+        layout.push(subindex, info.data_type, image_bits(&info)?);
         members.push(Member {
             subindex,
             access: info.access,
+            data_type: info.data_type,
         });
     }
     Ok((layout, members))
 }
 
-/// A VAR through complete access is its one value (no SI0 to pad).
-fn var_entry_fixed(dict: &dyn Dictionary, index: u16) -> Result<usize, AbortCode> {
+/// A VAR through complete access is its one value (no SI0 to pad), a string at its
+/// declared length: the image length and the VAR's data type.
+fn var_entry(dict: &dyn Dictionary, index: u16) -> Result<(usize, DataType), AbortCode> {
     let info = dict.entry(index, 0)?;
-    if info.is_variable_length() {
-        return Err(AbortCode::CompleteAccessUnsupported);
-    }
-    Ok(info.fixed_len())
+    let bits = image_bits(&info)?;
+    Ok((usize::from(bits).div_ceil(8), info.data_type))
 }
 
 /// The current SI0 value.
@@ -83,8 +116,11 @@ pub(super) fn read(
 ) -> Result<(), AbortCode> {
     let (has_count, _) = shape(dict, index, subindex)?;
     if !has_count {
-        var_entry_fixed(dict, index)?;
-        return dict.read(index, 0, state, out);
+        let (len, _) = var_entry(dict, index)?;
+        let start = out.len();
+        dict.read(index, 0, state, out)?;
+        out.resize(start + len, 0);
+        return Ok(());
     }
     let count = current_count(dict, index, state)?;
     let (layout, members) = plan(dict, index, count, subindex == 0)?;
@@ -123,10 +159,19 @@ pub(super) fn write(
 ) -> Result<(), AbortCode> {
     let (has_count, max_subindex) = shape(dict, index, subindex)?;
     if !has_count {
-        if data.len() != var_entry_fixed(dict, index)? {
+        let (len, data_type) = var_entry(dict, index)?;
+        if data.len() != len {
             return Err(AbortCode::LengthMismatch);
         }
-        return dict.write_entries(index, &[EntryWrite { subindex: 0, data }], state);
+        let value = stored_value(data_type, data.to_vec());
+        return dict.write_entries(
+            index,
+            &[EntryWrite {
+                subindex: 0,
+                data: &value,
+            }],
+            state,
+        );
     }
     let si0_access = dict.entry(index, 0)?.access;
     let takes_count = subindex == 0 && si0_access.writable();
@@ -156,7 +201,8 @@ pub(super) fn write(
             continue;
         }
         check_write(member.access, state)?;
-        values.push((member.subindex, get_bits(data, slot.bit_offset, slot.bits)));
+        let field = get_bits(data, slot.bit_offset, slot.bits);
+        values.push((member.subindex, stored_value(member.data_type, field)));
     }
     if values.is_empty() {
         return Err(AbortCode::ReadOnly);
@@ -176,7 +222,7 @@ pub(super) fn write(
 pub(super) fn max_len(dict: &dyn Dictionary, index: u16, subindex: u8) -> Result<usize, AbortCode> {
     let (has_count, max_subindex) = shape(dict, index, subindex)?;
     if !has_count {
-        return var_entry_fixed(dict, index);
+        return var_entry(dict, index).map(|(len, _)| len);
     }
     Ok(plan(dict, index, max_subindex, subindex == 0)?.0.byte_len())
 }
