@@ -31,6 +31,9 @@ pub async fn run(config: Config) -> Result<(), String> {
     let http_listener = bind(config.http_listen, "HTTP").await?;
     let running = segment::open(&segment_config)?;
     let core = Core::new(running.master.clone());
+    if let Some(hooks) = &running.sim {
+        core.set_sim(hooks.clone());
+    }
     let tokens = Tokens::new(config.tokens.clone());
     tracing::info!(
         grpc = %config.grpc_listen_of(&grpc_listener),

@@ -12,3 +12,4 @@ pub mod logging;
 pub mod metrics;
 pub mod security;
 pub mod segment;
+pub mod sim_hooks;

@@ -6,6 +6,7 @@
 
 pub mod address;
 pub mod error;
+pub mod events;
 pub mod ip;
 pub mod value;
 pub mod view;
@@ -15,7 +16,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use master_core::gateway::{MailboxGateway, MailboxGatewayStats};
 use master_core::mailbox::{FoeOptions, FoeProgress, SlaveMailbox, VoeMessage};
-use master_core::master::{Master, MasterEvent};
+use master_core::master::Master;
 use master_core::wire::coe::info::OdListType;
 use master_core::wire::register::AlState;
 use master_core::wire::soe::{ElementFlags, Idn};
@@ -24,7 +25,9 @@ use tokio::sync::broadcast;
 pub use address::parse_slave;
 pub use error::{ApiError, ErrorKind};
 use value::ValueType;
-pub use view::{EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView};
+pub use view::{
+    EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
+};
 
 /// The largest register access in one request (the ESC's whole register space).
 pub const MAX_REGISTER_LEN: usize = 0x1000;
@@ -36,6 +39,10 @@ pub struct Core {
     ready: Arc<AtomicBool>,
     /// The mailbox gateway, when one runs (its statistics feed the metrics).
     gateway: Arc<std::sync::Mutex<Option<MailboxGateway>>>,
+    /// The merged event stream, started with its first subscriber.
+    events: Arc<std::sync::OnceLock<events::EventHub>>,
+    /// Simulator hooks (`--simulate` only).
+    sim: Arc<std::sync::OnceLock<crate::sim_hooks::SimHooks>>,
 }
 
 /// What the gRPC and REST layers give the core for each request: the slave name and the
@@ -49,6 +56,8 @@ impl Core {
             master,
             ready: Arc::new(AtomicBool::new(false)),
             gateway: Arc::default(),
+            events: Arc::default(),
+            sim: Arc::default(),
         }
     }
 
@@ -120,9 +129,22 @@ impl Core {
         Ok((self.list_slaves(), failures))
     }
 
-    /// A subscription to the master's events.
-    pub fn events(&self) -> broadcast::Receiver<MasterEvent> {
-        self.master.events()
+    /// Events from now on: the master's topology and state events and every slave's CoE
+    /// emergencies ([`events`]). Call from within the tokio runtime.
+    pub fn events(&self) -> broadcast::Receiver<EventView> {
+        self.events
+            .get_or_init(|| events::EventHub::start(&self.master))
+            .subscribe()
+    }
+
+    /// Hands the simulator's hooks to the core (ecatd `--simulate`).
+    pub fn set_sim(&self, hooks: crate::sim_hooks::SimHooks) {
+        let _ = self.sim.set(hooks);
+    }
+
+    /// The simulator's hooks, when ecatd runs the simulator.
+    pub fn sim(&self) -> Option<&crate::sim_hooks::SimHooks> {
+        self.sim.get()
     }
 
     /// Reads `len` bytes of ESC registers from `address`.

@@ -1,13 +1,15 @@
 //! The HTTP side: REST under `/api/v1` (with its OpenAPI document), `/metrics`,
 //! `/healthz`, `/readyz`.
 //!
-//! Files: `rest` (handlers), `openapi`, `error` (errors as JSON), `auth` (tokens), `health`.
+//! Files: `rest` (handlers), `openapi`, `error` (errors as JSON), `auth` (tokens), `health`,
+//! `sim` (the simulator's debug route, `--simulate` only).
 
 pub mod auth;
 pub mod error;
 pub mod health;
 pub mod openapi;
 pub mod rest;
+pub mod sim;
 
 use std::future::Future;
 use std::time::Duration;
@@ -55,6 +57,7 @@ pub fn router(core: Core, tokens: Tokens) -> Router {
         .route("/slaves/{slave}/foe/{name}", get(foe_read).put(foe_write))
         .route("/slaves/{slave}/voe", post(voe))
         .route("/slaves/{slave}/eoe/ip", get(eoe_get_ip).put(eoe_set_ip))
+        .merge(sim::routes(&core))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::GATEWAY_TIMEOUT,
             TIMEOUT,

@@ -5,7 +5,9 @@ use utoipa::OpenApi;
 
 use super::error::{ErrorBody, ErrorInfo};
 use super::rest;
-use crate::core::{EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView};
+use crate::core::{
+    EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
+};
 
 /// The document.
 #[derive(OpenApi)]
@@ -19,7 +21,7 @@ use crate::core::{EntryView, EventView, IdentityView, IpView, ObjectView, SlaveV
         rest::eoe_get_ip, rest::eoe_set_ip,
     ),
     components(schemas(
-        SlaveView, IdentityView, EventView, IpView, ObjectView, EntryView, VoeView,
+        SlaveView, IdentityView, EventView, EmergencyView, IpView, ObjectView, EntryView, VoeView,
         ErrorBody, ErrorInfo, rest::Data, rest::Upload, rest::SdoWrite, rest::StateBody, rest::AliasBody,
         rest::RescanBody, rest::ObjectList, rest::VoeBody, rest::Done,
     )),
