@@ -68,6 +68,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         Err(err) => tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan"),
     }
     core.master().start_watch(Duration::from_millis(100));
+    let background = crate::metrics::start(&core);
     if let Some(settings) = &config.gateway {
         match start_gateway(&core, settings).await {
             Ok(addr) => tracing::info!(gateway = %addr, "mailbox gateway serving"),
@@ -92,6 +93,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         // Stopping joins the gateway's thread: off the async workers.
         let _ = tokio::task::spawn_blocking(move || gateway.stop()).await;
     }
+    drop(background);
     core.master().stop_watch();
     if tokio::time::timeout(SAFE_STATE_TIMEOUT, core.all_to(AlState::Init))
         .await
