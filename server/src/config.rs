@@ -124,6 +124,8 @@ pub struct Config {
     pub insecure: bool,
     /// API tokens (`[[tokens]]` tables: name, token, role = "read" | "write").
     pub tokens: Vec<Token>,
+    /// Watched values (`[[watch]]` tables), exported as gauges.
+    pub watch: Vec<crate::watch::WatchSpec>,
 }
 
 impl Default for Config {
@@ -137,6 +139,7 @@ impl Default for Config {
             log: "info".into(),
             insecure: false,
             tokens: Vec::new(),
+            watch: Vec::new(),
         }
     }
 }
@@ -186,6 +189,7 @@ impl Config {
 
     /// Refuses a non-loopback listen address without tokens, unless `insecure`.
     pub fn check(&self) -> Result<(), String> {
+        crate::watch::spec::check_all(&self.watch)?;
         if self.tokens.is_empty() && !self.insecure {
             for addr in [self.grpc_listen, self.http_listen] {
                 if !addr.ip().is_loopback() {

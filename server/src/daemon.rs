@@ -68,7 +68,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         Err(err) => tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan"),
     }
     core.master().start_watch(Duration::from_millis(100));
-    let background = crate::metrics::start(&core);
+    let background = crate::metrics::start(&core, &config.watch);
     if let Some(settings) = &config.gateway {
         match start_gateway(&core, settings).await {
             Ok(addr) => tracing::info!(gateway = %addr, "mailbox gateway serving"),

@@ -13,3 +13,4 @@ pub mod metrics;
 pub mod security;
 pub mod segment;
 pub mod sim_hooks;
+pub mod watch;

@@ -9,7 +9,7 @@
 mod bus;
 pub mod calls;
 pub mod esc;
-mod family;
+pub(crate) mod family;
 mod gateway;
 mod mailbox;
 mod slaves;
@@ -30,6 +30,7 @@ pub fn gather(core: &Core) -> Vec<MetricFamily> {
     families.extend(mailbox::collect(core));
     families.extend(core.metrics().calls.collect());
     families.extend(core.metrics().esc.collect());
+    families.extend(core.metrics().watch.collect());
     families.extend(gateway::collect(core));
     families.into_iter().flatten().collect()
 }
@@ -42,6 +43,8 @@ pub struct Store {
     pub calls: calls::MailboxCalls,
     /// The ESC error counters last read.
     pub esc: Arc<esc::EscCounters>,
+    /// The watched values (`[[watch]]`).
+    pub watch: Arc<crate::watch::WatchValues>,
 }
 
 /// The background readers behind the metrics; they stop when this is dropped.
@@ -57,11 +60,11 @@ impl Drop for Background {
     }
 }
 
-/// Starts the background readers (the ESC error counters).
-pub fn start(core: &Core) -> Background {
-    Background {
-        tasks: vec![core.metrics().esc.start(core.master())],
-    }
+/// Starts the background readers: the ESC error counters and the watched values.
+pub fn start(core: &Core, watches: &[crate::watch::WatchSpec]) -> Background {
+    let mut tasks = vec![core.metrics().esc.start(core.master())];
+    tasks.extend(crate::watch::start(core, watches, &core.metrics().watch));
+    Background { tasks }
 }
 
 /// The text exposition format.
