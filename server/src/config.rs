@@ -48,6 +48,22 @@ pub struct Args {
     /// Allow listening on a non-loopback address without tokens.
     #[arg(long, env = "ECATD_INSECURE")]
     pub insecure: bool,
+    /// TLS certificate chain (PEM) for gRPC and HTTP; needs --tls-key.
+    #[arg(
+        long,
+        env = "ECATD_TLS_CERT",
+        value_name = "FILE",
+        requires = "tls_key"
+    )]
+    pub tls_cert: Option<PathBuf>,
+    /// TLS private key (PEM); needs --tls-cert.
+    #[arg(
+        long,
+        env = "ECATD_TLS_KEY",
+        value_name = "FILE",
+        requires = "tls_cert"
+    )]
+    pub tls_key: Option<PathBuf>,
     /// Print the effective configuration as TOML and exit.
     #[arg(long)]
     pub print_config: bool,
@@ -104,6 +120,16 @@ impl Default for GatewaySettings {
     }
 }
 
+/// TLS for both APIs (`[tls]`): PEM files.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TlsSettings {
+    /// Certificate chain, leaf first.
+    pub cert: PathBuf,
+    /// Private key (PKCS#8, PKCS#1 or SEC1).
+    pub key: PathBuf,
+}
+
 /// The effective configuration.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -124,6 +150,8 @@ pub struct Config {
     pub insecure: bool,
     /// API tokens (`[[tokens]]` tables: name, token, role = "read" | "write").
     pub tokens: Vec<Token>,
+    /// TLS for gRPC and HTTP; absent: plain TCP.
+    pub tls: Option<TlsSettings>,
     /// Watched values (`[[watch]]` tables), exported as gauges.
     pub watch: Vec<crate::watch::WatchSpec>,
 }
@@ -139,6 +167,7 @@ impl Default for Config {
             log: "info".into(),
             insecure: false,
             tokens: Vec::new(),
+            tls: None,
             watch: Vec::new(),
         }
     }
@@ -184,6 +213,12 @@ impl Config {
             config.log = log.clone();
         }
         config.insecure |= args.insecure;
+        if let (Some(cert), Some(key)) = (&args.tls_cert, &args.tls_key) {
+            config.tls = Some(TlsSettings {
+                cert: cert.clone(),
+                key: key.clone(),
+            });
+        }
         Ok(config)
     }
 

@@ -13,4 +13,5 @@ pub mod metrics;
 pub mod security;
 pub mod segment;
 pub mod sim_hooks;
+pub mod tls;
 pub mod watch;

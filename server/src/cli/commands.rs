@@ -80,7 +80,7 @@ pub async fn run(cli: Cli) -> Result<(), String> {
     if matches!(cli.command, Command::Gateway) {
         return Err(GATEWAY_MISSING.into());
     }
-    let mut c = connect(&cli.address, cli.token.as_deref()).await?;
+    let mut c = connect(&cli.address, cli.token.as_deref(), cli.tls_ca.as_deref()).await?;
     let result = execute(&mut c, cli.command).await?;
     if cli.json {
         println!("{}", result.json);

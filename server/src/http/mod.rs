@@ -94,6 +94,19 @@ async fn metrics(
     }
 }
 
+/// Serves the HTTP routes over TLS on `listener` until `shutdown` completes.
+pub async fn serve_tls(
+    core: Core,
+    tokens: Tokens,
+    listener: crate::tls::TlsListener,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), String> {
+    axum::serve(listener, router(core, tokens))
+        .with_graceful_shutdown(shutdown)
+        .await
+        .map_err(|err| format!("HTTPS server: {err}"))
+}
+
 /// Serves the HTTP routes on `listener` until `shutdown` completes.
 pub async fn serve(
     core: Core,
