@@ -57,6 +57,22 @@ pub struct Args {
     /// Allow listening on a non-loopback address without tokens.
     #[arg(long, env = "ECATD_INSECURE")]
     pub insecure: bool,
+    /// TLS certificate chain (PEM) for gRPC and HTTP; needs --tls-key.
+    #[arg(
+        long,
+        env = "ECATD_TLS_CERT",
+        value_name = "FILE",
+        requires = "tls_key"
+    )]
+    pub tls_cert: Option<PathBuf>,
+    /// TLS private key (PEM); needs --tls-cert.
+    #[arg(
+        long,
+        env = "ECATD_TLS_KEY",
+        value_name = "FILE",
+        requires = "tls_cert"
+    )]
+    pub tls_key: Option<PathBuf>,
     /// Print the effective configuration as TOML and exit.
     #[arg(long)]
     pub print_config: bool,
@@ -199,6 +215,16 @@ impl GatewaySettings {
     }
 }
 
+/// TLS for both APIs (`[tls]`): PEM files.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TlsSettings {
+    /// Certificate chain, leaf first.
+    pub cert: PathBuf,
+    /// Private key (PKCS#8, PKCS#1 or SEC1).
+    pub key: PathBuf,
+}
+
 /// The effective configuration.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -219,6 +245,10 @@ pub struct Config {
     pub insecure: bool,
     /// API tokens (`[[tokens]]` tables: name, token, role = "read" | "write").
     pub tokens: Vec<Token>,
+    /// TLS for gRPC and HTTP; absent: plain TCP.
+    pub tls: Option<TlsSettings>,
+    /// Watched values (`[[watch]]` tables), exported as gauges.
+    pub watch: Vec<crate::watch::WatchSpec>,
 }
 
 impl Default for Config {
@@ -232,6 +262,8 @@ impl Default for Config {
             log: "info".into(),
             insecure: false,
             tokens: Vec::new(),
+            tls: None,
+            watch: Vec::new(),
         }
     }
 }
@@ -284,6 +316,12 @@ impl Config {
             config.log = log.clone();
         }
         config.insecure |= args.insecure;
+        if let (Some(cert), Some(key)) = (&args.tls_cert, &args.tls_key) {
+            config.tls = Some(TlsSettings {
+                cert: cert.clone(),
+                key: key.clone(),
+            });
+        }
         Ok(config)
     }
 
@@ -292,6 +330,7 @@ impl Config {
         if let Some(gateway) = &self.gateway {
             gateway.gateway_config()?;
         }
+        crate::watch::spec::check_all(&self.watch)?;
         if self.tokens.is_empty() && !self.insecure {
             for addr in [self.grpc_listen, self.http_listen] {
                 if !addr.ip().is_loopback() {

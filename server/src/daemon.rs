@@ -27,31 +27,49 @@ pub async fn run(config: Config) -> Result<(), String> {
     // Bind first so a taken port fails fast, before the segment is touched.
     let grpc_listener = bind(config.grpc_listen, "gRPC").await?;
     let http_listener = bind(config.http_listen, "HTTP").await?;
+    let tls = config
+        .tls
+        .as_ref()
+        .map(crate::tls::TlsFiles::load)
+        .transpose()?;
     let running = segment::open(&segment_config)?;
     let core = Core::new(running.master.clone());
+    if let Some(hooks) = &running.sim {
+        core.set_sim(hooks.clone());
+    }
     let tokens = Tokens::new(config.tokens.clone());
     tracing::info!(
         grpc = %config.grpc_listen_of(&grpc_listener),
         http = %config.http_listen_of(&http_listener),
         tokens = tokens.enabled(),
+        tls = tls.is_some(),
         "listening"
     );
     let (stop_tx, stop_rx) = watch::channel(false);
     let stopped = |mut rx: watch::Receiver<bool>| async move {
         let _ = rx.wait_for(|stop| *stop).await;
     };
-    let grpc_task = tokio::spawn(grpc::serve(
+    let grpc_task = tokio::spawn(grpc::serve_tls(
         core.clone(),
         tokens.clone(),
         grpc_listener,
+        tls.as_ref().map(crate::tls::TlsFiles::grpc),
         stopped(stop_rx.clone()),
     ));
-    let http_task = tokio::spawn(http::serve(
-        core.clone(),
-        tokens,
-        http_listener,
-        stopped(stop_rx),
-    ));
+    let http_task = match &tls {
+        Some(files) => tokio::spawn(http::serve_tls(
+            core.clone(),
+            tokens,
+            crate::tls::TlsListener::new(http_listener, files.http()?),
+            stopped(stop_rx),
+        )),
+        None => tokio::spawn(http::serve(
+            core.clone(),
+            tokens,
+            http_listener,
+            stopped(stop_rx),
+        )),
+    };
 
     match core.master().scan().await {
         Ok(report) => {
@@ -63,6 +81,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         Err(err) => tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan"),
     }
     core.master().start_watch(Duration::from_millis(100));
+    let background = crate::metrics::start(&core, &config.watch);
     if let Some(settings) = &config.gateway
         && let Err(err) = start_gateway(&core, settings).await
     {
@@ -86,6 +105,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         // Stopping joins the gateway's thread: off the async workers.
         let _ = tokio::task::spawn_blocking(move || gateway.stop()).await;
     }
+    drop(background);
     core.master().stop_watch();
     if tokio::time::timeout(SAFE_STATE_TIMEOUT, core.all_to(AlState::Init))
         .await

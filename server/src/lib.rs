@@ -12,3 +12,6 @@ pub mod logging;
 pub mod metrics;
 pub mod security;
 pub mod segment;
+pub mod sim_hooks;
+pub mod tls;
+pub mod watch;

@@ -7,7 +7,9 @@ use master_core::bus::{Bus, BusConfig, BusHandle};
 use master_core::link::{RawSocket, RawSocketOptions};
 use master_core::master::{Master, MasterConfig};
 use sim::link::InProcessLink;
-use sim::topology::{Topology, build};
+use sim::topology::{Topology, build_with_handles};
+
+use crate::sim_hooks::SimHooks;
 
 use crate::config::Segment;
 
@@ -15,6 +17,8 @@ use crate::config::Segment;
 pub struct Running {
     /// The master.
     pub master: Arc<Master>,
+    /// Hooks into the simulated slaves (`--simulate` only).
+    pub sim: Option<SimHooks>,
     bus: BusHandle,
     thread: Box<dyn FnOnce() + Send>,
 }
@@ -26,6 +30,7 @@ impl Running {
             master,
             bus,
             thread,
+            ..
         } = self;
         drop(master);
         bus.shutdown();
@@ -41,6 +46,7 @@ fn joiner<L: Send + 'static>(thread: JoinHandle<L>) -> Box<dyn FnOnce() + Send> 
 
 /// Starts the bus and master on `segment`.
 pub fn open(segment: &Segment) -> Result<Running, String> {
+    let mut sim = None;
     let (bus, thread) = match segment {
         Segment::Simulate { topology } => {
             let topology = match topology {
@@ -52,7 +58,9 @@ pub fn open(segment: &Segment) -> Result<Running, String> {
                         .map_err(|err| format!("topology {}: {err}", path.display()))?
                 }
             };
-            let segment = build(&topology).map_err(|err| format!("topology: {err}"))?;
+            let built = build_with_handles(&topology).map_err(|err| format!("topology: {err}"))?;
+            sim = Some(SimHooks::new(&built.slaves));
+            let segment = built.segment;
             let (bus, thread) = Bus::start(InProcessLink::new(segment), BusConfig::default())
                 .map_err(|err| format!("cannot start the bus: {err}"))?;
             (bus, joiner(thread))
@@ -69,6 +77,7 @@ pub fn open(segment: &Segment) -> Result<Running, String> {
         .map_err(|err| format!("cannot start the master: {err}"))?;
     Ok(Running {
         master: Arc::new(master),
+        sim,
         bus,
         thread,
     })

@@ -224,3 +224,168 @@ fn gateway_counters_equal_the_datagrams_sent() {
         3.0
     );
 }
+
+fn rest(ecatd: &Ecatd, method: &str, path: &str, body: Option<&str>) -> (u16, String) {
+    let url = format!("{}{path}", ecatd.http);
+    let mut args = vec!["-s", "-X", method];
+    if let Some(body) = body {
+        args.extend(["-H", "content-type: application/json", "-d", body]);
+    }
+    args.push(&url);
+    curl(&args)
+}
+
+#[test]
+fn protocol_counters_equal_the_requests_made() {
+    let ecatd = Ecatd::start(&[]);
+    let topology = Topology::default_segment();
+    let drive = &topology.slaves[0];
+    let series = |name: &str, station: &str, protocol: &str| {
+        format!(r#"{name}{{station="{station}",protocol="{protocol}"}}"#)
+    };
+    // The drive (station 1001): CoE 4 good + 2 aborted, SoE 3 good + 1 refused write,
+    // FoE 1 read, VoE 2; the EoE port (station 1005): 1 IP read.
+    for _ in 0..4 {
+        let (status, _) = rest(&ecatd, "GET", "/api/v1/slaves/0/coe/sdo/0x1018/1", None);
+        assert_eq!(status, 200);
+    }
+    for _ in 0..2 {
+        let (status, _) = rest(&ecatd, "GET", "/api/v1/slaves/0/coe/sdo/0x5fff/0", None);
+        assert_eq!(status, 409);
+    }
+    for _ in 0..3 {
+        let (status, _) = rest(&ecatd, "GET", "/api/v1/slaves/0/soe/0/0x8064", None);
+        assert_eq!(status, 200);
+    }
+    let (status, _) = rest(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/0/soe/0/0x8064",
+        Some(r#"{"data":"0100"}"#),
+    );
+    assert_eq!(status, 409, "the motor temperature is read-only");
+    let (status, _) = rest(&ecatd, "GET", "/api/v1/slaves/0/foe/firmware.bin", None);
+    assert_eq!(status, 200);
+    let voe = format!(
+        r#"{{"vendor_id":{},"vendor_type":1,"data":"00"}}"#,
+        drive.voe_vendor_id.unwrap_or(drive.vendor_id)
+    );
+    for _ in 0..2 {
+        let (status, _) = rest(&ecatd, "POST", "/api/v1/slaves/0/voe", Some(&voe));
+        assert_eq!(status, 200);
+    }
+    let (status, _) = rest(&ecatd, "GET", "/api/v1/slaves/4/eoe/ip", None);
+    assert_eq!(status, 200);
+
+    let text = scrape(&ecatd);
+    let expect = [
+        ("1001", "coe", 6.0, 2.0),
+        ("1001", "soe", 4.0, 1.0),
+        ("1001", "foe", 1.0, 0.0),
+        ("1001", "voe", 2.0, 0.0),
+        ("1005", "eoe", 1.0, 0.0),
+    ];
+    for (station, protocol, requests, errors) in expect {
+        let got = |name| sample(&text, &series(name, station, protocol));
+        assert_eq!(
+            got("ecat_mailbox_protocol_requests_total"),
+            requests,
+            "{station} {protocol}"
+        );
+        assert_eq!(
+            got("ecat_mailbox_protocol_errors_total"),
+            errors,
+            "{station} {protocol}"
+        );
+        assert_eq!(got("ecat_mailbox_protocol_timeouts_total"), 0.0);
+    }
+    // Nothing else was asked of any mailbox through the APIs.
+    let total: f64 = text
+        .lines()
+        .filter(|l| l.starts_with("ecat_mailbox_protocol_requests_total{"))
+        .filter_map(|l| l.rsplit(' ').next()?.parse::<f64>().ok())
+        .sum();
+    assert_eq!(total, 14.0);
+    assert_eq!(
+        sample(
+            &text,
+            r#"ecat_mailbox_protocol_request_duration_seconds_count{protocol="coe"}"#
+        ),
+        6.0
+    );
+}
+
+#[test]
+fn esc_error_counters_equal_the_registers() {
+    let ecatd = Ecatd::start(&[]);
+    let (status, body) = rest(&ecatd, "GET", "/api/v1/slaves", None);
+    assert_eq!(status, 200);
+    let slaves: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let slaves = slaves.as_array().expect("a list").clone();
+    assert_eq!(slaves.len(), Topology::default_segment().slaves.len());
+    // The background reader runs once a second: wait until every slave shows up.
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    let text = loop {
+        let text = scrape(&ecatd);
+        let seen = text
+            .lines()
+            .filter(|l| l.starts_with("ecat_slave_esc_pdi_errors{"))
+            .count();
+        if seen == slaves.len() {
+            break text;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "ESC counters missing:\n{text}"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    for slave in &slaves {
+        let position = slave["position"].as_u64().unwrap();
+        let station = slave["station"].as_u64().unwrap();
+        let name = slave["name"].as_str().unwrap();
+        let (status, body) = rest(
+            &ecatd,
+            "GET",
+            &format!("/api/v1/slaves/{position}/registers/0x0300?length=20"),
+            None,
+        );
+        assert_eq!(status, 200, "{body}");
+        let data = serde_json::from_str::<serde_json::Value>(&body).unwrap()["data"]
+            .as_str()
+            .unwrap()
+            .to_owned();
+        let block: Vec<u8> = (0..data.len())
+            .step_by(2)
+            .map(|i| u8::from_str_radix(&data[i..i + 2], 16).unwrap())
+            .collect();
+        assert_eq!(block.len(), 20);
+        let labels = format!(r#"position="{position}",station="{station}",name="{name}""#);
+        for port in 0..4 {
+            let port_labels = format!(r#"{{{labels},port="{port}"}}"#);
+            let check = |family: &str, value: u8| {
+                assert_eq!(
+                    sample(&text, &format!("{family}{port_labels}")),
+                    f64::from(value),
+                    "{family} {port_labels}"
+                );
+            };
+            check("ecat_slave_esc_invalid_frames", block[2 * port]);
+            check("ecat_slave_esc_rx_errors", block[2 * port + 1]);
+            check("ecat_slave_esc_forwarded_rx_errors", block[8 + port]);
+            check("ecat_slave_esc_lost_links", block[0x10 + port]);
+        }
+        assert_eq!(
+            sample(
+                &text,
+                &format!("ecat_slave_esc_processing_unit_errors{{{labels}}}")
+            ),
+            f64::from(block[0x0C])
+        );
+        assert_eq!(
+            sample(&text, &format!("ecat_slave_esc_pdi_errors{{{labels}}}")),
+            f64::from(block[0x0D])
+        );
+    }
+    assert_eq!(sample(&text, "ecat_slave_esc_read_failures_total"), 0.0);
+}

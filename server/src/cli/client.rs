@@ -47,10 +47,30 @@ pub struct Clients {
     pub gateway: GatewayServiceClient<Svc>,
 }
 
-/// Connects to `address` (`http://host:port`).
-pub async fn connect(address: &str, token: Option<&str>) -> Result<Clients, String> {
-    let channel = Channel::from_shared(address.to_owned())
-        .map_err(|err| format!("bad address {address}: {err}"))?
+/// Connects to `address` (`http://host:port`); over TLS trusting the CA certificate in
+/// `tls_ca` (PEM) when given.
+pub async fn connect(
+    address: &str,
+    token: Option<&str>,
+    tls_ca: Option<&std::path::Path>,
+) -> Result<Clients, String> {
+    let address = match (tls_ca, address.strip_prefix("http://")) {
+        (Some(_), Some(rest)) => format!("https://{rest}"),
+        _ => address.to_owned(),
+    };
+    let address = address.as_str();
+    let mut endpoint = Channel::from_shared(address.to_owned())
+        .map_err(|err| format!("bad address {address}: {err}"))?;
+    if let Some(path) = tls_ca {
+        let pem = std::fs::read(path)
+            .map_err(|err| format!("cannot read the CA certificate {}: {err}", path.display()))?;
+        let tls = tonic::transport::ClientTlsConfig::new()
+            .ca_certificate(tonic::transport::Certificate::from_pem(pem));
+        endpoint = endpoint
+            .tls_config(tls)
+            .map_err(|err| format!("TLS: {err}"))?;
+    }
+    let channel = endpoint
         .connect()
         .await
         .map_err(|err| format!("cannot connect to {address}: {err}"))?;

@@ -74,7 +74,7 @@ fn out(json: Value, human: impl Into<String>) -> Out {
 
 /// Runs the command line.
 pub async fn run(cli: Cli) -> Result<(), String> {
-    let mut c = connect(&cli.address, cli.token.as_deref()).await?;
+    let mut c = connect(&cli.address, cli.token.as_deref(), cli.tls_ca.as_deref()).await?;
     let result = execute(&mut c, cli.command).await?;
     if cli.json {
         println!("{}", result.json);

@@ -20,6 +20,10 @@ pub struct Cli {
     /// Bearer token.
     #[arg(long, env = "ECAT_TOKEN")]
     pub token: Option<String>,
+    /// Connect over TLS, trusting this CA certificate (PEM); an `http://` address is then
+    /// taken as `https://`.
+    #[arg(long, env = "ECAT_TLS_CA", value_name = "FILE")]
+    pub tls_ca: Option<std::path::PathBuf>,
     /// JSON output.
     #[arg(long, global = true)]
     pub json: bool,

@@ -7,6 +7,7 @@
 
 pub mod address;
 pub mod error;
+pub mod events;
 pub mod gateway;
 pub mod ip;
 pub mod value;
@@ -16,18 +17,21 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use master_core::gateway::{MailboxGateway, MailboxGatewayStats};
-use master_core::mailbox::{FoeOptions, FoeProgress, SlaveMailbox, VoeMessage};
-use master_core::master::{Master, MasterEvent};
+use master_core::mailbox::{FoeOptions, FoeProgress, MailboxError, SlaveMailbox, VoeMessage};
+use master_core::master::Master;
 use master_core::wire::coe::info::OdListType;
 use master_core::wire::register::AlState;
 use master_core::wire::soe::{ElementFlags, Idn};
 use tokio::sync::broadcast;
 
+use crate::metrics::calls::{Outcome, Protocol};
 pub use address::parse_slave;
 pub use error::{ApiError, ErrorKind};
 pub use gateway::GatewayView;
 use value::ValueType;
-pub use view::{EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView};
+pub use view::{
+    EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
+};
 
 /// The largest register access in one request (the ESC's whole register space).
 pub const MAX_REGISTER_LEN: usize = 0x1000;
@@ -39,6 +43,12 @@ pub struct Core {
     ready: Arc<AtomicBool>,
     /// The mailbox gateway, when one runs (its statistics feed the metrics).
     gateway: Arc<std::sync::Mutex<Option<MailboxGateway>>>,
+    /// The merged event stream, started with its first subscriber.
+    events: Arc<std::sync::OnceLock<events::EventHub>>,
+    /// Simulator hooks (`--simulate` only).
+    sim: Arc<std::sync::OnceLock<crate::sim_hooks::SimHooks>>,
+    /// What the metrics record (mailbox requests, ESC error counters).
+    metrics: Arc<crate::metrics::Store>,
 }
 
 /// What the gRPC and REST layers give the core for each request: the slave name and the
@@ -52,6 +62,9 @@ impl Core {
             master,
             ready: Arc::new(AtomicBool::new(false)),
             gateway: Arc::default(),
+            events: Arc::default(),
+            sim: Arc::default(),
+            metrics: Arc::default(),
         }
     }
 
@@ -97,6 +110,32 @@ impl Core {
         Ok(self.master.mailbox(parse_slave(slave)?)?)
     }
 
+    /// Runs `op` on the mailbox of `slave` and records it in the metrics (per slave and
+    /// protocol).
+    async fn call<T, F>(
+        &self,
+        slave: &str,
+        protocol: Protocol,
+        op: impl FnOnce(SlaveMailbox) -> F,
+    ) -> Result<T>
+    where
+        F: std::future::Future<Output = master_core::mailbox::Result<T>>,
+    {
+        let mailbox = self.mailbox(slave)?;
+        let station = mailbox.station();
+        let started = std::time::Instant::now();
+        let result = op(mailbox).await;
+        let outcome = match &result {
+            Ok(_) => Outcome::Ok,
+            Err(MailboxError::Timeout { .. }) => Outcome::Timeout,
+            Err(_) => Outcome::Error,
+        };
+        self.metrics
+            .calls
+            .record(station, protocol, outcome, started.elapsed());
+        Ok(result?)
+    }
+
     /// Every slave of the last scan.
     pub fn list_slaves(&self) -> Vec<SlaveView> {
         self.master.slaves().iter().map(SlaveView::from).collect()
@@ -123,9 +162,27 @@ impl Core {
         Ok((self.list_slaves(), failures))
     }
 
-    /// A subscription to the master's events.
-    pub fn events(&self) -> broadcast::Receiver<MasterEvent> {
-        self.master.events()
+    /// Events from now on: the master's topology and state events and every slave's CoE
+    /// emergencies ([`events`]). Call from within the tokio runtime.
+    pub fn events(&self) -> broadcast::Receiver<EventView> {
+        self.events
+            .get_or_init(|| events::EventHub::start(&self.master))
+            .subscribe()
+    }
+
+    /// Hands the simulator's hooks to the core (ecatd `--simulate`).
+    pub fn set_sim(&self, hooks: crate::sim_hooks::SimHooks) {
+        let _ = self.sim.set(hooks);
+    }
+
+    /// What the metrics record.
+    pub fn metrics(&self) -> &crate::metrics::Store {
+        &self.metrics
+    }
+
+    /// The simulator's hooks, when ecatd runs the simulator.
+    pub fn sim(&self) -> Option<&crate::sim_hooks::SimHooks> {
+        self.sim.get()
     }
 
     /// Reads `len` bytes of ESC registers from `address`.
@@ -189,12 +246,14 @@ impl Core {
         subindex: u8,
         complete: bool,
     ) -> Result<Vec<u8>> {
-        let mailbox = self.mailbox(slave)?;
-        Ok(if complete {
-            mailbox.sdo_upload_complete(index, subindex).await?
-        } else {
-            mailbox.sdo_upload(index, subindex).await?
+        self.call(slave, Protocol::Coe, |mailbox| async move {
+            if complete {
+                mailbox.sdo_upload_complete(index, subindex).await
+            } else {
+                mailbox.sdo_upload(index, subindex).await
+            }
         })
+        .await
     }
 
     /// SDO download (complete access from `subindex` when `complete`).
@@ -206,13 +265,14 @@ impl Core {
         data: &[u8],
         complete: bool,
     ) -> Result<()> {
-        let mailbox = self.mailbox(slave)?;
-        if complete {
-            mailbox.sdo_download_complete(index, subindex, data).await?;
-        } else {
-            mailbox.sdo_download(index, subindex, data).await?;
-        }
-        Ok(())
+        self.call(slave, Protocol::Coe, |mailbox| async move {
+            if complete {
+                mailbox.sdo_download_complete(index, subindex, data).await
+            } else {
+                mailbox.sdo_download(index, subindex, data).await
+            }
+        })
+        .await
     }
 
     /// The value type `name` stands for at `index:subindex`: `auto` asks the slave (SDO
@@ -226,8 +286,9 @@ impl Core {
     ) -> Result<ValueType> {
         if name.eq_ignore_ascii_case("auto") {
             let entry = self
-                .mailbox(slave)?
-                .sdo_info_entry(index, subindex, 0)
+                .call(slave, Protocol::Coe, |m| async move {
+                    m.sdo_info_entry(index, subindex, 0).await
+                })
                 .await?;
             Ok(value::for_data_type(entry.data_type))
         } else {
@@ -272,15 +333,19 @@ impl Core {
         if !(1..=5).contains(&list) {
             return Err(ApiError::invalid("object list type must be 1..=5"));
         }
-        Ok(self
-            .mailbox(slave)?
-            .sdo_info_od_list(OdListType::from(list))
-            .await?)
+        self.call(slave, Protocol::Coe, |m| async move {
+            m.sdo_info_od_list(OdListType::from(list)).await
+        })
+        .await
     }
 
     /// The description of object `index`.
     pub async fn coe_object(&self, slave: &str, index: u16) -> Result<ObjectView> {
-        let info = self.mailbox(slave)?.sdo_info_object(index).await?;
+        let info = self
+            .call(slave, Protocol::Coe, |m| async move {
+                m.sdo_info_object(index).await
+            })
+            .await?;
         Ok(ObjectView {
             index: info.index,
             data_type: u16::from(info.data_type),
@@ -294,8 +359,9 @@ impl Core {
     /// The description of entry `index:subindex`.
     pub async fn coe_entry(&self, slave: &str, index: u16, subindex: u8) -> Result<EntryView> {
         let info = self
-            .mailbox(slave)?
-            .sdo_info_entry(index, subindex, 0)
+            .call(slave, Protocol::Coe, |m| async move {
+                m.sdo_info_entry(index, subindex, 0).await
+            })
             .await?;
         Ok(EntryView {
             index: info.index,
@@ -316,10 +382,11 @@ impl Core {
         idn: u16,
         elements: u8,
     ) -> Result<Vec<u8>> {
-        Ok(self
-            .mailbox(slave)?
-            .soe_read(drive, Idn::from_raw(idn), element_flags(elements))
-            .await?)
+        self.call(slave, Protocol::Soe, |m| async move {
+            m.soe_read(drive, Idn::from_raw(idn), element_flags(elements))
+                .await
+        })
+        .await
     }
 
     /// Writes the `elements` (0: the value) of IDN `idn` of drive `drive`.
@@ -331,10 +398,11 @@ impl Core {
         elements: u8,
         data: &[u8],
     ) -> Result<()> {
-        Ok(self
-            .mailbox(slave)?
-            .soe_write(drive, Idn::from_raw(idn), element_flags(elements), data)
-            .await?)
+        self.call(slave, Protocol::Soe, |m| async move {
+            m.soe_write(drive, Idn::from_raw(idn), element_flags(elements), data)
+                .await
+        })
+        .await
     }
 
     /// Reads file `name`; `progress` hears the bytes transferred so far.
@@ -346,7 +414,10 @@ impl Core {
         progress: Option<Arc<dyn Fn(FoeProgress) + Send + Sync>>,
     ) -> Result<Vec<u8>> {
         let options = FoeOptions { password, progress };
-        Ok(self.mailbox(slave)?.foe_read(name, options).await?)
+        self.call(slave, Protocol::Foe, |m| async move {
+            m.foe_read(name, options).await
+        })
+        .await
     }
 
     /// Writes file `name`.
@@ -361,7 +432,10 @@ impl Core {
             password,
             progress: None,
         };
-        Ok(self.mailbox(slave)?.foe_write(name, data, options).await?)
+        self.call(slave, Protocol::Foe, |m| async move {
+            m.foe_write(name, data, options).await
+        })
+        .await
     }
 
     /// Sends one VoE message and returns the answer.
@@ -372,21 +446,31 @@ impl Core {
         vendor_type: u16,
         data: &[u8],
     ) -> Result<VoeMessage> {
-        Ok(self
-            .mailbox(slave)?
-            .voe(vendor_id, vendor_type, data)
-            .await?)
+        self.call(slave, Protocol::Voe, |m| async move {
+            m.voe(vendor_id, vendor_type, data).await
+        })
+        .await
     }
 
     /// Sets IP parameters of the slave's EoE port.
     pub async fn eoe_set_ip(&self, slave: &str, settings: &IpView) -> Result<()> {
         let settings = ip::to_settings(settings)?;
-        Ok(self.mailbox(slave)?.eoe_set_ip(&settings).await?)
+        self.call(slave, Protocol::Eoe, |m| async move {
+            m.eoe_set_ip(&settings).await
+        })
+        .await
     }
 
     /// Reads IP parameters of the slave's EoE port.
     pub async fn eoe_get_ip(&self, slave: &str) -> Result<IpView> {
-        Ok(ip::from_settings(&self.mailbox(slave)?.eoe_get_ip().await?))
+        let settings = self
+            .call(
+                slave,
+                Protocol::Eoe,
+                |m| async move { m.eoe_get_ip().await },
+            )
+            .await?;
+        Ok(ip::from_settings(&settings))
     }
 
     /// Brings every slave to `state` (shutdown: a safe state); failures are logged.

@@ -114,7 +114,8 @@ impl From<&SlaveInfo> for SlaveView {
 /// A topology or state event.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 pub struct EventView {
-    /// `slave_found`, `slave_lost`, `slave_replaced`, `state_changed`, `al_error`, `lagged`.
+    /// `slave_found`, `slave_lost`, `slave_replaced`, `state_changed`, `al_error`,
+    /// `emergency`, `lagged`.
     pub kind: String,
     /// Ring position.
     pub position: u16,
@@ -130,8 +131,22 @@ pub struct EventView {
     pub al_status_code: Option<u16>,
     /// New identity (found, replaced).
     pub identity: Option<IdentityView>,
+    /// The CoE emergency (kind `emergency`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub emergency: Option<EmergencyView>,
     /// Summary.
     pub text: String,
+}
+
+/// A CoE emergency a slave sent (digest §6.7).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct EmergencyView {
+    /// CiA 301 error code.
+    pub error_code: u16,
+    /// Error register (object 0x1001).
+    pub error_register: u8,
+    /// The five manufacturer-specific bytes, hex.
+    pub data: String,
 }
 
 impl EventView {
@@ -146,6 +161,7 @@ impl EventView {
             to: None,
             al_status_code: None,
             identity: None,
+            emergency: None,
             text: format!("{missed} events were missed"),
         }
     }
@@ -168,6 +184,7 @@ impl From<&MasterEvent> for EventView {
             to: None,
             al_status_code: None,
             identity: None,
+            emergency: None,
             text: String::new(),
         };
         let mut view = match event {

@@ -75,7 +75,7 @@ impl BusService for Bus {
     ) -> Reply<Self::WatchEventsStream> {
         let stream = BroadcastStream::new(self.core.events()).map(|item| {
             Ok(match item {
-                Ok(e) => event(&EventView::from(&e)),
+                Ok(view) => event(&view),
                 Err(BroadcastStreamRecvError::Lagged(missed)) => event(&EventView::lagged(missed)),
             })
         });

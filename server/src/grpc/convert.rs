@@ -70,5 +70,10 @@ pub fn event(view: &EventView) -> pb::Event {
         al_status_code: view.al_status_code.map_or(0, u32::from),
         identity: view.identity.as_ref().map(identity),
         text: view.text.clone(),
+        emergency: view.emergency.as_ref().map(|e| pb::Emergency {
+            error_code: u32::from(e.error_code),
+            error_register: u32::from(e.error_register),
+            data: hex::decode(&e.data).unwrap_or_default(),
+        }),
     }
 }

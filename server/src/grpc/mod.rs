@@ -39,6 +39,17 @@ pub async fn serve(
     listener: tokio::net::TcpListener,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
+    serve_tls(core, tokens, listener, None, shutdown).await
+}
+
+/// Like [`serve`], over TLS when `tls` is given.
+pub async fn serve_tls(
+    core: Core,
+    tokens: Tokens,
+    listener: tokio::net::TcpListener,
+    tls: Option<tonic::transport::ServerTlsConfig>,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), String> {
     let reflection = || {
         tonic_reflection::server::Builder::configure()
             .register_encoded_file_descriptor_set(proto::v1::FILE_DESCRIPTOR_SET)
@@ -73,7 +84,13 @@ pub async fn serve(
         };
     }
     let incoming = tokio_stream::wrappers::TcpListenerStream::new(listener);
-    Server::builder()
+    let mut builder = Server::builder();
+    if let Some(tls) = tls {
+        builder = builder
+            .tls_config(tls)
+            .map_err(|err| format!("gRPC TLS: {err}"))?;
+    }
+    builder
         .timeout(TIMEOUT)
         .add_service(reflection_v1)
         .add_service(reflection_v1alpha)

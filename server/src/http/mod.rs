@@ -2,7 +2,8 @@
 //! `/healthz`, `/readyz`.
 //!
 //! Files: `rest` (handlers), `gateway` (the gateway's handlers), `openapi`, `error`
-//! (errors as JSON), `auth` (tokens), `health`.
+//! (errors as JSON), `auth` (tokens), `health`, `sim` (the simulator's debug route,
+//! `--simulate` only).
 
 pub mod auth;
 pub mod error;
@@ -10,6 +11,7 @@ pub mod gateway;
 pub mod health;
 pub mod openapi;
 pub mod rest;
+pub mod sim;
 
 use std::future::Future;
 use std::time::Duration;
@@ -60,6 +62,7 @@ pub fn router(core: Core, tokens: Tokens) -> Router {
         .route("/gateway", get(gateway::get_gateway))
         .route("/gateway/start", post(gateway::start_gateway))
         .route("/gateway/stop", post(gateway::stop_gateway))
+        .merge(sim::routes(&core))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::GATEWAY_TIMEOUT,
             TIMEOUT,
@@ -94,6 +97,19 @@ async fn metrics(
         Ok(text) => ([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], text).into_response(),
         Err(err) => (StatusCode::INTERNAL_SERVER_ERROR, err).into_response(),
     }
+}
+
+/// Serves the HTTP routes over TLS on `listener` until `shutdown` completes.
+pub async fn serve_tls(
+    core: Core,
+    tokens: Tokens,
+    listener: crate::tls::TlsListener,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), String> {
+    axum::serve(listener, router(core, tokens))
+        .with_graceful_shutdown(shutdown)
+        .await
+        .map_err(|err| format!("HTTPS server: {err}"))
 }
 
 /// Serves the HTTP routes on `listener` until `shutdown` completes.

@@ -8,7 +8,9 @@ use super::{gateway, rest};
 use crate::core::gateway::{
     GatewayFailuresView, GatewayStatsView, GatewayView, LatencyBucketView, LatencyView,
 };
-use crate::core::{EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView};
+use crate::core::{
+    EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
+};
 
 /// The document.
 #[derive(OpenApi)]
@@ -23,7 +25,7 @@ use crate::core::{EntryView, EventView, IdentityView, IpView, ObjectView, SlaveV
         gateway::get_gateway, gateway::start_gateway, gateway::stop_gateway,
     ),
     components(schemas(
-        SlaveView, IdentityView, EventView, IpView, ObjectView, EntryView, VoeView,
+        SlaveView, IdentityView, EventView, EmergencyView, IpView, ObjectView, EntryView, VoeView,
         ErrorBody, ErrorInfo, rest::Data, rest::Upload, rest::SdoWrite, rest::StateBody, rest::AliasBody,
         rest::RescanBody, rest::ObjectList, rest::VoeBody, rest::Done,
         GatewayView, GatewayStatsView, GatewayFailuresView, LatencyView, LatencyBucketView,

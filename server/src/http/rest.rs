@@ -193,13 +193,13 @@ pub async fn rescan(State(core): State<Core>) -> Result<Json<RescanBody>> {
 
 #[utoipa::path(get, path = "/api/v1/events", tag = "bus",
     responses((status = 200, description = "Server-sent events, one EventView as JSON each", content_type = "text/event-stream", body = EventView)))]
-/// Topology and state events as server-sent events.
+/// Topology and state events and CoE emergencies as server-sent events.
 pub async fn events(
     State(core): State<Core>,
 ) -> Sse<impl Stream<Item = std::result::Result<Event, std::convert::Infallible>>> {
     let stream = BroadcastStream::new(core.events()).map(|item| {
         let view = match item {
-            Ok(e) => EventView::from(&e),
+            Ok(view) => view,
             Err(BroadcastStreamRecvError::Lagged(missed)) => EventView::lagged(missed),
         };
         let event = Event::default().event(view.kind.clone());

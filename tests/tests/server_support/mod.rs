@@ -176,10 +176,16 @@ impl Ecatd {
                 .expect("address field")
                 .to_owned()
         };
+        // With TLS (`--tls-cert`) the HTTP side speaks HTTPS.
+        let scheme = if listening["fields"]["tls"] == true {
+            "https"
+        } else {
+            "http"
+        };
         let mut ecatd = Ecatd {
             veth,
             grpc: field("grpc"),
-            http: format!("http://{}", field("http")),
+            http: format!("{scheme}://{}", field("http")),
             child: Some(child),
             log,
         };
@@ -190,7 +196,8 @@ impl Ecatd {
     fn wait_ready(&mut self, deadline: Instant) {
         let url = format!("{}/readyz", self.http);
         loop {
-            let (status, _) = curl(&["-s", &url]);
+            // Readiness only: the TLS test checks the certificate itself.
+            let (status, _) = curl(&["-s", "-k", &url]);
             if status == 200 {
                 return;
             }

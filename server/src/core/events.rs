@@ -1,0 +1,153 @@
+//! The one event stream both APIs serve: the master's topology and state events merged with
+//! the CoE emergencies of every slave's mailbox.
+//!
+//! The master publishes its events on one channel, the mailbox engine each slave's
+//! emergencies on that slave's own channel, and slaves come and go with scans. One task
+//! (started with the first subscriber) follows both: it subscribes to the emergencies of
+//! every slave the engine owns, looks again on every master event and at a modest period
+//! (a rescan may replace a slave's mailbox without a topology event), and republishes
+//! everything as [`EventView`]s on one bounded broadcast channel.
+
+use std::sync::{Arc, Weak};
+use std::time::Duration;
+
+use master_core::mailbox::Emergency;
+use master_core::master::Master;
+use tokio::sync::broadcast;
+use tokio::sync::broadcast::error::RecvError;
+use tokio::task::JoinHandle;
+use tokio_stream::StreamExt;
+use tokio_stream::StreamMap;
+use tokio_stream::wrappers::BroadcastStream;
+use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
+
+use super::view::{EmergencyView, EventView};
+
+/// Events a subscriber may fall behind by before it is told it missed some.
+const CAPACITY: usize = 256;
+/// How often the set of slaves with a mailbox is looked at between master events.
+const RESUBSCRIBE: Duration = Duration::from_millis(200);
+
+/// The merged event stream; the task stops when the hub is dropped.
+pub struct EventHub {
+    tx: broadcast::Sender<EventView>,
+    task: JoinHandle<()>,
+}
+
+impl Drop for EventHub {
+    fn drop(&mut self) {
+        self.task.abort();
+    }
+}
+
+impl EventHub {
+    /// Starts following `master` (on the current tokio runtime).
+    pub fn start(master: &Arc<Master>) -> EventHub {
+        let (tx, _) = broadcast::channel(CAPACITY);
+        let weak = Arc::downgrade(master);
+        // Subscribed before the first subscriber gets its receiver: an emergency raised
+        // right after subscribing is not missed.
+        let mut emergencies = Emergencies::new();
+        subscribe_new(&weak, &mut emergencies);
+        let task = tokio::spawn(follow(weak, master.events(), emergencies, tx.clone()));
+        EventHub { tx, task }
+    }
+
+    /// Events from now on.
+    pub fn subscribe(&self) -> broadcast::Receiver<EventView> {
+        self.tx.subscribe()
+    }
+}
+
+type Emergencies = StreamMap<u16, BroadcastStream<Emergency>>;
+
+async fn follow(
+    master: Weak<Master>,
+    mut events: broadcast::Receiver<master_core::master::MasterEvent>,
+    mut emergencies: Emergencies,
+    tx: broadcast::Sender<EventView>,
+) {
+    let mut look = tokio::time::interval(RESUBSCRIBE);
+    look.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        // Nobody listening is fine: the stream is "from now on".
+        tokio::select! {
+            event = events.recv() => {
+                let view = match event {
+                    Ok(event) => EventView::from(&event),
+                    Err(RecvError::Lagged(missed)) => EventView::lagged(missed),
+                    Err(RecvError::Closed) => return,
+                };
+                let _ = tx.send(view);
+                if !subscribe_new(&master, &mut emergencies) {
+                    return;
+                }
+            }
+            Some((station, item)) = emergencies.next(), if !emergencies.is_empty() => {
+                let view = match item {
+                    Ok(emergency) => match master.upgrade() {
+                        Some(master) => emergency_view(&master, &emergency),
+                        None => return,
+                    },
+                    Err(BroadcastStreamRecvError::Lagged(missed)) => {
+                        let mut view = EventView::lagged(missed);
+                        view.station = station;
+                        view
+                    }
+                };
+                let _ = tx.send(view);
+            }
+            _ = look.tick() => {
+                if !subscribe_new(&master, &mut emergencies) {
+                    return;
+                }
+            }
+        }
+    }
+}
+
+/// Subscribes to the emergencies of every slave the engine owns that has no subscription
+/// (new slaves, and replaced mailboxes whose old channel closed and left the map). False
+/// once the master is gone.
+fn subscribe_new(master: &Weak<Master>, emergencies: &mut Emergencies) -> bool {
+    let Some(master) = master.upgrade() else {
+        return false;
+    };
+    let engine = master.mailbox_engine();
+    for station in engine.stations() {
+        if emergencies.contains_key(&station) {
+            continue;
+        }
+        if let Ok(mailbox) = engine.slave(station) {
+            emergencies.insert(
+                station,
+                BroadcastStream::new(mailbox.subscribe_emergencies()),
+            );
+        }
+    }
+    true
+}
+
+/// The event for an emergency, with the slave's position and name from the last scan.
+fn emergency_view(master: &Master, emergency: &Emergency) -> EventView {
+    let slave = master
+        .slaves()
+        .into_iter()
+        .find(|s| s.station == emergency.station);
+    let data = hex::encode(emergency.data);
+    let mut view = EventView::lagged(0);
+    view.kind = "emergency".into();
+    view.position = slave.as_ref().map_or(0, |s| s.position);
+    view.station = emergency.station;
+    view.name = slave.map(|s| s.name).unwrap_or_default();
+    view.text = format!(
+        "emergency {:#06x}, error register {:#04x}, data {data}",
+        emergency.error_code, emergency.error_register
+    );
+    view.emergency = Some(EmergencyView {
+        error_code: emergency.error_code,
+        error_register: emergency.error_register,
+        data,
+    });
+    view
+}

@@ -1,0 +1,50 @@
+//! The simulator's debug route, registered only when ecatd runs `--simulate`:
+//! `POST /api/v1/slaves/{slave}/sim/emergency` raises a CoE emergency on a simulated slave,
+//! which then arrives on the event streams like one from real hardware. Not part of the
+//! OpenAPI document: it does not exist on a real segment.
+
+use axum::extract::{Path, State};
+use axum::routing::post;
+use axum::{Json, Router};
+use serde::Deserialize;
+
+use super::rest::Done;
+use crate::core::{ApiError, Core, parse_slave};
+
+/// The emergency to raise.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EmergencyBody {
+    /// CiA 301 error code.
+    pub error_code: u16,
+    /// Error register (object 0x1001).
+    pub error_register: u8,
+    /// The five manufacturer-specific bytes, hex.
+    pub data: String,
+}
+
+/// The route, when `core` runs the simulator; otherwise none.
+pub fn routes(core: &Core) -> Router<Core> {
+    let router = Router::new();
+    if core.sim().is_none() {
+        return router;
+    }
+    router.route("/slaves/{slave}/sim/emergency", post(raise_emergency))
+}
+
+async fn raise_emergency(
+    State(core): State<Core>,
+    Path(slave): Path<String>,
+    Json(body): Json<EmergencyBody>,
+) -> Result<Json<Done>, ApiError> {
+    let hooks = core
+        .sim()
+        .ok_or_else(|| ApiError::unavailable("not running the simulator"))?;
+    let data: [u8; 5] = hex::decode(body.data.trim())
+        .ok()
+        .and_then(|bytes| bytes.try_into().ok())
+        .ok_or_else(|| ApiError::invalid("data must be 5 bytes, hex"))?;
+    let position = core.master().slave(parse_slave(&slave)?)?.position;
+    hooks.raise_emergency(position, body.error_code, body.error_register, data)?;
+    Ok(Json(Done { ok: true }))
+}

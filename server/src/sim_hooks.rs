@@ -1,0 +1,50 @@
+//! What ecatd `--simulate` can do to its own simulated slaves beyond EtherCAT: raise a CoE
+//! emergency on demand (for end-to-end tests of the event stream and for demonstrations).
+//! Only ever built from the in-process simulator; a real segment has none.
+
+use sim::device::coe::EmergencyTrigger;
+use sim::topology::SlaveHandles;
+
+use crate::core::ApiError;
+
+/// Hooks into the simulated slaves, by ring position.
+#[derive(Debug, Clone, Default)]
+pub struct SimHooks {
+    emergencies: Vec<Option<EmergencyTrigger>>,
+}
+
+impl SimHooks {
+    /// The hooks of a built simulator, from its per-slave handles (ring order).
+    pub fn new(slaves: &[SlaveHandles]) -> SimHooks {
+        SimHooks {
+            emergencies: slaves.iter().map(|h| h.emergencies.clone()).collect(),
+        }
+    }
+
+    /// Queues a CoE emergency on the simulated slave at `position`; the master reads it at
+    /// its next poll of the slave's mailbox.
+    pub fn raise_emergency(
+        &self,
+        position: u16,
+        error_code: u16,
+        error_register: u8,
+        data: [u8; 5],
+    ) -> Result<(), ApiError> {
+        let trigger = self
+            .emergencies
+            .get(usize::from(position))
+            .and_then(Option::as_ref)
+            .ok_or_else(|| {
+                ApiError::invalid(format!(
+                    "simulated slave {position} has no CoE mailbox to raise emergencies on"
+                ))
+            })?;
+        if trigger.raise(error_code, error_register, data) {
+            Ok(())
+        } else {
+            Err(ApiError::too_large(format!(
+                "simulated slave {position}: emergency queue full"
+            )))
+        }
+    }
+}

@@ -1,0 +1,198 @@
+//! A `[[watch]]` entry of the configuration and what it resolves to.
+
+use master_core::wire::soe::Idn;
+use serde::{Deserialize, Serialize};
+
+use crate::core::parse_slave;
+use crate::core::value::ValueType;
+
+/// The most watches one configuration may list (one task each).
+pub const MAX_WATCHES: usize = 256;
+/// Shortest period accepted.
+pub const MIN_PERIOD_MS: u64 = 10;
+/// Longest period accepted (a day).
+pub const MAX_PERIOD_MS: u64 = 86_400_000;
+
+fn default_period() -> u64 {
+    1000
+}
+
+fn is_zero(drive: &u8) -> bool {
+    *drive == 0
+}
+
+/// One watched value (`[[watch]]`): a CoE object entry or an SoE IDN of a slave, read every
+/// `period_ms` and exported as the gauge `ecat_watch_value`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WatchSpec {
+    /// The slave, in the common syntax (`3`, `#1004`, `@0x777`).
+    pub slave: String,
+    /// A CoE entry, `index:subindex`, both hex (`"0x6041:00"`, `"1018:02"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sdo: Option<String>,
+    /// An SoE IDN (`"S-0-0051"`, `"P-0-0100"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub idn: Option<String>,
+    /// The SoE drive number (IDNs only).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub drive: u8,
+    /// How often to read it, in milliseconds (default 1000).
+    #[serde(default = "default_period")]
+    pub period_ms: u64,
+    /// The value type (`u8` … `u64`, `i8` … `i64`, `f32`, `f64`, `bool`); absent: for CoE
+    /// the type the slave's SDO Information names, for SoE an unsigned little-endian number
+    /// of the length read.
+    #[serde(default, rename = "type", skip_serializing_if = "Option::is_none")]
+    pub value_type: Option<String>,
+    /// The `name` label (default empty).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+}
+
+/// What a watch reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Target {
+    /// CoE entry.
+    Sdo {
+        /// Index.
+        index: u16,
+        /// Subindex.
+        subindex: u8,
+    },
+    /// SoE IDN of a drive.
+    Idn {
+        /// Drive number.
+        drive: u8,
+        /// The IDN.
+        idn: Idn,
+    },
+}
+
+impl Target {
+    /// The `object` label: `0x6041:00` or `S-0-0051`.
+    pub fn label(&self) -> String {
+        match self {
+            Target::Sdo { index, subindex } => format!("{index:#06x}:{subindex:02x}"),
+            Target::Idn { idn, .. } => idn.to_string(),
+        }
+    }
+}
+
+fn hex_number(text: &str) -> Option<u32> {
+    let digits = text
+        .trim()
+        .strip_prefix("0x")
+        .or_else(|| text.trim().strip_prefix("0X"))
+        .unwrap_or(text.trim());
+    u32::from_str_radix(digits, 16).ok()
+}
+
+impl WatchSpec {
+    /// What it reads; an error names what is wrong.
+    pub fn target(&self) -> Result<Target, String> {
+        match (&self.sdo, &self.idn) {
+            (Some(sdo), None) => {
+                let bad = || format!("watch sdo {sdo:?}: expected index:subindex in hex");
+                let (index, subindex) = sdo.split_once(':').ok_or_else(bad)?;
+                let index = hex_number(index)
+                    .and_then(|i| u16::try_from(i).ok())
+                    .ok_or_else(bad)?;
+                let subindex = hex_number(subindex)
+                    .and_then(|s| u8::try_from(s).ok())
+                    .ok_or_else(bad)?;
+                Ok(Target::Sdo { index, subindex })
+            }
+            (None, Some(idn)) => Ok(Target::Idn {
+                drive: self.drive,
+                idn: idn
+                    .parse()
+                    .map_err(|err| format!("watch idn {idn:?}: {err}"))?,
+            }),
+            _ => Err(format!(
+                "watch on slave {:?}: give exactly one of sdo and idn",
+                self.slave
+            )),
+        }
+    }
+
+    /// The value type named, if any; strings and raw bytes are no gauge values.
+    pub fn value_type(&self) -> Result<Option<ValueType>, String> {
+        let Some(name) = &self.value_type else {
+            return Ok(None);
+        };
+        let ty: ValueType = name
+            .parse()
+            .map_err(|err| format!("watch type {name:?}: {err}"))?;
+        if matches!(ty, ValueType::String | ValueType::Hex) {
+            return Err(format!("watch type {name:?}: not a number"));
+        }
+        Ok(Some(ty))
+    }
+
+    /// Checks everything a watch needs before ecatd starts.
+    pub fn check(&self) -> Result<(), String> {
+        parse_slave(&self.slave).map_err(|err| format!("watch slave {:?}: {err}", self.slave))?;
+        self.target()?;
+        self.value_type()?;
+        if !(MIN_PERIOD_MS..=MAX_PERIOD_MS).contains(&self.period_ms) {
+            return Err(format!(
+                "watch period_ms {} outside {MIN_PERIOD_MS}..={MAX_PERIOD_MS}",
+                self.period_ms
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Checks a whole `[[watch]]` list.
+pub fn check_all(watches: &[WatchSpec]) -> Result<(), String> {
+    if watches.len() > MAX_WATCHES {
+        return Err(format!("more than {MAX_WATCHES} watches"));
+    }
+    watches.iter().try_for_each(WatchSpec::check)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(text: &str) -> WatchSpec {
+        toml::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn targets_parse_and_label_canonically() {
+        let sdo = spec("slave = \"3\"\nsdo = \"6041:0\"");
+        assert_eq!(
+            sdo.target(),
+            Ok(Target::Sdo {
+                index: 0x6041,
+                subindex: 0
+            })
+        );
+        assert_eq!(sdo.target().unwrap().label(), "0x6041:00");
+        assert_eq!(sdo.period_ms, 1000);
+        let idn = spec("slave = \"#1001\"\nidn = \"P-0-100\"\ntype = \"u16\"\nperiod_ms = 50");
+        assert_eq!(idn.target().unwrap().label(), "P-0-0100");
+        assert_eq!(idn.value_type(), Ok(Some(ValueType::U16)));
+        assert!(idn.check().is_ok());
+    }
+
+    #[test]
+    fn bad_watches_are_refused() {
+        for text in [
+            "slave = \"3\"",
+            "slave = \"3\"\nsdo = \"0x6041:00\"\nidn = \"S-0-0051\"",
+            "slave = \"3\"\nsdo = \"0x6041\"",
+            "slave = \"3\"\nsdo = \"0x16041:00\"",
+            "slave = \"3\"\nidn = \"X-0-1\"",
+            "slave = \"three\"\nsdo = \"0x6041:00\"",
+            "slave = \"3\"\nsdo = \"0x6041:00\"\nperiod_ms = 1",
+            "slave = \"3\"\nsdo = \"0x6041:00\"\ntype = \"string\"",
+        ] {
+            assert!(spec(text).check().is_err(), "{text}");
+        }
+        assert!(toml::from_str::<WatchSpec>("slave = \"3\"\nsdo = \"1:0\"\nperiod = 5").is_err());
+    }
+}

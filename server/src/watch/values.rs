@@ -1,0 +1,92 @@
+//! The last value and the error count of every watch, exported at scrape time as
+//! `ecat_watch_value` and `ecat_watch_read_errors_total`.
+
+use std::sync::{Mutex, MutexGuard, PoisonError};
+
+use prometheus::proto::{MetricFamily, MetricType};
+
+use crate::metrics::family::Family;
+
+/// The labels of one watch.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct WatchLabels {
+    /// The slave as configured.
+    pub slave: String,
+    /// `0x6041:00` or `S-0-0051`.
+    pub object: String,
+    /// The configured name (may be empty).
+    pub name: String,
+}
+
+#[derive(Debug, Clone)]
+struct Slot {
+    labels: WatchLabels,
+    value: Option<f64>,
+    errors: u64,
+}
+
+/// Every watch's state, by its place in the configuration.
+#[derive(Debug, Default)]
+pub struct WatchValues {
+    slots: Mutex<Vec<Slot>>,
+}
+
+impl WatchValues {
+    fn lock(&self) -> MutexGuard<'_, Vec<Slot>> {
+        // Updates are single assignments: a poisoned lock still holds valid values.
+        self.slots.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Adds a watch without a value yet; returns its slot.
+    pub fn add(&self, labels: WatchLabels) -> usize {
+        let mut slots = self.lock();
+        slots.push(Slot {
+            labels,
+            value: None,
+            errors: 0,
+        });
+        slots.len() - 1
+    }
+
+    /// Records a value read.
+    pub fn set(&self, slot: usize, value: f64) {
+        if let Some(slot) = self.lock().get_mut(slot) {
+            slot.value = Some(value);
+        }
+    }
+
+    /// Records a failed read (the last value stays).
+    pub fn fail(&self, slot: usize) {
+        if let Some(slot) = self.lock().get_mut(slot) {
+            slot.errors += 1;
+        }
+    }
+
+    /// The families (a watch never read successfully has no value sample).
+    pub fn collect(&self) -> Vec<Option<MetricFamily>> {
+        let slots = self.lock().clone();
+        let mut values = Family::new(
+            "ecat_watch_value",
+            "Last value read of each watched object or IDN ([[watch]] in the configuration).",
+            MetricType::GAUGE,
+        );
+        let mut errors = Family::new(
+            "ecat_watch_read_errors_total",
+            "Failed reads of each watched object or IDN (the last value stays).",
+            MetricType::COUNTER,
+        );
+        for slot in &slots {
+            let l = &slot.labels;
+            let labels = [
+                ("slave", l.slave.as_str()),
+                ("object", l.object.as_str()),
+                ("name", l.name.as_str()),
+            ];
+            if let Some(value) = slot.value {
+                values = values.gauge(&labels, value);
+            }
+            errors = errors.counter(&labels, slot.errors as f64);
+        }
+        vec![values.done(), errors.done()]
+    }
+}
