@@ -260,13 +260,14 @@ async fn configure_process_data(ctx: &Context, record: &SlaveRecord) -> Result<(
         .await?;
     }
     let reserved = reserved_fmmu(ctx, info, &sii);
-    let plan = fmmu_plan(
-        &sii,
-        info.esc.fmmu_count,
-        reserved,
-        &record.layout,
-        info.process_data,
-    );
+    // The FMMUs map the slave's share at its group's logical addresses.
+    let pd = info.process_data;
+    let logical = ProcessDataInfo {
+        outputs_offset: ctx.image.logical_of(pd.outputs_offset),
+        inputs_offset: ctx.image.logical_of(pd.inputs_offset),
+        ..pd
+    };
+    let plan = fmmu_plan(&sii, info.esc.fmmu_count, reserved, &record.layout, logical);
     for (index, fmmu) in plan {
         let mut bytes = [0u8; 16];
         fmmu.emit(&mut Fmmu::new_unchecked(&mut bytes[..]))
