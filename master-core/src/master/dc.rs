@@ -17,6 +17,7 @@ use crate::wire::register::dc::{
     DcActivation, ECAT_EPOCH_UNIX_SECS, OffsetDelay, PortReceiveTimes, SPEED_COUNTER_START_DEFAULT,
     read_time,
 };
+use crate::wire::sii::SiiImage;
 
 use super::access::{fprd, fpwr};
 use super::context::{Context, SlaveRecord};
@@ -252,12 +253,13 @@ pub(crate) async fn activate_sync0(ctx: &Context, record: &SlaveRecord) -> Resul
     let cycle_reg = u32::try_from(cycle_ns)
         .map_err(|_| MasterError::InvalidArgument("SYNC0 cycle longer than 2^32 ns"))?;
     fpwr(bus, station, reg::DC_ACTIVATION, [0u8], "SYNC0 stop").await?;
+    let (unit_control, activation) = assign_activate(record);
     fpwr(
         bus,
         station,
         reg::DC_CYCLIC_UNIT_CONTROL,
-        [0u8],
-        "SYNC unit to ECAT",
+        [unit_control],
+        "SYNC unit control",
     )
     .await?;
     let raw = fprd(bus, station, reg::DC_SYSTEM_TIME, 8, "DC system time").await?;
@@ -288,19 +290,39 @@ pub(crate) async fn activate_sync0(ctx: &Context, record: &SlaveRecord) -> Resul
         "SYNC0 cycle",
     )
     .await?;
-    let activation = DcActivation {
-        cyclic: true,
-        sync0: true,
-        ..DcActivation::default()
-    };
     fpwr(
         bus,
         station,
         reg::DC_ACTIVATION,
-        [activation.encode()],
+        [activation],
         "SYNC0 activation",
     )
     .await
+}
+
+/// What to write to 0x0980 (cyclic unit control) and 0x0981 (activation): the
+/// AssignActivate word of the first operation mode in the slave's SII DC category (low
+/// byte 0x0980, high byte 0x0981, as IgH and TwinCAT write it) when it has one, else the
+/// SYNC unit on ECAT with cyclic operation and SYNC0.
+fn assign_activate(record: &SlaveRecord) -> (u8, u8) {
+    let from_sii = SiiImage::parse(&record.sii)
+        .ok()
+        .and_then(|sii| sii.dc.first().map(|mode| mode.assign_activate))
+        .filter(|&word| word >> 8 != 0);
+    match from_sii {
+        Some(word) => {
+            let [unit_control, activation] = word.to_le_bytes();
+            (unit_control, activation)
+        }
+        None => {
+            let activation = DcActivation {
+                cyclic: true,
+                sync0: true,
+                ..DcActivation::default()
+            };
+            (0, activation.encode())
+        }
+    }
 }
 
 /// The first SYNC0 pulse: at least `lead` after `now`, on a multiple of the cycle (so
