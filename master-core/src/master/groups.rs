@@ -8,7 +8,11 @@
 
 use std::time::Duration;
 
-/// A group of slaves with its own period; see the [module documentation](self).
+/// A group of slaves with its own period, for [`Master::set_groups`](super::Master::set_groups).
+///
+/// Its slaves get their own share of the image, their own logical range (group *g* from
+/// `g × 0x1000`) and their own LRW, sent every round(period / cycle period) cycles; every
+/// slave not in a group stays in the default group 0, exchanged every cycle.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SlaveGroup {
     /// Ring positions of its slaves. A slave listed in two groups belongs to the first.
