@@ -740,3 +740,68 @@ impl Drop for CloseOnDrop {
         drop(self.0.queue.close());
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::cyclic::{CyclicFrame, CyclicReply};
+    use crate::link::MemoryLink;
+
+    struct Idle(Duration);
+
+    impl CyclicTask for Idle {
+        fn period(&self) -> Duration {
+            self.0
+        }
+        fn build(&mut self, _frame: &mut CyclicFrame<'_>) {}
+        fn complete(&mut self, _reply: &CyclicReply<'_>) {}
+    }
+
+    fn engine() -> Engine<MemoryLink> {
+        let (link, _far) = MemoryLink::pair(4);
+        let config = BusConfig::default();
+        let shared = Arc::new(Shared {
+            queue: Submissions::new(config.queue_capacity),
+            stats: BusStats::default(),
+            config,
+        });
+        Engine::new(link, shared)
+    }
+
+    #[test]
+    fn acyclic_frames_wait_when_the_cycle_is_due_before_they_could_be_back() {
+        let mut engine = engine();
+        let now = Instant::now();
+        assert!(
+            engine.acyclic_fits(now),
+            "no cyclic task: nothing to protect"
+        );
+        engine.change_cyclic(Some(Box::new(Idle(Duration::from_millis(1)))));
+        let due = |engine: &mut Engine<MemoryLink>, after: u64| {
+            if let Some(cyclic) = engine.cyclic.as_mut() {
+                cyclic.next_due = now + Duration::from_micros(after);
+            }
+        };
+        // Nothing measured yet: nothing held.
+        due(&mut engine, 100);
+        assert!(engine.acyclic_fits(now));
+        // Acyclic frames take 150 µs: one sent 100 µs before the cycle would delay it.
+        engine.learn_acyclic_cost(Duration::from_micros(150));
+        assert!(!engine.acyclic_fits(now));
+        due(&mut engine, 200);
+        assert!(engine.acyclic_fits(now));
+        // The average moves by an eighth of each new round trip.
+        engine.learn_acyclic_cost(Duration::from_micros(950));
+        assert_eq!(engine.acyclic_cost, Duration::from_micros(250));
+        // A slow link guards a quarter of the period at most, not its whole round trip.
+        engine.acyclic_cost = Duration::from_millis(5);
+        due(&mut engine, 300);
+        assert!(engine.acyclic_fits(now));
+        due(&mut engine, 200);
+        assert!(!engine.acyclic_fits(now));
+        // While the cyclic frame is out the next cycle cannot start: nothing held.
+        let id = engine.cyclic_record();
+        engine.records[id].active = true;
+        assert!(engine.acyclic_fits(now));
+    }
+}
