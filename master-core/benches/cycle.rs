@@ -1,14 +1,18 @@
 //! The cyclic exchange against the simulator in-process (no kernel, no wire: what the
 //! master and the bus thread cost).
 //!
-//! Prints three tables:
+//! Prints two tables, both **in-process** (the veth rig has its own bench,
+//! `cargo bench -p ecat-tests --bench cycle_veth`):
 //! 1. the highest sustainable cycle rate for 1, 16 and 64 slaves: the shortest period (of
 //!    a fixed list) at which no cycle is lost, every working counter is right and at least
 //!    90 % of the periods run, with the cycles per second achieved (the frame carries the
 //!    reference time, the whole image and the mailbox-status bits);
-//! 2. the cycle-time jitter at 1 kHz (16 slaves), as percentiles of |cycle time − period|;
-//! 3. the same while another thread runs SDO uploads back to back on every drive (a storm
-//!    through the mailbox engine sharing the bus), with the uploads per second it achieved.
+//! 2. the cycle-time jitter at 1 kHz (16 slaves), as percentiles of |cycle time − period|,
+//!    quiet and while another thread runs SDO uploads back to back on every drive (a storm
+//!    through the mailbox engine sharing the bus), each with the bus thread at inherited
+//!    priority and asking for `SCHED_FIFO` (granted or not: the `rt` column). The start
+//!    delay is how long after its due time a cycle's frame went out; `held` counts acyclic
+//!    frames kept back so as not to delay a cycle.
 //!
 //! Run with `cargo bench -p master-core --bench cycle` (a release build; numbers on a
 //! loaded machine spread widely, compare rows of one run).
@@ -21,23 +25,28 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use master_core::bus::HistogramSnapshot;
+use master_core::bus::{BusConfig, HistogramSnapshot, ThreadPriority};
 use master_core::master::{MasterConfig, SlaveAddress};
-use master_support::{Rig, block_on, rig};
+use master_support::{Rig, block_on, rig_with};
 use sim::link::InProcessLink;
 use sim::topology::Topology;
 
 /// How long each measurement runs.
 const RUN: Duration = Duration::from_secs(2);
 
-fn scanned(slaves: usize, period: Duration) -> Rig<InProcessLink> {
-    let rig = rig(
+fn scanned(slaves: usize, period: Duration, priority: ThreadPriority) -> Rig<InProcessLink> {
+    let rig = rig_with(
         Topology::repeated(slaves),
         MasterConfig {
             cycle_period: period,
             watch_interval: None,
             ..MasterConfig::default()
         },
+        BusConfig {
+            priority,
+            ..BusConfig::default()
+        },
+        |link| link,
     );
     let report = block_on(rig.master().scan()).expect("scan");
     assert!(report.failures.is_empty(), "{:?}", report.failures);
@@ -53,7 +62,7 @@ const TRY: Duration = Duration::from_millis(500);
 /// run; returns it with the cycles per second achieved, the round-trip median and the
 /// image size.
 fn max_rate(slaves: usize) -> (Duration, f64, f64, usize) {
-    let rig = scanned(slaves, Duration::from_millis(1));
+    let rig = scanned(slaves, Duration::from_millis(1), ThreadPriority::Inherit);
     let master = rig.master();
     let image = master.cycle_stats().image_len;
     let mut best = (Duration::ZERO, 0.0, f64::NAN);
@@ -83,24 +92,40 @@ fn micros(d: Option<Duration>) -> f64 {
     d.map_or(f64::NAN, |d| d.as_secs_f64() * 1e6)
 }
 
-fn jitter_row(name: &str, jitter: &HistogramSnapshot, extra: &str) {
+/// One jitter measurement.
+struct JitterRun {
+    jitter: HistogramSnapshot,
+    start_delay: HistogramSnapshot,
+    uploads: u64,
+    late: u64,
+    held: u64,
+    realtime: bool,
+}
+
+fn jitter_row(name: &str, run: &JitterRun) {
+    let j = &run.jitter;
+    let rate = run.uploads as f64 / RUN.as_secs_f64();
     println!(
-        "{:<36} {:>9} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>10.1}  {}",
+        "{:<26} {:>3} {:>6} {:>7.1} {:>7.1} {:>7.1} {:>8.1} {:>8.1} {:>9.1} {:>5} {:>6} {:>9.0}",
         name,
-        jitter.count(),
-        micros(jitter.quantile(0.5)),
-        micros(jitter.quantile(0.9)),
-        micros(jitter.quantile(0.99)),
-        micros(jitter.quantile(0.999)),
-        micros(jitter.quantile(1.0)),
-        extra
+        if run.realtime { "yes" } else { "no" },
+        j.count(),
+        micros(j.quantile(0.5)),
+        micros(j.quantile(0.9)),
+        micros(j.quantile(0.99)),
+        micros(j.quantile(0.999)),
+        micros(j.quantile(1.0)),
+        micros(run.start_delay.quantile(0.99)),
+        run.late,
+        run.held,
+        rate,
     );
 }
 
 /// Jitter at 1 kHz over `RUN` on 16 slaves, with `storm` uploads running meanwhile.
-fn jitter(storm: bool) -> (HistogramSnapshot, u64, u64) {
+fn jitter(storm: bool, priority: ThreadPriority) -> JitterRun {
     let slaves = 16;
-    let rig = scanned(slaves, Duration::from_millis(1));
+    let rig = scanned(slaves, Duration::from_millis(1), priority);
     let master = rig.master();
     let stop = Arc::new(AtomicBool::new(false));
     let uploads = Arc::new(AtomicU64::new(0));
@@ -148,12 +173,16 @@ fn jitter(storm: bool) -> (HistogramSnapshot, u64, u64) {
     for s in storms {
         s.join().expect("storm thread");
     }
-    let stats = master.cycle_stats();
-    (
-        master.cycle_timing().jitter,
-        uploads.load(Ordering::Relaxed),
-        stats.late,
-    )
+    let bus = master.bus().stats();
+    let timing = master.cycle_timing();
+    JitterRun {
+        jitter: timing.jitter,
+        start_delay: timing.start_delay,
+        uploads: uploads.load(Ordering::Relaxed),
+        late: bus.cycles_late,
+        held: bus.acyclic_held,
+        realtime: bus.realtime,
+    }
 }
 
 fn main() {
@@ -176,18 +205,27 @@ fn main() {
         );
     }
     println!();
-    println!("cycle-time jitter at 1 kHz, 16 slaves (|cycle time − 1 ms|, µs)");
+    println!("cycle-time jitter at 1 kHz, 16 slaves, in-process (|cycle time − 1 ms|, µs)");
     println!(
-        "{:<36} {:>9} {:>8} {:>8} {:>8} {:>9} {:>10}",
-        "", "cycles", "p50", "p90", "p99", "p99.9", "max"
+        "{:<26} {:>3} {:>6} {:>7} {:>7} {:>7} {:>8} {:>8} {:>9} {:>5} {:>6} {:>9}",
+        "",
+        "rt",
+        "cycles",
+        "p50",
+        "p90",
+        "p99",
+        "p99.9",
+        "max",
+        "start p99",
+        "late",
+        "held",
+        "uploads/s"
     );
-    let (quiet, _, late) = jitter(false);
-    jitter_row("quiet", &quiet, &format!("late cycles {late}"));
-    let (stormy, uploads, late) = jitter(true);
-    let rate = uploads as f64 / RUN.as_secs_f64();
-    jitter_row(
-        "SDO-upload storm (4 drives)",
-        &stormy,
-        &format!("late cycles {late}, {rate:.0} uploads/s"),
-    );
+    for (name, priority) in [
+        ("inherited priority", ThreadPriority::Inherit),
+        ("SCHED_FIFO asked", ThreadPriority::Realtime(80)),
+    ] {
+        jitter_row(&format!("quiet, {name}"), &jitter(false, priority));
+        jitter_row(&format!("storm, {name}"), &jitter(true, priority));
+    }
 }

@@ -330,3 +330,28 @@ async fn a_full_request_queue_refuses_at_once() {
     engine.shutdown();
     bus.shutdown();
 }
+
+#[tokio::test]
+async fn an_owner_that_replaces_another_continues_its_counter() {
+    let rig = Rig::default_segment();
+    let first = rig.slave(COE_STORE);
+    let config = *first.config();
+    // Round r makes r + 1 requests, so the slave's last counter when the owner is replaced
+    // differs from round to round; an owner that started at 1 again would sooner or later
+    // send the slave's last counter, and the slave would discard it as a repetition.
+    for round in 0..7u32 {
+        let owner = rig.engine().add_slave(config);
+        let value = 0x0101_0101u32.wrapping_mul(round + 1);
+        owner
+            .sdo_download(0x2001, 0, &value.to_le_bytes())
+            .await
+            .unwrap_or_else(|err| panic!("round {round}: {err}"));
+        for _ in 0..round {
+            assert_eq!(
+                owner.sdo_upload(0x2001, 0).await.unwrap(),
+                value.to_le_bytes()
+            );
+        }
+        assert_eq!(owner.stats().failed, 0, "round {round}");
+    }
+}

@@ -95,4 +95,15 @@ fn a_power_cycled_slave_gets_its_mailbox_back() {
             && rig.segment().esc(0).unwrap().al_state() == AlState::Op
     }));
     assert_eq!(identity(&rig, drive), vendor);
+    // That exchange was the new owner's first: counter 1. A second power cycle gives the
+    // master another fresh owner, whose first request is counter 1 again; only a slave
+    // that forgot its counter with the power cycle takes it (not as a repetition).
+    rig.segment().power_cycle(0);
+    assert!(wait_until(|| {
+        rig.master()
+            .slave(drive)
+            .is_ok_and(|s| s.present && s.al_state == AlState::Op)
+            && rig.segment().esc(0).unwrap().al_state() == AlState::Op
+    }));
+    assert_eq!(identity(&rig, drive), vendor);
 }

@@ -1,11 +1,13 @@
 //! `ecat-sim`: an emulated EtherCAT segment answering on a network interface.
 //!
 //! ```text
-//! ecat-sim --iface <ifname> [--topology FILE] [--slaves N] [--pcap FILE] [--busy-poll]
+//! ecat-sim --iface <ifname> [--topology FILE] [--slaves N] [--pcap FILE] [--busy-poll] [--control]
 //! ```
 //!
 //! Prints one line per emulated slave, then `ecat-sim: ready on <ifname>` on stdout (scripts
 //! and tests wait for that line), then a frame counter on stderr about once per second.
+//! With `--control`, digital outputs are reported and inputs and emergencies taken as
+//! commands on the standard streams (see `frontend::control`).
 //! SIGINT or SIGTERM end it cleanly (the capture is flushed). Exit codes: 0 after a signal,
 //! 1 for a link or capture failure, 2 for bad arguments or a bad topology.
 
@@ -44,6 +46,9 @@ struct Args {
     /// Spin on the socket instead of sleeping in poll: lower latency, one busy core.
     #[arg(long)]
     busy_poll: bool,
+    /// Report digital outputs on stdout and take `input`/`emergency` commands on stdin.
+    #[arg(long)]
+    control: bool,
 }
 
 /// Why the simulator stopped with an error, and the exit code that goes with it.
@@ -108,14 +113,14 @@ fn run(args: &Args) -> Result<(), Failure> {
         Some(path) => {
             let mut tap =
                 PcapTap::create(socket, path).map_err(|err| Failure::Io(err.to_string()))?;
-            let counter = announce_and_serve(&mut tap, args, &topology, built, &stop)?;
+            let counter = announce_and_serve(&mut tap, args, &topology, built, Arc::clone(&stop))?;
             tap.flush()
                 .map_err(|err| Failure::Io(format!("{}: {err}", path.display())))?;
             counter
         }
         None => {
             let mut socket = socket;
-            announce_and_serve(&mut socket, args, &topology, built, &stop)?
+            announce_and_serve(&mut socket, args, &topology, built, Arc::clone(&stop))?
         }
     };
     eprintln!(
@@ -130,10 +135,12 @@ fn announce_and_serve(
     args: &Args,
     topology: &Topology,
     built: Built,
-    stop: &AtomicBool,
+    stop: Arc<AtomicBool>,
 ) -> Result<FrameCounter, Failure> {
     let Built {
-        mut segment, time, ..
+        mut segment,
+        time,
+        slaves,
     } = built;
     let mut out = io::stdout().lock();
     let announce = |out: &mut io::StdoutLock<'_>| -> io::Result<()> {
@@ -146,6 +153,9 @@ fn announce_and_serve(
     };
     announce(&mut out).map_err(|err| Failure::Io(format!("cannot write to stdout: {err}")))?;
     drop(out);
-    serve(link, &mut segment, &time, stop, &mut io::stderr())
+    if args.control {
+        frontend::control::start(slaves, Arc::clone(&stop));
+    }
+    serve(link, &mut segment, &time, &stop, &mut io::stderr())
         .map_err(|err| Failure::Io(format!("link {}: {err}", args.iface)))
 }

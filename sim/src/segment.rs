@@ -16,6 +16,7 @@ use master_core::wire::frame::{EthercatFrame, FrameType};
 
 use crate::device::Device;
 use crate::esc::{Esc, FrameTiming, ManualTime, TimeSource};
+use master_core::wire::register::AlState;
 
 /// The locally-administered bit the first slave sets in the first source-MAC byte of the
 /// frames it returns (digest §1.1).
@@ -172,7 +173,12 @@ impl Segment {
         let Some(slave) = self.slaves.get_mut(position) else {
             return;
         };
+        let before = slave.esc.al_state();
         slave.esc.power_cycle(now);
+        // The application restarts with the controller: it forgets its mailbox counters and
+        // transfers as it does on the way down to INIT (a power-cycled slave is a new one).
+        let ctx = slave.esc.device_context();
+        let _ = slave.device.state_change(before, AlState::Init, &ctx);
         if slave.plugged && position > 0 {
             let previous = &mut self.slaves[position - 1].esc;
             previous.set_link(1, false);

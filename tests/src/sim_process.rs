@@ -1,8 +1,10 @@
 //! `ecat-sim` as a child process inside a network namespace, stopped on drop.
 
+use std::collections::VecDeque;
+use std::io::Write;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
 use std::sync::OnceLock;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -68,6 +70,12 @@ pub struct SimProcess {
     /// What it printed before the ready line (one line per emulated slave, and more).
     pub banner: Vec<String>,
     stderr_path: PathBuf,
+    /// Lines printed after the ready line, as the reader thread hands them over.
+    lines: mpsc::Receiver<String>,
+    /// Lines taken off `lines` while looking for another one.
+    backlog: VecDeque<String>,
+    /// Its stdin, with `--control`.
+    stdin: Option<ChildStdin>,
 }
 
 impl SimProcess {
@@ -76,6 +84,19 @@ impl SimProcess {
     /// # Panics
     /// If it cannot start, or exits or stays silent instead of becoming ready.
     pub fn start(ns: &NetNs, iface: &str, extra: &[&str]) -> SimProcess {
+        SimProcess::spawn(ns, iface, extra, false)
+    }
+
+    /// Like [`SimProcess::start`], with `--control`: [`SimProcess::command`] drives the
+    /// terminals' inputs and emergencies, [`SimProcess::wait_line`] sees their outputs.
+    ///
+    /// # Panics
+    /// As [`SimProcess::start`].
+    pub fn start_controlled(ns: &NetNs, iface: &str, extra: &[&str]) -> SimProcess {
+        SimProcess::spawn(ns, iface, extra, true)
+    }
+
+    fn spawn(ns: &NetNs, iface: &str, extra: &[&str], control: bool) -> SimProcess {
         let stderr_path = std::env::temp_dir().join(format!(
             "ecat-sim-{}-{}.stderr",
             std::process::id(),
@@ -87,12 +108,18 @@ impl SimProcess {
             .arg(ecat_sim_binary())
             .args(["--iface", iface])
             .args(extra)
-            .stdin(Stdio::null())
+            .args(if control { &["--control"][..] } else { &[] })
+            .stdin(if control {
+                Stdio::piped()
+            } else {
+                Stdio::null()
+            })
             .stdout(Stdio::piped())
             .stderr(stderr)
             .spawn()
             .unwrap_or_else(|e| panic!("cannot start ecat-sim through `ip netns exec`: {e}"));
         let stdout = child.stdout.take().expect("piped stdout");
+        let stdin = child.stdin.take();
         // A reader thread hands over lines, so waiting for the ready line has a deadline.
         let (lines_tx, lines_rx) = mpsc::channel();
         std::thread::spawn(move || {
@@ -107,11 +134,14 @@ impl SimProcess {
             child,
             banner: Vec::new(),
             stderr_path,
+            lines: lines_rx,
+            backlog: VecDeque::new(),
+            stdin,
         };
         let deadline = Instant::now() + READY_PATIENCE;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            match lines_rx.recv_timeout(left) {
+            match process.lines.recv_timeout(left) {
                 Ok(line) if line.starts_with(READY_PREFIX) => return process,
                 Ok(line) => process.banner.push(line),
                 Err(_) => panic!(
@@ -122,6 +152,49 @@ impl SimProcess {
                 ),
             }
         }
+    }
+
+    /// Waits up to `patience` for a line printed after the ready line that satisfies
+    /// `wanted`, and returns it; lines passed over stay for later calls.
+    pub fn wait_line(
+        &mut self,
+        patience: Duration,
+        mut wanted: impl FnMut(&str) -> bool,
+    ) -> Option<String> {
+        if let Some(at) = self.backlog.iter().position(|line| wanted(line)) {
+            return self.backlog.remove(at);
+        }
+        let deadline = Instant::now() + patience;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let line = self.lines.recv_timeout(left).ok()?;
+            if wanted(&line) {
+                return Some(line);
+            }
+            self.backlog.push_back(line);
+        }
+    }
+
+    /// Forgets the lines printed so far (to wait for new ones only).
+    pub fn clear_lines(&mut self) {
+        self.backlog.clear();
+        while self.lines.try_recv().is_ok() {}
+    }
+
+    /// Sends a `--control` command and waits for its answer.
+    ///
+    /// # Panics
+    /// Without `--control`, or if the simulator refuses the command or does not answer.
+    pub fn command(&mut self, command: &str) {
+        let stdin = self.stdin.as_mut().expect("started with --control");
+        writeln!(stdin, "{command}").expect("write to ecat-sim's stdin");
+        stdin.flush().expect("flush ecat-sim's stdin");
+        let answer = self
+            .wait_line(READY_PATIENCE, |line| {
+                line.starts_with("ecat-sim: ok ") || line.starts_with("ecat-sim: error ")
+            })
+            .unwrap_or_else(|| panic!("ecat-sim did not answer {command:?}"));
+        assert_eq!(answer, format!("ecat-sim: ok {command}"), "{command:?}");
     }
 
     /// What it wrote to stderr so far.

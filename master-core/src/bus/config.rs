@@ -6,6 +6,8 @@ use std::time::Duration;
 use crate::wire::datagram::OVERHEAD;
 use crate::wire::ethernet::{MAX_FRAME_LEN, MIN_FRAME_LEN};
 
+use super::sched::ThreadPriority;
+
 /// Length of the Ethernet header plus the EtherCAT header in front of the first datagram.
 pub(crate) const FRAME_HEADERS_LEN: usize = crate::wire::ethernet::HEADER_LEN + 2;
 
@@ -56,6 +58,10 @@ pub struct BusConfig {
     /// wire busy under load; each one reserves a frame buffer's worth of bookkeeping.
     /// At least 1. Default: 4.
     pub frames_in_flight: usize,
+    /// How the bus thread is scheduled. Default: [`ThreadPriority::Inherit`]; ask for
+    /// [`ThreadPriority::Realtime`] to keep cycles on time while other threads load every
+    /// core.
+    pub priority: ThreadPriority,
 }
 
 impl Default for BusConfig {
@@ -68,6 +74,7 @@ impl Default for BusConfig {
             queue_capacity: 1024,
             max_frame_len: MAX_FRAME_LEN,
             frames_in_flight: 4,
+            priority: ThreadPriority::Inherit,
         }
     }
 }

@@ -71,6 +71,11 @@ pub(crate) struct Engine<L: Link> {
     /// `config.frames_in_flight` acyclic records, then the cyclic one.
     records: Vec<FrameRecord>,
     cyclic: Option<Cyclic>,
+    /// Recent round trip of acyclic frames (a moving average): how long one sent now
+    /// keeps the wire, and on an in-process link the bus thread itself, busy.
+    acyclic_cost: Duration,
+    /// Acyclic frames wait for the next cycle (see [`Engine::acyclic_fits`]).
+    held: bool,
 }
 
 impl<L: Link> Engine<L> {
@@ -90,8 +95,18 @@ impl<L: Link> Engine<L> {
             indices: IndexTable::new(),
             records,
             cyclic: None,
+            acyclic_cost: Duration::ZERO,
+            held: false,
             shared,
         }
+    }
+
+    /// Records whether the thread got real-time scheduling.
+    pub fn set_realtime(&self, realtime: bool) {
+        self.shared
+            .stats
+            .realtime
+            .store(realtime, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// Runs until shutdown, then fails whatever is left and hands the link back.
@@ -150,6 +165,7 @@ impl<L: Link> Engine<L> {
 
     /// Packs waiting datagrams into frames and sends them while there is a free record.
     fn send_acyclic(&mut self) {
+        self.held = false;
         loop {
             // Only take from the queue with a frame to fill, so that submissions beyond
             // what the frames in flight carry wait in the bounded queue (and a full queue
@@ -157,6 +173,14 @@ impl<L: Link> Engine<L> {
             let Some(id) = self.free_acyclic_record() else {
                 return;
             };
+            if self.staging.is_empty() && self.shared.queue.len() == 0 {
+                return;
+            }
+            if !self.acyclic_fits(Instant::now()) {
+                self.held = true;
+                self.shared.stats.acyclic_held.inc();
+                return;
+            }
             if self.staging.is_empty() {
                 self.shared.queue.take_into(&mut self.staging);
                 if self.staging.is_empty() {
@@ -179,6 +203,33 @@ impl<L: Link> Engine<L> {
             };
             self.transmit(id, len, self.config.response_timeout);
         }
+    }
+
+    /// Whether an acyclic frame sent at `now` is back before the next cycle is due: on
+    /// the wire a cyclic frame sent behind it queues behind it, and on an in-process link
+    /// the bus thread is busy carrying it. The guard is the recent acyclic round trip, at
+    /// most a quarter of the period, so that acyclic traffic always keeps most of each
+    /// period (a slow link does not starve it). A cycle already due is sent first by the
+    /// loop; one whose previous frame is still out cannot start anyway, so holding back
+    /// only delays acyclic traffic while a cycle is about to go out.
+    fn acyclic_fits(&self, now: Instant) -> bool {
+        let Some(cyclic) = &self.cyclic else {
+            return true;
+        };
+        if self.records[self.cyclic_record()].active {
+            return true;
+        }
+        let guard = self.acyclic_cost.min(cyclic.period / 4);
+        now + guard < cyclic.next_due
+    }
+
+    /// Folds one acyclic round trip into the moving average (weight 1/8).
+    fn learn_acyclic_cost(&mut self, round_trip: Duration) {
+        self.acyclic_cost = if self.acyclic_cost.is_zero() {
+            round_trip
+        } else {
+            (self.acyclic_cost * 7 + round_trip) / 8
+        };
     }
 
     fn free_acyclic_record(&self) -> Option<usize> {
@@ -422,8 +473,12 @@ impl<L: Link> Engine<L> {
                         break;
                     }
                 }
+                // Held-back frames wait for the cycle: sleep until it is due, not woken by
+                // more submissions, which could not go either.
                 let ready = !self.staging.is_empty() && self.free_acyclic_record().is_some();
-                if !ready {
+                if self.held {
+                    self.shared.queue.park(wake, false);
+                } else if !ready {
                     self.shared.queue.park(wake, true);
                 }
             }
@@ -484,7 +539,8 @@ impl<L: Link> Engine<L> {
         let record = &mut self.records[id];
         let round_trip = received_at.saturating_duration_since(record.sent_at);
         stats.round_trip.record(round_trip);
-        match record.kind {
+        let kind = record.kind;
+        match kind {
             RecordKind::Acyclic => {
                 let returned = frame.datagrams().into_iter().flatten().flatten();
                 for (datagram, entry) in returned.zip(record.entries.drain(..)) {
@@ -503,6 +559,9 @@ impl<L: Link> Engine<L> {
             }
         }
         self.release_record(id);
+        if kind == RecordKind::Acyclic {
+            self.learn_acyclic_cost(round_trip);
+        }
     }
 
     // --- stopping -----------------------------------------------------------------------
@@ -679,5 +738,70 @@ impl Drop for CloseOnDrop {
     fn drop(&mut self) {
         // Dropping the queued datagrams completes each with `Shutdown`.
         drop(self.0.queue.close());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::cyclic::{CyclicFrame, CyclicReply};
+    use crate::link::MemoryLink;
+
+    struct Idle(Duration);
+
+    impl CyclicTask for Idle {
+        fn period(&self) -> Duration {
+            self.0
+        }
+        fn build(&mut self, _frame: &mut CyclicFrame<'_>) {}
+        fn complete(&mut self, _reply: &CyclicReply<'_>) {}
+    }
+
+    fn engine() -> Engine<MemoryLink> {
+        let (link, _far) = MemoryLink::pair(4);
+        let config = BusConfig::default();
+        let shared = Arc::new(Shared {
+            queue: Submissions::new(config.queue_capacity),
+            stats: BusStats::default(),
+            config,
+        });
+        Engine::new(link, shared)
+    }
+
+    #[test]
+    fn acyclic_frames_wait_when_the_cycle_is_due_before_they_could_be_back() {
+        let mut engine = engine();
+        let now = Instant::now();
+        assert!(
+            engine.acyclic_fits(now),
+            "no cyclic task: nothing to protect"
+        );
+        engine.change_cyclic(Some(Box::new(Idle(Duration::from_millis(1)))));
+        let due = |engine: &mut Engine<MemoryLink>, after: u64| {
+            if let Some(cyclic) = engine.cyclic.as_mut() {
+                cyclic.next_due = now + Duration::from_micros(after);
+            }
+        };
+        // Nothing measured yet: nothing held.
+        due(&mut engine, 100);
+        assert!(engine.acyclic_fits(now));
+        // Acyclic frames take 150 µs: one sent 100 µs before the cycle would delay it.
+        engine.learn_acyclic_cost(Duration::from_micros(150));
+        assert!(!engine.acyclic_fits(now));
+        due(&mut engine, 200);
+        assert!(engine.acyclic_fits(now));
+        // The average moves by an eighth of each new round trip.
+        engine.learn_acyclic_cost(Duration::from_micros(950));
+        assert_eq!(engine.acyclic_cost, Duration::from_micros(250));
+        // A slow link guards a quarter of the period at most, not its whole round trip.
+        engine.acyclic_cost = Duration::from_millis(5);
+        due(&mut engine, 300);
+        assert!(engine.acyclic_fits(now));
+        due(&mut engine, 200);
+        assert!(!engine.acyclic_fits(now));
+        // While the cyclic frame is out the next cycle cannot start: nothing held.
+        let id = engine.cyclic_record();
+        engine.records[id].active = true;
+        assert!(engine.acyclic_fits(now));
     }
 }

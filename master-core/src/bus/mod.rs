@@ -77,9 +77,12 @@
 //!
 //! A due cycle goes first: the cyclic frame is sent before any waiting acyclic frame, and
 //! 16 of the 256 datagram indices are kept out of reach of acyclic traffic so that a burst
-//! of it cannot hold process data up. The thread runs at the priority it was spawned with;
-//! real-time scheduling and CPU pinning are left to the caller (for example with
-//! `chrt`/`taskset` on the process).
+//! of it cannot hold process data up. An acyclic frame is sent only if its recent round
+//! trip ends before the next cycle is due (up to a quarter of the period); otherwise it
+//! waits for the cyclic frame ([`BusStatsSnapshot::acyclic_held`]). The bus thread sets its
+//! timer slack to the minimum, so that its timed wake-ups are not batched late, and asks
+//! for `SCHED_FIFO` when configured to ([`BusConfig::priority`]); CPU pinning is left to
+//! the caller (for example `taskset` on the process).
 //!
 //! # Memory
 //!
@@ -106,6 +109,7 @@ mod matching;
 mod queue;
 mod record;
 mod request;
+mod sched;
 mod stats;
 
 pub use completion::{DatagramResult, Pending};
@@ -117,6 +121,7 @@ pub use handle::BusHandle;
 pub(crate) use histogram::Histogram;
 pub use histogram::HistogramSnapshot;
 pub use request::{DatagramRequest, DatagramResponse, WkcCheck};
+pub use sched::ThreadPriority;
 pub use stats::BusStatsSnapshot;
 
 /// What the handles and the bus thread share.
@@ -152,7 +157,11 @@ impl Bus {
         let engine = engine::Engine::new(link, Arc::clone(&shared));
         let thread = std::thread::Builder::new()
             .name("ecat-bus".into())
-            .spawn(move || engine.run())?;
+            .spawn(move || {
+                let realtime = sched::apply(config.priority);
+                engine.set_realtime(realtime);
+                engine.run()
+            })?;
         Ok((BusHandle::new(shared), thread))
     }
 }

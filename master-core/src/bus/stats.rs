@@ -4,7 +4,7 @@
 //! a [`BusStatsSnapshot`]. Counters taken one after the other are not one consistent cut,
 //! but each is exact and never goes down.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 
 use super::histogram::{Histogram, HistogramSnapshot};
@@ -28,6 +28,10 @@ pub(crate) struct BusStats {
     pub cycles_lost: Counter,
     pub round_trip: Histogram,
     pub cycle_start_delay: Histogram,
+    /// Acyclic frames held back because a cycle was due before they could be back.
+    pub acyclic_held: Counter,
+    /// The bus thread runs under `SCHED_FIFO`.
+    pub realtime: AtomicBool,
 }
 
 /// One monotonic event counter.
@@ -85,6 +89,12 @@ pub struct BusStatsSnapshot {
     pub round_trip: HistogramSnapshot,
     /// How long after its due time each cycle started.
     pub cycle_start_delay: HistogramSnapshot,
+    /// Times the bus held acyclic frames back because the next cycle was due sooner than
+    /// one of them takes (its recent round trip): they went after the cyclic frame.
+    pub acyclic_held: u64,
+    /// Whether the bus thread got the real-time scheduling it was configured to ask for
+    /// ([`ThreadPriority::Realtime`](super::ThreadPriority::Realtime)).
+    pub realtime: bool,
 }
 
 impl BusStatsSnapshot {
@@ -118,6 +128,8 @@ impl BusStats {
             cycles_lost: self.cycles_lost.get(),
             round_trip: self.round_trip.snapshot(),
             cycle_start_delay: self.cycle_start_delay.snapshot(),
+            acyclic_held: self.acyclic_held.get(),
+            realtime: self.realtime.load(Ordering::Relaxed),
         }
     }
 }

@@ -261,13 +261,14 @@ async fn configure_process_data(ctx: &Context, record: &SlaveRecord) -> Result<(
         .await?;
     }
     let reserved = reserved_fmmu(ctx, info, &sii);
-    let plan = fmmu_plan(
-        &sii,
-        info.esc.fmmu_count,
-        reserved,
-        &record.layout,
-        info.process_data,
-    );
+    // The FMMUs map the slave's share at its group's logical addresses.
+    let pd = info.process_data;
+    let logical = ProcessDataInfo {
+        outputs_offset: ctx.image.logical_of(pd.outputs_offset),
+        inputs_offset: ctx.image.logical_of(pd.inputs_offset),
+        ..pd
+    };
+    let plan = fmmu_plan(&sii, info.esc.fmmu_count, reserved, &record.layout, logical);
     for (index, fmmu) in plan {
         let mut bytes = [0u8; 16];
         fmmu.emit(&mut Fmmu::new_unchecked(&mut bytes[..]))
@@ -289,11 +290,13 @@ async fn write_pdo_config(ctx: &Context, record: &SlaveRecord) -> Result<(), Mas
     Ok(())
 }
 
-/// Waits until the cyclic exchange has completed `cycles` more cycles.
+/// Waits until the cyclic exchange has completed `cycles` more exchanges of the slave's
+/// group (a group with a longer period than the master's cycle goes in fewer frames, and
+/// the slave needs its outputs before OP).
 async fn wait_cycles(ctx: &Context, who: Who<'_>, cycles: u64) -> Result<(), MasterError> {
-    let start = ctx.image.completed();
+    let start = ctx.image.completed_for(who.position);
     let deadline = Instant::now() + ctx.config.op_timeout;
-    while ctx.image.completed() < start + cycles {
+    while ctx.image.completed_for(who.position) < start + cycles {
         if Instant::now() >= deadline {
             return Err(MasterError::StateTimeout {
                 position: who.position,

@@ -17,6 +17,7 @@ use crate::wire::register::dc::{
     DcActivation, ECAT_EPOCH_UNIX_SECS, OffsetDelay, PortReceiveTimes, SPEED_COUNTER_START_DEFAULT,
     read_time,
 };
+use crate::wire::sii::SiiImage;
 
 use super::access::{fprd, fpwr};
 use super::context::{Context, SlaveRecord};
@@ -212,6 +213,187 @@ pub(crate) async fn configure(
     Ok(slaves)
 }
 
+/// Latches the receive times (BWR 0x0900) and reads back each DC slave's port times,
+/// processing-unit time and loop time, in the order given.
+async fn latch(
+    ctx: &Context,
+    slaves: &[(u16, u16, &SlaveRecord)],
+) -> Result<Vec<(PortReceiveTimes, u64, u32)>, MasterError> {
+    let bus = &ctx.bus;
+    bus.bwr(reg::DC_RECEIVE_TIME_PORT0, [0u8; 4])
+        .await
+        .map_err(MasterError::bus("latch DC receive times"))?;
+    let mut measured = Vec::with_capacity(slaves.len());
+    for &(position, station, record) in slaves {
+        let malformed = |what| {
+            move |source| MasterError::Malformed {
+                position,
+                what,
+                source,
+            }
+        };
+        let raw = fprd(
+            bus,
+            station,
+            reg::DC_RECEIVE_TIME_PORT0,
+            PortReceiveTimes::LEN,
+            "DC receive times",
+        )
+        .await?;
+        let times = PortReceiveTimes::parse(&raw).map_err(malformed("DC receive times"))?;
+        let raw = fprd(
+            bus,
+            station,
+            reg::DC_RECEIVE_TIME_PROCESSING_UNIT,
+            8,
+            "DC processing unit time",
+        )
+        .await?;
+        let pu = read_time(&raw).map_err(malformed("DC processing unit time"))?;
+        measured.push((times, pu, loop_time(record, &times)));
+    }
+    Ok(measured)
+}
+
+/// Measures the delay of the slave of `record` again and gives it the offset that brings
+/// its clock to the reference's time: for a slave that came back after a power cycle (its
+/// clock restarted, its offset and delay registers were cleared). The other DC slaves'
+/// settings are kept; one of them (the reference unless it is the one that came back)
+/// tells the reference's time at the latch. Nothing to do without DC, for a slave without
+/// it, or without another DC slave to take the time from.
+pub(crate) async fn restore(ctx: &Context, record: &SlaveRecord) -> Result<(), MasterError> {
+    if !ctx.config.dc.enabled || !record.info.esc.features.dc_supported() {
+        return Ok(());
+    }
+    let known: Vec<DcSlave> = ctx
+        .dc
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .clone();
+    let Some(index) = known
+        .iter()
+        .position(|s| s.position == record.info.position)
+    else {
+        return Ok(());
+    };
+    let Some(source) = known
+        .iter()
+        .position(|s| s.position != record.info.position)
+    else {
+        return Ok(());
+    };
+    let records: Vec<SlaveRecord> = known
+        .iter()
+        .map(|s| ctx.record(s.position))
+        .collect::<Option<_>>()
+        .ok_or(MasterError::InvalidArgument("a DC slave left the segment"))?;
+    let slaves: Vec<(u16, u16, &SlaveRecord)> = known
+        .iter()
+        .zip(&records)
+        .map(|(s, r)| (s.position, s.station, r))
+        .collect();
+    let measured = latch(ctx, &slaves).await?;
+    let loops: Vec<u32> = measured.iter().map(|(_, _, l)| *l).collect();
+    let delays = line_delays(&loops);
+    let delay = delays.get(index).copied().unwrap_or(0);
+    // The reference's system time when the latch frame passed it, from a slave whose
+    // offset still holds: its local time plus offset is its system time, less its delay.
+    let from = &known[source];
+    let (_, source_pu, _) = measured[source];
+    let reference_time = source_pu
+        .wrapping_add(from.offset as u64)
+        .wrapping_sub(u64::from(
+            delays.get(source).copied().unwrap_or(from.delay_ns),
+        ));
+    let (times, pu, _) = measured[index];
+    let offset = reference_time
+        .wrapping_add(u64::from(delay))
+        .wrapping_sub(pu) as i64;
+    let mut block = [0u8; OffsetDelay::LEN];
+    OffsetDelay { offset, delay }
+        .emit(&mut block)
+        .map_err(|source| MasterError::Malformed {
+            position: record.info.position,
+            what: "DC offset",
+            source,
+        })?;
+    let station = record.info.station;
+    fpwr(
+        &ctx.bus,
+        station,
+        reg::DC_SYSTEM_TIME_OFFSET,
+        block,
+        "DC offset and delay",
+    )
+    .await?;
+    let source_delay = delays.get(source).copied().unwrap_or(from.delay_ns);
+    let offset = settle_offset(ctx, record, from.station, source_delay, delay).await?;
+    fpwr(
+        &ctx.bus,
+        station,
+        reg::DC_SPEED_COUNTER_START,
+        SPEED_COUNTER_START_DEFAULT.to_le_bytes(),
+        "DC filter reset",
+    )
+    .await?;
+    let mut dc = ctx
+        .dc
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some(slave) = dc.iter_mut().find(|s| s.position == record.info.position) {
+        slave.receive_times = times.0;
+        slave.processing_unit_time = pu;
+        slave.delay_ns = delay;
+        slave.offset = offset;
+    }
+    Ok(())
+}
+
+/// Reads the system time of the slave of `record` and of a synchronised slave `source`
+/// in one frame, with the slave's offset, and corrects the offset by what is left between
+/// them: the latch gives the slave's local time, but while it waited for its offset the
+/// cyclic reference time may already have slewed its clock, which the local time does not
+/// show. Each reading is the reference's time when the frame passed it plus the reader's
+/// delay, whatever the order on the ring. Returns the offset in force.
+async fn settle_offset(
+    ctx: &Context,
+    record: &SlaveRecord,
+    source: u16,
+    source_delay: u32,
+    delay: u32,
+) -> Result<i64, MasterError> {
+    use crate::bus::DatagramRequest;
+    let station = record.info.station;
+    let pending = ctx.bus.submit_group([
+        DatagramRequest::fprd(source, reg::DC_SYSTEM_TIME, 8).expect_wkc(1),
+        DatagramRequest::fprd(station, reg::DC_SYSTEM_TIME, 8).expect_wkc(1),
+        DatagramRequest::fprd(station, reg::DC_SYSTEM_TIME_OFFSET, 8).expect_wkc(1),
+    ]);
+    let mut values = [0u64; 3];
+    for (value, pending) in values.iter_mut().zip(pending) {
+        let reply = pending.await.map_err(MasterError::bus("DC system times"))?;
+        *value = read_time(&reply.data).map_err(|source| MasterError::Malformed {
+            position: record.info.position,
+            what: "DC system time",
+            source,
+        })?;
+    }
+    let [at_source, at_slave, offset] = values;
+    let error = at_slave
+        .wrapping_sub(u64::from(delay))
+        .wrapping_sub(at_source.wrapping_sub(u64::from(source_delay))) as i64;
+    let offset = (offset as i64).wrapping_sub(error);
+    fpwr(
+        &ctx.bus,
+        station,
+        reg::DC_SYSTEM_TIME_OFFSET,
+        offset.to_le_bytes(),
+        "DC offset",
+    )
+    .await?;
+    Ok(offset)
+}
+
 /// Sends `frames` reference-time datagrams, a batch at a time.
 async fn compensate_static_drift(
     ctx: &Context,
@@ -252,12 +434,13 @@ pub(crate) async fn activate_sync0(ctx: &Context, record: &SlaveRecord) -> Resul
     let cycle_reg = u32::try_from(cycle_ns)
         .map_err(|_| MasterError::InvalidArgument("SYNC0 cycle longer than 2^32 ns"))?;
     fpwr(bus, station, reg::DC_ACTIVATION, [0u8], "SYNC0 stop").await?;
+    let (unit_control, activation) = assign_activate(record);
     fpwr(
         bus,
         station,
         reg::DC_CYCLIC_UNIT_CONTROL,
-        [0u8],
-        "SYNC unit to ECAT",
+        [unit_control],
+        "SYNC unit control",
     )
     .await?;
     let raw = fprd(bus, station, reg::DC_SYSTEM_TIME, 8, "DC system time").await?;
@@ -288,19 +471,39 @@ pub(crate) async fn activate_sync0(ctx: &Context, record: &SlaveRecord) -> Resul
         "SYNC0 cycle",
     )
     .await?;
-    let activation = DcActivation {
-        cyclic: true,
-        sync0: true,
-        ..DcActivation::default()
-    };
     fpwr(
         bus,
         station,
         reg::DC_ACTIVATION,
-        [activation.encode()],
+        [activation],
         "SYNC0 activation",
     )
     .await
+}
+
+/// What to write to 0x0980 (cyclic unit control) and 0x0981 (activation): the
+/// AssignActivate word of the first operation mode in the slave's SII DC category (low
+/// byte 0x0980, high byte 0x0981, as IgH and TwinCAT write it) when it has one, else the
+/// SYNC unit on ECAT with cyclic operation and SYNC0.
+fn assign_activate(record: &SlaveRecord) -> (u8, u8) {
+    let from_sii = SiiImage::parse(&record.sii)
+        .ok()
+        .and_then(|sii| sii.dc.first().map(|mode| mode.assign_activate))
+        .filter(|&word| word >> 8 != 0);
+    match from_sii {
+        Some(word) => {
+            let [unit_control, activation] = word.to_le_bytes();
+            (unit_control, activation)
+        }
+        None => {
+            let activation = DcActivation {
+                cyclic: true,
+                sync0: true,
+                ..DcActivation::default()
+            };
+            (0, activation.encode())
+        }
+    }
 }
 
 /// The first SYNC0 pulse: at least `lead` after `now`, on a multiple of the cycle (so

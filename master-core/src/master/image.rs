@@ -1,7 +1,11 @@
 //! The process image and the cyclic task that exchanges it, one frame per cycle:
 //!
-//! 1. an LRW of the whole image at logical [`LOGICAL_BASE`]: every slave's outputs, then
-//!    its inputs, in ring order;
+//! 1. an LRW per [group](super::SlaveGroup) of slaves whose period is due, of that
+//!    group's share of the image at its own logical address ([`LOGICAL_BASE`] +
+//!    [`GROUP_STRIDE`] × group): every slave's outputs, then its inputs, in ring order. The
+//!    default group 0 (every slave not given to another group) goes every cycle; a group
+//!    of period *T* every round(*T* / cycle period) cycles, counted in cycles, so its frames
+//!    keep their ratio to the base cycle whatever the timing;
 //! 0. with distributed clocks, first an FRMW of the reference clock's system time
 //!    (0x0910, 8 bytes), which every other DC slave compares with its own (see `dc`);
 //! 2. an LRD of the mailbox-status bits at logical [`STATUS_BASE`] (the seed capture's
@@ -33,8 +37,68 @@ use super::wkc_blame::blame;
 /// Logical address of the first image byte.
 pub(crate) const LOGICAL_BASE: u32 = 0;
 
+/// Logical address space of each group: group *g*'s image starts at
+/// `LOGICAL_BASE + g * GROUP_STRIDE` (a group's image is at most one datagram, < 1.5 KiB).
+pub(crate) const GROUP_STRIDE: u32 = 0x1000;
+
+/// Groups at most (their logical ranges stay below [`STATUS_BASE`]).
+pub(crate) const MAX_GROUPS: usize = (STATUS_BASE / GROUP_STRIDE) as usize;
+
 /// Logical address of the mailbox-status bits (bit *p* for ring position *p*).
 pub(crate) const STATUS_BASE: u32 = 0x0004_0000;
+
+/// One group's share of the image and of the cyclic frame.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct GroupSlot {
+    /// Its bytes in the image buffers.
+    pub start: usize,
+    pub len: usize,
+    /// Logical address of its first byte.
+    pub logical: u32,
+    /// Its period; `None`: every cycle.
+    pub period: Option<Duration>,
+    pub expected_wkc: u16,
+    pub last_wkc: u16,
+    /// Its exchanges that came back.
+    pub completed: u64,
+    /// Its exchanges with a working counter other than expected.
+    pub wrong_wkc: u64,
+    /// Its exchanges sent.
+    pub sent: u64,
+}
+
+impl GroupSlot {
+    /// A group of `len` bytes from `start`, at logical address `logical`.
+    pub fn new(
+        start: usize,
+        len: usize,
+        logical: u32,
+        period: Option<Duration>,
+        expected_wkc: u16,
+    ) -> GroupSlot {
+        GroupSlot {
+            start,
+            len,
+            logical,
+            period,
+            expected_wkc,
+            last_wkc: 0,
+            completed: 0,
+            wrong_wkc: 0,
+            sent: 0,
+        }
+    }
+
+    /// Every how many cycles of `base` it goes (at least 1).
+    fn every(&self, base: Duration) -> u64 {
+        let Some(period) = self.period else {
+            return 1;
+        };
+        let base = base.as_nanos().max(1);
+        let ratio = (period.as_nanos() + base / 2) / base;
+        u64::try_from(ratio).unwrap_or(u64::MAX).max(1)
+    }
+}
 
 #[derive(Debug, Default)]
 struct Buffers {
@@ -55,10 +119,19 @@ struct Buffers {
     dc: Option<(u16, u16)>,
     /// The reference clock's system time as the last cycle read it.
     dc_time: Option<u64>,
-    /// Each position's share of the LRW working counter.
+    /// Each position's share of its group's LRW working counter.
     lrw_shares: Vec<u16>,
+    /// Each position's group (index into `groups`).
+    lrw_group: Vec<u8>,
+    /// This cycle's shares: `lrw_shares` of the groups whose LRW the frame carried, else 0
+    /// (kept here so that the cycle allocates nothing).
+    cycle_shares: Vec<u16>,
     /// Wrong-WKC cycles put down to each position.
     wkc_errors: Vec<u32>,
+    /// The groups' shares, in image order.
+    groups: Vec<GroupSlot>,
+    /// The groups asked for (applied at the next scan).
+    definitions: Vec<super::groups::SlaveGroup>,
 }
 
 impl Buffers {
@@ -80,12 +153,61 @@ impl Image {
         self.buffers.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// Sets the image size and the working counter to expect; keeps the bytes that fit.
-    pub fn resize(&self, len: usize, expected_wkc: u16) {
+    /// Lays the image out as `groups` (in image order, back to back); keeps the bytes
+    /// that fit.
+    pub fn set_groups(&self, groups: Vec<GroupSlot>) {
         let mut b = self.lock();
+        let len = groups.last().map_or(0, |g| g.start + g.len);
         b.outputs.resize(len, 0);
         b.inputs.resize(len, 0);
-        b.expected_wkc = expected_wkc;
+        b.expected_wkc = groups
+            .iter()
+            .fold(0u16, |sum, g| sum.saturating_add(g.expected_wkc));
+        b.last_wkc = 0;
+        b.groups = groups;
+    }
+
+    /// The groups' shares as laid out at the last scan.
+    pub fn groups(&self) -> Vec<GroupSlot> {
+        self.lock().groups.clone()
+    }
+
+    /// The logical address of image byte `offset` (its group's base plus its place in
+    /// the group); the offset itself if no group holds it.
+    pub fn logical_of(&self, offset: u32) -> u32 {
+        let b = self.lock();
+        let at = offset as usize;
+        b.groups
+            .iter()
+            .find(|g| g.start <= at && at < g.start + g.len)
+            .map_or(offset, |g| g.logical + (offset - g.start as u32))
+    }
+
+    /// The groups to lay out at the next scan.
+    pub fn definitions(&self) -> Vec<super::groups::SlaveGroup> {
+        self.lock().definitions.clone()
+    }
+
+    /// Asks for `groups` at the next scan.
+    pub fn define(&self, groups: Vec<super::groups::SlaveGroup>) {
+        self.lock().definitions = groups;
+    }
+
+    /// Copies the image with the cycle count and working counters of group `group` (its
+    /// share is from one exchange; the other groups' may be older or newer).
+    pub fn group_snapshot_into(&self, group: usize, snapshot: &mut ImageSnapshot) -> bool {
+        let b = self.lock();
+        let Some(slot) = b.groups.get(group) else {
+            return false;
+        };
+        snapshot.cycle = slot.completed;
+        snapshot.wkc = slot.last_wkc;
+        snapshot.expected_wkc = slot.expected_wkc;
+        snapshot.inputs.clear();
+        snapshot.inputs.extend_from_slice(&b.inputs);
+        snapshot.outputs.clear();
+        snapshot.outputs.extend_from_slice(&b.outputs);
+        true
     }
 
     /// Sizes the mailbox-status area for `slaves` positions, none mapped yet.
@@ -96,14 +218,23 @@ impl Image {
         b.status_len = usize::from(slaves).div_ceil(8);
         b.lrw_shares.clear();
         b.lrw_shares.resize(usize::from(slaves), 0);
+        b.lrw_group.clear();
+        b.lrw_group.resize(usize::from(slaves), 0);
+        b.cycle_shares.clear();
+        b.cycle_shares.resize(usize::from(slaves), 0);
         b.wkc_errors.clear();
         b.wkc_errors.resize(usize::from(slaves), 0);
     }
 
-    /// The share of the slave at `position` in the LRW working counter.
-    pub fn set_lrw_share(&self, position: u16, share: u16) {
-        if let Some(slot) = self.lock().lrw_shares.get_mut(usize::from(position)) {
+    /// The share of the slave at `position` in the LRW working counter of `group`.
+    pub fn set_lrw_share(&self, position: u16, group: usize, share: u16) {
+        let mut b = self.lock();
+        let at = usize::from(position);
+        if let (Some(slot), Some(member)) = (b.lrw_shares.get_mut(at), u8::try_from(group).ok()) {
             *slot = share;
+            if let Some(g) = b.lrw_group.get_mut(at) {
+                *g = member;
+            }
         }
     }
 
@@ -216,6 +347,17 @@ impl Image {
     pub fn completed(&self) -> u64 {
         self.lock().cycle
     }
+
+    /// Exchanges of the process data of the slave at `position` completed so far: its
+    /// group's; the cycles when its group carries no process data (and so no datagram).
+    pub fn completed_for(&self, position: u16) -> u64 {
+        let b = self.lock();
+        b.lrw_group
+            .get(usize::from(position))
+            .and_then(|&g| b.groups.get(usize::from(g)))
+            .filter(|g| g.len > 0)
+            .map_or(b.cycle, |g| g.completed)
+    }
 }
 
 /// The bus's cyclic task; see the [module documentation](self).
@@ -223,10 +365,13 @@ pub(crate) struct ProcessCycle {
     pub image: Arc<Image>,
     pub period: Duration,
     pub mailboxes: MailboxEngine,
-    /// Frame positions of this cycle's reference-time, process-data and status datagrams.
+    /// Frame positions of this cycle's reference-time, process-data (group, position)
+    /// and status datagrams.
     dc_at: Option<usize>,
-    pd_at: Option<usize>,
+    pd_at: Vec<(usize, usize)>,
     status_at: Option<usize>,
+    /// Cycles built: which groups are due.
+    tick: u64,
     last_start: Option<Instant>,
     /// Stations whose bit was set in the last status read (kept to avoid allocating).
     full: Vec<u16>,
@@ -241,8 +386,9 @@ impl ProcessCycle {
             period,
             mailboxes,
             dc_at: None,
-            pd_at: None,
+            pd_at: Vec::with_capacity(MAX_GROUPS),
             status_at: None,
+            tick: 0,
             last_start: None,
             full: Vec::new(),
         }
@@ -256,9 +402,11 @@ impl CyclicTask for ProcessCycle {
 
     fn build(&mut self, frame: &mut CyclicFrame<'_>) {
         self.dc_at = None;
-        self.pd_at = None;
+        self.pd_at.clear();
         self.status_at = None;
-        let b = self.image.lock();
+        let tick = self.tick;
+        self.tick = self.tick.wrapping_add(1);
+        let mut b = self.image.lock();
         // The reference time first, as SOEM and IgH put it: the slaves behind the
         // reference compare it with their own as the frame passes.
         if let Some((station, _)) = b.dc {
@@ -275,14 +423,23 @@ impl CyclicTask for ProcessCycle {
         }
         // A failure leaves the datagram out: the image size was checked against the frame
         // when the layout was made.
-        if !b.outputs.is_empty() {
-            self.pd_at = frame
-                .push(
-                    Command::Lrw,
-                    DatagramAddress::Logical(LOGICAL_BASE),
-                    &b.outputs,
-                )
-                .ok();
+        let b = &mut *b;
+        for (index, group) in b.groups.iter_mut().enumerate() {
+            if group.len == 0 || !tick.is_multiple_of(group.every(self.period)) {
+                continue;
+            }
+            let Some(outputs) = b.outputs.get(group.start..group.start + group.len) else {
+                continue;
+            };
+            let pushed = frame.push(
+                Command::Lrw,
+                DatagramAddress::Logical(group.logical),
+                outputs,
+            );
+            if let Ok(position) = pushed {
+                group.sent += 1;
+                self.pd_at.push((index, position));
+            }
         }
         if b.status_len > 0 && b.status_wkc() > 0 {
             self.status_at = frame
@@ -293,8 +450,7 @@ impl CyclicTask for ProcessCycle {
                 )
                 .ok();
         }
-        drop(b);
-        if self.pd_at.is_some() || self.status_at.is_some() || self.dc_at.is_some() {
+        if !self.pd_at.is_empty() || self.status_at.is_some() || self.dc_at.is_some() {
             let now = Instant::now();
             self.image
                 .counters
@@ -306,6 +462,8 @@ impl CyclicTask for ProcessCycle {
         self.full.clear();
         let mut wrong = false;
         let mut deficit = (0i64, 0i64);
+        // The groups whose LRW this frame carried (a bit per group; at most 64 groups).
+        let mut carried = 0u64;
         {
             let mut b = self.image.lock();
             if let Some(datagram) = self.dc_at.and_then(|at| reply.datagram(at)) {
@@ -313,13 +471,34 @@ impl CyclicTask for ProcessCycle {
                 wrong |= datagram.wkc != expected;
                 b.dc_time = read_time(datagram.data).ok();
             }
-            if let Some(datagram) = self.pd_at.and_then(|at| reply.datagram(at)) {
-                if datagram.data.len() == b.inputs.len() {
-                    b.inputs.copy_from_slice(datagram.data);
+            let b = &mut *b;
+            for &(index, at) in &self.pd_at {
+                let (Some(datagram), Some(group)) = (reply.datagram(at), b.groups.get_mut(index))
+                else {
+                    continue;
+                };
+                let range = group.start..group.start + group.len;
+                if let Some(inputs) = b.inputs.get_mut(range)
+                    && inputs.len() == datagram.data.len()
+                {
+                    inputs.copy_from_slice(datagram.data);
                 }
-                b.last_wkc = datagram.wkc;
-                wrong |= datagram.wkc != b.expected_wkc;
-                deficit.0 = i64::from(b.expected_wkc) - i64::from(datagram.wkc);
+                group.last_wkc = datagram.wkc;
+                group.completed += 1;
+                deficit.0 += i64::from(group.expected_wkc) - i64::from(datagram.wkc);
+                if let Some(bit) = 1u64.checked_shl(u32::try_from(index).unwrap_or(u32::MAX)) {
+                    carried |= bit;
+                }
+                if datagram.wkc != group.expected_wkc {
+                    group.wrong_wkc += 1;
+                    wrong = true;
+                }
+            }
+            if !self.pd_at.is_empty() {
+                b.last_wkc = b
+                    .groups
+                    .iter()
+                    .fold(0u16, |sum, g| sum.saturating_add(g.last_wkc));
             }
             if let Some(datagram) = self.status_at.and_then(|at| reply.datagram(at)) {
                 wrong |= datagram.wkc != b.status_wkc();
@@ -336,11 +515,24 @@ impl CyclicTask for ProcessCycle {
             }
             let Buffers {
                 lrw_shares,
+                lrw_group,
+                cycle_shares,
                 status_stations,
                 wkc_errors,
                 ..
             } = &mut *b;
-            blame(lrw_shares, status_stations, deficit, wkc_errors);
+            // Only the slaves of the groups in this frame had a share in its working counters.
+            for ((cycle, share), group) in cycle_shares
+                .iter_mut()
+                .zip(lrw_shares.iter())
+                .zip(lrw_group.iter())
+            {
+                let in_frame = 1u64
+                    .checked_shl(u32::from(*group))
+                    .is_some_and(|bit| carried & bit != 0);
+                *cycle = if in_frame { *share } else { 0 };
+            }
+            blame(cycle_shares, status_stations, deficit, wkc_errors);
             b.cycle += 1;
         }
         let counters = &self.image.counters;

@@ -34,6 +34,7 @@ mod dc;
 mod eeprom;
 mod error;
 mod event;
+mod groups;
 mod image;
 mod info;
 mod layout;
@@ -66,6 +67,7 @@ pub use cycle_stats::{CycleStats, CycleTiming};
 pub use dc::{DcSettings, DcSlave};
 pub use error::MasterError;
 pub use event::MasterEvent;
+pub use groups::{GroupStats, SlaveGroup};
 pub use info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
 pub use layout::{
     LayoutFuture, LayoutSource, PdSyncManager, PdoEntryInfo, PdoInfo, ProcessDataLayout, SiiLayout,
@@ -551,6 +553,51 @@ impl Master {
             .ok_or(MasterError::InvalidArgument(
                 "entry outside the process image",
             ))
+    }
+
+    /// Groups of slaves with periods of their own, applied at the next scan; every slave
+    /// not listed stays in the default group 0, exchanged every cycle. See
+    /// [`SlaveGroup`]; an empty list goes back to one group of all slaves.
+    pub fn set_groups(&self, groups: Vec<SlaveGroup>) {
+        self.ctx.image.define(groups);
+    }
+
+    /// The groups asked for with [`Master::set_groups`].
+    pub fn groups(&self) -> Vec<SlaveGroup> {
+        self.ctx.image.definitions()
+    }
+
+    /// Each group's share of the image and its counters, group 0 (the default group) first,
+    /// as laid out by the last scan.
+    pub fn group_stats(&self) -> Vec<GroupStats> {
+        self.ctx
+            .image
+            .groups()
+            .into_iter()
+            .enumerate()
+            .map(|(group, g)| GroupStats {
+                group,
+                period: g.period,
+                logical: g.logical,
+                image_offset: g.start,
+                image_len: g.len,
+                sent: g.sent,
+                completed: g.completed,
+                last_wkc: g.last_wkc,
+                expected_wkc: g.expected_wkc,
+                wrong_wkc: g.wrong_wkc,
+            })
+            .collect()
+    }
+
+    /// The image with group `group`'s exchange count and working counters: its share is
+    /// from one exchange of that group. `None` for a group the last scan did not lay out.
+    pub fn group_snapshot(&self, group: usize) -> Option<ImageSnapshot> {
+        let mut snapshot = ImageSnapshot::default();
+        self.ctx
+            .image
+            .group_snapshot_into(group, &mut snapshot)
+            .then_some(snapshot)
     }
 
     /// The whole image as the last completed cycle left it (inputs and outputs of one

@@ -15,6 +15,8 @@ use super::context::{Context, SlaveRecord};
 use super::dc;
 use super::error::MasterError;
 use super::event::MasterEvent;
+use super::groups;
+use super::image::{GROUP_STRIDE, GroupSlot, LOGICAL_BASE, MAX_GROUPS};
 use super::info::{ProcessDataInfo, SlaveInfo};
 use super::mailboxes;
 use super::pdo_config;
@@ -82,7 +84,7 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
     }
     ctx.lock().list.clear();
     mailboxes::release_all(&ctx);
-    ctx.image.resize(0, 0);
+    ctx.image.set_groups(Vec::new());
     ctx.image.reset_status(count);
     ctx.image.set_dc_reference(None);
     ctx.dc
@@ -210,42 +212,71 @@ async fn lay_out(
         Ok((layout, written, device_type))
     })
     .await;
-    let mut offset: u32 = 0;
-    let mut expected_wkc: u16 = 0;
-    let mut ready = Vec::new();
-    for (position, result) in layouts {
-        let (layout, written, device_type) = match result {
-            Ok(done) => done,
-            Err(err) => {
-                failures.push(err);
-                continue;
-            }
-        };
-        let outputs = layout.outputs_len();
-        let inputs = layout.inputs_len();
-        let pd = ProcessDataInfo {
-            outputs: u16::try_from(outputs).unwrap_or(u16::MAX),
-            inputs: u16::try_from(inputs).unwrap_or(u16::MAX),
-            outputs_offset: offset,
-            inputs_offset: offset + outputs as u32,
-        };
-        offset += (outputs + inputs) as u32;
-        let share = if outputs > 0 { 2 } else { 0 } + u16::from(inputs > 0);
-        expected_wkc += share;
-        ctx.image.set_lrw_share(position, share);
-        ctx.update(position, |r| {
-            r.layout = layout;
-            r.info.process_data = pd;
-            r.info.device_type = device_type;
-            r.pdo_written = written;
-        });
-        ready.push(position);
+    let definitions = ctx.image.definitions();
+    if definitions.len() + 1 > MAX_GROUPS {
+        return Err(MasterError::InvalidArgument("too many slave groups"));
     }
+    let count = layouts
+        .iter()
+        .map(|(p, _)| usize::from(*p) + 1)
+        .max()
+        .unwrap_or(0);
+    let member = groups::membership(&definitions, count);
+    let mut laid: Vec<Vec<_>> = vec![Vec::new(); definitions.len() + 1];
+    for (position, result) in layouts {
+        match result {
+            Ok(done) => {
+                let group = member.get(usize::from(position)).copied().unwrap_or(0);
+                laid[group].push((position, done));
+            }
+            Err(err) => failures.push(err),
+        }
+    }
+    let mut offset: u32 = 0;
+    let mut ready = Vec::new();
+    let mut slots = Vec::new();
+    for (group, members) in laid.into_iter().enumerate() {
+        let start = offset;
+        let mut expected_wkc: u16 = 0;
+        for (position, (layout, written, device_type)) in members {
+            let outputs = layout.outputs_len();
+            let inputs = layout.inputs_len();
+            let pd = ProcessDataInfo {
+                outputs: u16::try_from(outputs).unwrap_or(u16::MAX),
+                inputs: u16::try_from(inputs).unwrap_or(u16::MAX),
+                outputs_offset: offset,
+                inputs_offset: offset + outputs as u32,
+            };
+            offset += (outputs + inputs) as u32;
+            let share = if outputs > 0 { 2 } else { 0 } + u16::from(inputs > 0);
+            expected_wkc += share;
+            ctx.image.set_lrw_share(position, group, share);
+            ctx.update(position, |r| {
+                r.layout = layout;
+                r.info.process_data = pd;
+                r.info.device_type = device_type;
+                r.pdo_written = written;
+            });
+            ready.push(position);
+        }
+        let period = group
+            .checked_sub(1)
+            .and_then(|d| definitions.get(d))
+            .map(|d| d.period);
+        slots.push(GroupSlot::new(
+            start as usize,
+            (offset - start) as usize,
+            LOGICAL_BASE + GROUP_STRIDE * group as u32,
+            period,
+            expected_wkc,
+        ));
+    }
+    // Every group's datagram may go in one frame, each with its header and counter.
     let room = ctx.bus.config().max_data_len();
-    let need = offset as usize;
+    let need = offset as usize + slots.len().saturating_sub(1) * crate::wire::datagram::OVERHEAD;
     if need > room {
         return Err(MasterError::ImageTooLarge { need, room });
     }
-    ctx.image.resize(need, expected_wkc);
+    ctx.image.set_groups(slots);
     Ok(ready)
 }

@@ -19,6 +19,7 @@ use crate::wire::register::{AlStatusBlock, AlStatusBlockRepr};
 use super::access::apwr;
 use super::configure::{bring_to, identify};
 use super::context::{Context, SlaveRecord};
+use super::dc;
 use super::error::MasterError;
 use super::event::MasterEvent;
 use super::mailboxes;
@@ -205,5 +206,7 @@ async fn come_back(ctx: &Context, old: SlaveRecord) -> Result<(), MasterError> {
     }
     record.info.present = true;
     ctx.update(info.position, |r| *r = record.clone());
+    // Its clock restarted with the power: delay and offset again before SAFEOP.
+    dc::restore(ctx, &record).await?;
     bring_to(ctx, &record, record.info.requested_state).await
 }

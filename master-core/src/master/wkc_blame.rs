@@ -1,7 +1,7 @@
 //! Which slaves a wrong working counter of the cyclic frame is put down to (ETG.1510
 //! 0xAnnn:0E).
 //!
-//! The cyclic frame has one LRW for every slave's process data and one LRD of the
+//! The cyclic frame has one LRW per slave group (the groups due in that cycle) and one LRD of the
 //! mailbox-status bits, so a wrong working counter does not name a slave by itself. Each
 //! slave's share of both counters is known (LRW: 2 with outputs + 1 with inputs; status:
 //! 1 if its bit is mapped), so the shortfall is explained, in this order, by:

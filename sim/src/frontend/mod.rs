@@ -1,9 +1,11 @@
 //! The `ecat-sim` front end: a simulated segment behind a network interface.
 //!
 //! - [`describe`]: the lines that say what is emulated, printed at start;
+//! - [`control`]: `--control`, the terminals' physical side on the standard streams;
 //! - [`counter`]: frames in and out, and the rate line printed about once per second;
 //! - [`serve`]: the loop that answers frames (receive, run through the segment, send back).
 
+pub mod control;
 pub mod counter;
 pub mod describe;
 pub mod serve;

@@ -11,6 +11,16 @@ pub(crate) struct Counters {
 }
 
 impl Counters {
+    /// Counters that continue after request counter `tx` (0: start at 1), for an owner that
+    /// takes over a mailbox the slave did not reset: the slave still remembers `tx` and
+    /// would discard a next request with the same counter as a repetition.
+    pub fn continuing_after(tx: u8) -> Counters {
+        Counters {
+            tx: tx % 8,
+            last_rx: None,
+        }
+    }
+
     /// The counter for the next request: 1, 2, ..., 7, 1, ... (never 0, so the slave
     /// discards a repetition of the same request, e.g. a bus retry that got through twice).
     pub fn next_tx(&mut self) -> u8 {

@@ -104,10 +104,12 @@ impl Exchange {
         let write = usize::from(shared.config.write.len);
         let read = usize::from(shared.config.read.len);
         let eoe_timeout = shared.engine.eoe_fragment_timeout;
+        let counters =
+            Counters::continuing_after(shared.last_tx.load(std::sync::atomic::Ordering::Relaxed));
         Exchange {
             shared,
             bus,
-            counters: Counters::default(),
+            counters,
             tx: vec![0; write],
             rx: Vec::with_capacity(read),
             stash: VecDeque::with_capacity(STASH_LEN),
@@ -116,6 +118,15 @@ impl Exchange {
             cancelled: None,
             ahead: None,
         }
+    }
+
+    /// The next request counter, also left where a replacing owner finds it.
+    fn next_counter(&mut self) -> u8 {
+        let counter = self.counters.next_tx();
+        self.shared
+            .last_tx
+            .store(counter, std::sync::atomic::Ordering::Relaxed);
+        counter
     }
 
     /// The slave's station address.
@@ -216,6 +227,9 @@ impl Exchange {
             return Err(self.violation("the receive mailbox is too small"));
         }
         self.tx.fill(0);
+        // Taken even if the body does not encode: a skipped counter is harmless, the slave
+        // only discards a repeat of the last one.
+        let counter = self.next_counter();
         let (head, body) = self.tx.split_at_mut(HEADER_LEN);
         let length = emit(body).map_err(MailboxError::Invalid)?;
         let header = MailboxHeader {
@@ -225,7 +239,7 @@ impl Exchange {
             channel: 0,
             priority: 0,
             mailbox_type,
-            counter: self.counters.next_tx(),
+            counter,
         };
         header
             .emit(&mut Mailbox::new_unchecked(head))

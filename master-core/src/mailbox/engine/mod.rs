@@ -21,6 +21,7 @@ pub(crate) mod stats;
 
 use std::collections::HashMap;
 use std::io;
+use std::sync::atomic::AtomicU8;
 use std::sync::{Arc, PoisonError, RwLock};
 use std::thread::JoinHandle;
 
@@ -112,8 +113,20 @@ impl MailboxEngine {
 
     /// Takes over the mailbox of a slave (its owner task starts at once) and returns its
     /// handle. A slave already known under the same station address is replaced: its
-    /// owner stops and its queued requests fail with [`MailboxError::Shutdown`].
+    /// owner stops and its queued requests fail with [`MailboxError::Shutdown`]; the new
+    /// owner continues its request counters, since the slave still remembers the last one
+    /// (a slave that went through INIT starts afresh: [`MailboxEngine::remove_slave`] it
+    /// first, as the master does when a slave falls back to INIT).
     pub fn add_slave(&self, config: SlaveMailboxConfig) -> SlaveMailbox {
+        let last_tx = self
+            .inner
+            .slaves
+            .read()
+            .unwrap_or_else(PoisonError::into_inner)
+            .get(&config.station)
+            .map_or(0, |old| {
+                old.last_tx.load(std::sync::atomic::Ordering::Relaxed)
+            });
         let engine = self.inner.config;
         let (requests, requests_rx) = mpsc::channel(engine.queue_len.max(1));
         let (eoe_tx, eoe_rx) = mpsc::channel(engine.eoe_tx_queue_len.max(1));
@@ -127,6 +140,7 @@ impl MailboxEngine {
             stats: stats::Stats::default(),
             mail: Notify::new(),
             stop,
+            last_tx: AtomicU8::new(last_tx),
         });
         let inputs = owner::Inputs {
             requests: requests_rx,

@@ -1,6 +1,7 @@
 //! What the engine and the handles share about one slave, and the public handle.
 
 use std::sync::Arc;
+use std::sync::atomic::AtomicU8;
 use std::time::Duration;
 
 use tokio::sync::{Notify, broadcast, mpsc, watch};
@@ -24,6 +25,9 @@ pub(crate) struct SlaveShared {
     pub mail: Notify,
     /// Tells the owner to stop (the slave was removed).
     pub stop: watch::Sender<bool>,
+    /// Counter of the last request written (0 before the first): an owner that replaces
+    /// this one on a live mailbox continues the sequence from it.
+    pub last_tx: AtomicU8,
 }
 
 /// A handle on one slave's mailbox: the entry point of every protocol client

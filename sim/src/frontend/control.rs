@@ -1,0 +1,136 @@
+//! `--control`: the simulated terminals' physical side, reachable from outside the process.
+//!
+//! A test on the veth rig cannot hold the handles an in-process test uses, so `ecat-sim
+//! --control` offers them over its standard streams:
+//! - stdout: `ecat-sim: outputs <position> <hex>` each time a digital output terminal's
+//!   physical outputs change (and once for each at start), as the in-process
+//!   `OutputProbe` would show them;
+//! - stdin, one command a line: `input <position> <channel> <0|1>` sets a digital input,
+//!   `emergency <position> <code hex>` raises a CoE emergency on a slave (error register
+//!   0, no manufacturer bytes). Each command is answered `ecat-sim: ok <command>` or
+//!   `ecat-sim: error <reason>` on stdout.
+//!
+//! Both run on threads of their own, touching only the shared handles, never the frame
+//! loop.
+
+use std::io::{self, BufRead, Write};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread;
+use std::time::Duration;
+
+use sim::topology::SlaveHandles;
+
+/// How often the output reporter looks at the terminals.
+const OUTPUT_POLL: Duration = Duration::from_millis(1);
+
+/// Starts the output reporter and the command reader; both end with `stop` (the reader
+/// also when stdin closes).
+pub fn start(handles: Vec<SlaveHandles>, stop: Arc<AtomicBool>) {
+    let probes: Vec<_> = handles
+        .iter()
+        .enumerate()
+        .filter_map(|(position, h)| h.outputs.clone().map(|probe| (position, probe)))
+        .collect();
+    let reporter_stop = Arc::clone(&stop);
+    thread::spawn(move || {
+        let mut last: Vec<Option<Vec<u8>>> = vec![None; probes.len()];
+        while !reporter_stop.load(Ordering::Relaxed) {
+            for ((position, probe), last) in probes.iter().zip(&mut last) {
+                let image = probe.image();
+                if last.as_ref() != Some(&image) {
+                    say(&format!("outputs {position} {}", hex(&image)));
+                    *last = Some(image);
+                }
+            }
+            thread::sleep(OUTPUT_POLL);
+        }
+    });
+    thread::spawn(move || {
+        for line in io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            if stop.load(Ordering::Relaxed) {
+                break;
+            }
+            match command(&handles, &line) {
+                Ok(()) => say(&format!("ok {}", line.trim())),
+                Err(reason) => say(&format!("error {reason}")),
+            }
+        }
+    });
+}
+
+fn say(line: &str) {
+    let mut out = io::stdout().lock();
+    // A closed stdout must not stop the simulator.
+    let _ = writeln!(out, "ecat-sim: {line}").and_then(|()| out.flush());
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Carries out one command line.
+fn command(handles: &[SlaveHandles], line: &str) -> Result<(), String> {
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let slave = |word: &str| -> Result<&SlaveHandles, String> {
+        let position: usize = word.parse().map_err(|_| format!("bad position {word:?}"))?;
+        handles
+            .get(position)
+            .ok_or_else(|| format!("no slave at position {position}"))
+    };
+    match words.as_slice() {
+        ["input", position, channel, value] => {
+            let driver = slave(position)?
+                .inputs
+                .as_ref()
+                .ok_or("not a digital input terminal")?;
+            let channel: u16 = channel
+                .parse()
+                .map_err(|_| format!("bad channel {channel:?}"))?;
+            let on = match *value {
+                "0" => false,
+                "1" => true,
+                other => return Err(format!("bad value {other:?}")),
+            };
+            driver.set_input(channel, on);
+            Ok(())
+        }
+        ["emergency", position, code] => {
+            let trigger = slave(position)?
+                .emergencies
+                .as_ref()
+                .ok_or("not a CoE slave")?;
+            let code = u16::from_str_radix(code.trim_start_matches("0x"), 16)
+                .map_err(|_| format!("bad code {code:?}"))?;
+            if trigger.raise(code, 0, [0; 5]) {
+                Ok(())
+            } else {
+                Err("emergency queue full".into())
+            }
+        }
+        _ => Err(format!("unknown command {line:?}")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sim::topology::{Topology, build_with_handles};
+
+    #[test]
+    fn commands_reach_the_handles_and_bad_ones_are_refused() {
+        let built = build_with_handles(&Topology::default_segment()).unwrap();
+        let handles = built.slaves;
+        command(&handles, "input 2 5 1").unwrap();
+        assert!(
+            command(&handles, "input 1 5 1").is_err(),
+            "DO8 has no inputs"
+        );
+        command(&handles, "emergency 3 0x8100").unwrap();
+        assert_eq!(handles[3].emergencies.as_ref().unwrap().pending(), 1);
+        assert!(command(&handles, "emergency 9 8100").is_err());
+        assert!(command(&handles, "input 2 x 1").is_err());
+        assert!(command(&handles, "reboot").is_err());
+    }
+}

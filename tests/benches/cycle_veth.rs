@@ -1,0 +1,252 @@
+//! The cyclic exchange against `ecat-sim` on the **veth rig** (two network namespaces, the
+//! simulator as its own process, raw sockets and the kernel between them); the in-process
+//! numbers are `cargo bench -p master-core --bench cycle`.
+//!
+//! ```text
+//! cargo bench -p ecat-tests --bench cycle_veth
+//! ```
+//!
+//! Prints two tables:
+//! 1. the highest sustainable cycle rate for 1, 16 and 64 slaves (`ecat-sim --slaves N`):
+//!    the shortest period (of a fixed list) at which no cycle is lost, every working
+//!    counter is right and at least 90 % of the periods run;
+//! 2. the cycle-time jitter at 1 kHz (16 slaves) as percentiles of |cycle time − period|,
+//!    quiet and while another thread runs SDO uploads back to back on every drive, with the
+//!    bus thread at inherited priority and asking for `SCHED_FIFO` (`rt`: granted).
+//!
+//! Needs root. Not part of CI: the simulator, the master and the storm share this
+//! machine's cores, and the numbers depend on its load.
+
+#![allow(missing_docs)]
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use ecat_tests::rig::{Rig, SIM_IFACE};
+use ecat_tests::sim_process::SimProcess;
+use ecat_tests::veth_master::VethMaster;
+use master_core::bus::{BusConfig, HistogramSnapshot, ThreadPriority};
+use master_core::master::{MasterConfig, SlaveAddress};
+
+/// How long each jitter measurement runs.
+const RUN: Duration = Duration::from_secs(2);
+/// Periods tried for the highest rate, longest first.
+const PERIODS_US: [u64; 7] = [1000, 500, 250, 100, 50, 25, 10];
+/// How long each period is tried.
+const TRY: Duration = Duration::from_millis(500);
+
+/// A rig, the simulator with `slaves` slaves and a scanned master.
+struct Setup {
+    master: VethMaster,
+    _sim: SimProcess,
+    _rig: Rig,
+}
+
+fn setup(slaves: usize, priority: ThreadPriority) -> Setup {
+    let rig = Rig::new();
+    let count = slaves.to_string();
+    let sim = SimProcess::start(&rig.sim, SIM_IFACE, &["--slaves", &count]);
+    let master = VethMaster::with_bus(
+        &rig,
+        BusConfig {
+            priority,
+            ..BusConfig::default()
+        },
+        MasterConfig {
+            watch_interval: None,
+            ..MasterConfig::default()
+        },
+    );
+    let report = master.scan();
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    Setup {
+        master,
+        _sim: sim,
+        _rig: rig,
+    }
+}
+
+fn micros(d: Option<Duration>) -> f64 {
+    d.map_or(f64::NAN, |d| d.as_secs_f64() * 1e6)
+}
+
+/// The shortest sustainable period, the cycles per second achieved there, the round-trip
+/// median and the image size.
+fn max_rate(slaves: usize) -> (Duration, f64, f64, usize) {
+    let setup = setup(slaves, ThreadPriority::Inherit);
+    let master = setup.master.master();
+    let image = master.cycle_stats().image_len;
+    let mut best = (Duration::ZERO, 0.0, f64::NAN);
+    for us in PERIODS_US {
+        let period = Duration::from_micros(us);
+        master.set_cycle_period(period);
+        // Settle on the new period before counting.
+        let settle = master.cycle_stats().completed + 20;
+        let deadline = Instant::now() + Duration::from_secs(2);
+        while master.cycle_stats().completed < settle && Instant::now() < deadline {
+            thread::sleep(Duration::from_millis(5));
+        }
+        let before = master.cycle_stats();
+        let start = Instant::now();
+        thread::sleep(TRY);
+        let after = master.cycle_stats();
+        let elapsed = start.elapsed();
+        let cycles = (after.completed - before.completed) as f64;
+        let due = elapsed.as_secs_f64() / period.as_secs_f64();
+        let lost = after.lost - before.lost;
+        let wrong = after.wrong_wkc - before.wrong_wkc;
+        if lost > 0 || wrong > 0 || cycles < 0.9 * due {
+            break;
+        }
+        let round_trip = micros(master.cycle_timing().round_trip.quantile(0.5));
+        best = (period, cycles / elapsed.as_secs_f64(), round_trip);
+    }
+    (best.0, best.1, best.2, image)
+}
+
+struct JitterRun {
+    jitter: HistogramSnapshot,
+    start_delay: HistogramSnapshot,
+    round_trip: HistogramSnapshot,
+    uploads: u64,
+    late: u64,
+    lost: u64,
+    held: u64,
+    realtime: bool,
+}
+
+/// Jitter at 1 kHz over `RUN` on 16 slaves, with `storm` uploads running meanwhile.
+fn jitter(storm: bool, priority: ThreadPriority) -> JitterRun {
+    let slaves = 16;
+    let setup = setup(slaves, priority);
+    let master = setup.master.master();
+    let stop = Arc::new(AtomicBool::new(false));
+    let uploads = Arc::new(AtomicU64::new(0));
+    let mut storms = Vec::new();
+    if storm {
+        // Every drive (every fifth slave) gets uploads, one thread driving them all.
+        let drives: Vec<_> = (0..slaves)
+            .step_by(5)
+            .map(|p| {
+                master
+                    .mailbox(SlaveAddress::Position(p as u16))
+                    .expect("mailbox")
+            })
+            .collect();
+        let stop = Arc::clone(&stop);
+        let uploads = Arc::clone(&uploads);
+        storms.push(thread::spawn(move || {
+            let runtime = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()
+                .expect("runtime");
+            runtime.block_on(async {
+                let tasks: Vec<_> = drives
+                    .into_iter()
+                    .map(|drive| {
+                        let stop = Arc::clone(&stop);
+                        let uploads = Arc::clone(&uploads);
+                        tokio::spawn(async move {
+                            while !stop.load(Ordering::Relaxed) {
+                                drive.sdo_upload(0x1018, 1).await.expect("upload");
+                                uploads.fetch_add(1, Ordering::Relaxed);
+                            }
+                        })
+                    })
+                    .collect();
+                for task in tasks {
+                    task.await.expect("storm task");
+                }
+            });
+        }));
+    }
+    // A fresh master: its histograms hold this run (and the few cycles of its bring-up).
+    thread::sleep(RUN);
+    stop.store(true, Ordering::Relaxed);
+    for s in storms {
+        s.join().expect("storm thread");
+    }
+    let bus = master.bus().stats();
+    let timing = master.cycle_timing();
+    JitterRun {
+        jitter: timing.jitter,
+        start_delay: timing.start_delay,
+        round_trip: timing.round_trip,
+        uploads: uploads.load(Ordering::Relaxed),
+        late: bus.cycles_late,
+        lost: master.cycle_stats().lost,
+        held: bus.acyclic_held,
+        realtime: bus.realtime,
+    }
+}
+
+fn jitter_row(name: &str, run: &JitterRun) {
+    let j = &run.jitter;
+    let rate = run.uploads as f64 / RUN.as_secs_f64();
+    println!(
+        "{:<26} {:>3} {:>6} {:>7.1} {:>7.1} {:>7.1} {:>8.1} {:>8.1} {:>9.1} {:>7.1} {:>5} {:>5} {:>6} {:>9.0}",
+        name,
+        if run.realtime { "yes" } else { "no" },
+        j.count(),
+        micros(j.quantile(0.5)),
+        micros(j.quantile(0.9)),
+        micros(j.quantile(0.99)),
+        micros(j.quantile(0.999)),
+        micros(j.quantile(1.0)),
+        micros(run.start_delay.quantile(0.99)),
+        micros(run.round_trip.quantile(0.5)),
+        run.late,
+        run.lost,
+        run.held,
+        rate,
+    );
+}
+
+fn main() {
+    println!(
+        "highest sustainable cycle rate (veth, ecat-sim --slaves N: no cycle lost, ≥ 90 % of periods run)"
+    );
+    println!(
+        "{:<8} {:>12} {:>12} {:>12} {:>16}",
+        "slaves", "image bytes", "period µs", "cycles/s", "round trip µs"
+    );
+    for slaves in [1, 16, 64] {
+        let (period, rate, round_trip, image) = max_rate(slaves);
+        println!(
+            "{:<8} {:>12} {:>12} {:>12.0} {:>16.1}",
+            slaves,
+            image,
+            period.as_micros(),
+            rate,
+            round_trip
+        );
+    }
+    println!();
+    println!("cycle-time jitter at 1 kHz, 16 slaves, veth (|cycle time − 1 ms|, µs)");
+    println!(
+        "{:<26} {:>3} {:>6} {:>7} {:>7} {:>7} {:>8} {:>8} {:>9} {:>7} {:>5} {:>5} {:>6} {:>9}",
+        "",
+        "rt",
+        "cycles",
+        "p50",
+        "p90",
+        "p99",
+        "p99.9",
+        "max",
+        "start p99",
+        "rtt p50",
+        "late",
+        "lost",
+        "held",
+        "uploads/s"
+    );
+    for (name, priority) in [
+        ("inherited priority", ThreadPriority::Inherit),
+        ("SCHED_FIFO asked", ThreadPriority::Realtime(80)),
+    ] {
+        jitter_row(&format!("quiet, {name}"), &jitter(false, priority));
+        jitter_row(&format!("storm, {name}"), &jitter(true, priority));
+    }
+}
