@@ -343,11 +343,6 @@ impl Image {
         }
     }
 
-    /// Cycles completed so far.
-    pub fn completed(&self) -> u64 {
-        self.lock().cycle
-    }
-
     /// Exchanges of the process data of the slave at `position` completed so far: its
     /// group's; the cycles when its group carries no process data (and so no datagram).
     pub fn completed_for(&self, position: u16) -> u64 {
