@@ -23,6 +23,7 @@ use proto::v1::soe_service_server::SoeServiceServer;
 use proto::v1::voe_service_server::VoeServiceServer;
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Server;
+use tonic::transport::server::TcpIncoming;
 
 use crate::core::Core;
 use crate::security::{Tokens, grpc_interceptor};
@@ -83,7 +84,10 @@ pub async fn serve_tls(
             )
         };
     }
-    let incoming = tokio_stream::wrappers::TcpListenerStream::new(listener);
+    // Nagle off: a reply goes out in several small writes (HEADERS, DATA, trailers) that
+    // must not wait for the client's ACK of the first. `Server::tcp_nodelay` applies only to
+    // sockets tonic binds itself, so the accepted ones are set here.
+    let incoming = TcpIncoming::from(listener).with_nodelay(Some(true));
     let mut builder = Server::builder();
     if let Some(tls) = tls {
         builder = builder

@@ -119,6 +119,14 @@ pub async fn serve(
     listener: tokio::net::TcpListener,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
+    use axum::serve::ListenerExt;
+    // Nagle off on every accepted connection (axum leaves it on): a response written in
+    // more than one piece must not wait for the client's ACK.
+    let listener = listener.tap_io(|tcp| {
+        if let Err(err) = tcp.set_nodelay(true) {
+            tracing::debug!(%err, "cannot set TCP_NODELAY");
+        }
+    });
     axum::serve(listener, router(core, tokens))
         .with_graceful_shutdown(shutdown)
         .await

@@ -24,11 +24,18 @@ pub fn root() -> PathBuf {
 
 /// Builds `ecatd` and `ecat` (once per test binary) with the cargo running the tests and
 /// returns the directory holding them. The tests crate cannot depend on a binary of another
-/// package, so it asks cargo, which also makes sure the binaries are current.
+/// package, so it asks cargo, which also makes sure the binaries are current. An optimised
+/// caller (a benchmark) gets release binaries: timing an unoptimised ecatd measures the
+/// compiler's debug code, not the server.
 pub fn bin_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let release: &[&str] = if cfg!(debug_assertions) {
+            &[]
+        } else {
+            &["--release"]
+        };
         let output = Command::new(cargo)
             .args([
                 "build",
@@ -38,6 +45,7 @@ pub fn bin_dir() -> &'static Path {
                 "--message-format",
                 "json",
             ])
+            .args(release)
             .current_dir(root())
             .output()
             .expect("cargo runs");
