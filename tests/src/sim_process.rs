@@ -186,6 +186,16 @@ impl SimProcess {
     /// # Panics
     /// Without `--control`, or if the simulator refuses the command or does not answer.
     pub fn command(&mut self, command: &str) {
+        if let Err(refusal) = self.try_command(command) {
+            panic!("{command:?}: {refusal}");
+        }
+    }
+
+    /// Sends a `--control` command and waits for its answer; `Err` holds a refusal.
+    ///
+    /// # Panics
+    /// Without `--control`, or if the simulator does not answer.
+    pub fn try_command(&mut self, command: &str) -> Result<(), String> {
         let stdin = self.stdin.as_mut().expect("started with --control");
         writeln!(stdin, "{command}").expect("write to ecat-sim's stdin");
         stdin.flush().expect("flush ecat-sim's stdin");
@@ -194,7 +204,11 @@ impl SimProcess {
                 line.starts_with("ecat-sim: ok ") || line.starts_with("ecat-sim: error ")
             })
             .unwrap_or_else(|| panic!("ecat-sim did not answer {command:?}"));
-        assert_eq!(answer, format!("ecat-sim: ok {command}"), "{command:?}");
+        if answer == format!("ecat-sim: ok {command}") {
+            Ok(())
+        } else {
+            Err(answer)
+        }
     }
 
     /// What it wrote to stderr so far.

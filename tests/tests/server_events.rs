@@ -1,7 +1,8 @@
 //! ecatd's event streams carry CoE emergencies: a gRPC `WatchEvents` stream (grpcurl) and the
 //! REST server-sent events (curl) both deliver the emergency a simulated slave raised (through
-//! the `--simulate`-only route `POST /api/v1/slaves/{slave}/sim/emergency`), with the slave,
-//! the error code, the error register and the five manufacturer bytes as raised.
+//! the `--simulate`-only route `POST /api/v1/slaves/{slave}/sim/emergency`, or on veth through
+//! `ecat-sim --control`), with the slave, the error code, the error register and the five
+//! manufacturer bytes as raised.
 
 mod server_support;
 
@@ -115,7 +116,7 @@ fn raise(ecatd: &Ecatd, slave: &str, body: &str) -> (u16, String) {
 
 #[test]
 fn emergencies_reach_the_grpc_and_sse_streams() {
-    let ecatd = Ecatd::start(&[]);
+    let mut ecatd = Ecatd::start(&[]);
     // The CoE store of the default segment, named by position.
     let (status, body) = curl(&["-s", &format!("{}/api/v1/slaves/3", ecatd.http)]);
     assert_eq!(status, 200, "{body}");
@@ -145,12 +146,9 @@ fn emergencies_reach_the_grpc_and_sse_streams() {
             .map(|_| ())
     });
 
-    let (status, body) = raise(
-        &ecatd,
-        "3",
-        r#"{"error_code": 33072, "error_register": 17, "data": "deadbeef01"}"#,
-    );
-    assert_eq!(status, 200, "{body}");
+    ecatd
+        .raise_emergency(3, 0x8130, 0x11, [0xde, 0xad, 0xbe, 0xef, 0x01])
+        .expect("the emergency is raised");
 
     let from_grpc = grpc.wait_for("emergency on the gRPC stream", |t| {
         grpc_messages(t)
@@ -187,6 +185,12 @@ fn emergencies_reach_the_grpc_and_sse_streams() {
 fn the_sim_route_refuses_bad_requests() {
     let ecatd = Ecatd::start(&[]);
     let good = r#"{"error_code": 1, "error_register": 0, "data": "0000000000"}"#;
+    if server_support::on_veth() {
+        // ecatd on a real interface has no simulator to reach: the route is not there.
+        let (status, body) = raise(&ecatd, "3", good);
+        assert_eq!(status, 404, "{body}");
+        return;
+    }
     // Position 1 of the default segment is the DO8 terminal: no mailbox, no emergencies.
     let (status, body) = raise(&ecatd, "1", good);
     assert_eq!(status, 400, "{body}");

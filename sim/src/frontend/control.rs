@@ -6,8 +6,8 @@
 //!   physical outputs change (and once for each at start), as the in-process
 //!   `OutputProbe` would show them;
 //! - stdin, one command a line: `input <position> <channel> <0|1>` sets a digital input,
-//!   `emergency <position> <code hex>` raises a CoE emergency on a slave (error register
-//!   0, no manufacturer bytes). Each command is answered `ecat-sim: ok <command>` or
+//!   `emergency <position> <code hex> [<error register hex> <5 data bytes hex>]` raises a
+//!   CoE emergency on a slave (without the last two: error register 0, zero bytes). Each command is answered `ecat-sim: ok <command>` or
 //!   `ecat-sim: error <reason>` on stdout.
 //!
 //! Both run on threads of their own, touching only the shared handles, never the frame
@@ -70,6 +70,21 @@ fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// Five bytes written as ten hex digits.
+fn five_bytes(word: &str) -> Result<[u8; 5], String> {
+    let digits = word.trim_start_matches("0x");
+    let bad = || format!("bad data {word:?}: five bytes in hex");
+    if digits.len() != 10 || !digits.is_ascii() {
+        return Err(bad());
+    }
+    let mut bytes = [0u8; 5];
+    for (i, byte) in bytes.iter_mut().enumerate() {
+        let pair = digits.get(2 * i..2 * i + 2).ok_or_else(bad)?;
+        *byte = u8::from_str_radix(pair, 16).map_err(|_| bad())?;
+    }
+    Ok(bytes)
+}
+
 /// Carries out one command line.
 fn command(handles: &[SlaveHandles], line: &str) -> Result<(), String> {
     let words: Vec<&str> = line.split_whitespace().collect();
@@ -96,14 +111,26 @@ fn command(handles: &[SlaveHandles], line: &str) -> Result<(), String> {
             driver.set_input(channel, on);
             Ok(())
         }
-        ["emergency", position, code] => {
+        ["emergency", position, code, rest @ ..] => {
             let trigger = slave(position)?
                 .emergencies
                 .as_ref()
                 .ok_or("not a CoE slave")?;
-            let code = u16::from_str_radix(code.trim_start_matches("0x"), 16)
-                .map_err(|_| format!("bad code {code:?}"))?;
-            if trigger.raise(code, 0, [0; 5]) {
+            let hex_u16 = |word: &str, what: &str| {
+                u16::from_str_radix(word.trim_start_matches("0x"), 16)
+                    .map_err(|_| format!("bad {what} {word:?}"))
+            };
+            let code = hex_u16(code, "code")?;
+            let (register, data) = match rest {
+                [] => (0, [0; 5]),
+                [register, data] => {
+                    let register = u8::try_from(hex_u16(register, "error register")?)
+                        .map_err(|_| format!("bad error register {register:?}"))?;
+                    (register, five_bytes(data)?)
+                }
+                _ => return Err(format!("unknown command {line:?}")),
+            };
+            if trigger.raise(code, register, data) {
                 Ok(())
             } else {
                 Err("emergency queue full".into())
@@ -128,7 +155,10 @@ mod tests {
             "DO8 has no inputs"
         );
         command(&handles, "emergency 3 0x8100").unwrap();
-        assert_eq!(handles[3].emergencies.as_ref().unwrap().pending(), 1);
+        command(&handles, "emergency 3 8130 11 deadbeef01").unwrap();
+        assert_eq!(handles[3].emergencies.as_ref().unwrap().pending(), 2);
+        assert!(command(&handles, "emergency 3 8130 11 dead").is_err());
+        assert!(command(&handles, "emergency 3 8130 1ff deadbeef01").is_err());
         assert!(command(&handles, "emergency 9 8100").is_err());
         assert!(command(&handles, "input 2 x 1").is_err());
         assert!(command(&handles, "reboot").is_err());

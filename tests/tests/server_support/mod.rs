@@ -112,7 +112,8 @@ impl Ecatd {
                 Some(file) => vec!["--topology", file],
                 None => Vec::new(),
             };
-            let sim = ecat_tests::sim_process::SimProcess::start(
+            // With `--control`, so that tests can reach the slaves' physical side.
+            let sim = ecat_tests::sim_process::SimProcess::start_controlled(
                 &rig.sim,
                 ecat_tests::rig::SIM_IFACE,
                 &topology,
@@ -241,6 +242,41 @@ impl Ecatd {
             );
             // Poll interval of the log check; the loop ends on the condition or the deadline.
             std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Raises a CoE emergency on the simulated slave at `position`: through the
+    /// `--simulate`-only REST route, or on veth through `ecat-sim --control`. Returns the
+    /// refusal (HTTP status and body, or ecat-sim's error line) if it was refused.
+    pub fn raise_emergency(
+        &mut self,
+        position: u16,
+        code: u16,
+        register: u8,
+        data: [u8; 5],
+    ) -> Result<(), String> {
+        let hex: String = data.iter().map(|b| format!("{b:02x}")).collect();
+        if let Some(veth) = &mut self.veth {
+            return veth
+                .sim
+                .try_command(&format!("emergency {position} {code:x} {register:x} {hex}"));
+        }
+        let body =
+            format!(r#"{{"error_code": {code}, "error_register": {register}, "data": "{hex}"}}"#);
+        let (status, text) = curl(&[
+            "-s",
+            "-X",
+            "POST",
+            "-H",
+            "content-type: application/json",
+            "-d",
+            &body,
+            &format!("{}/api/v1/slaves/{position}/sim/emergency", self.http),
+        ]);
+        if status == 200 {
+            Ok(())
+        } else {
+            Err(format!("{status} {text}"))
         }
     }
 
