@@ -39,13 +39,17 @@ fn echo_request(to: &IpSettings, id: u16, seq: u16, payload: &[u8]) -> Vec<u8> {
     frame
 }
 
-/// Sends an ICMP echo request through EoE and returns the payload of the matching reply.
-async fn ping(slave: &SlaveMailbox, to: &IpSettings, seq: u16, payload: &[u8]) -> Vec<u8> {
+/// Sends an ICMP echo request through EoE and returns the payload of the matching reply,
+/// with the lengths of the frame sent and of the reply's frame.
+async fn ping(
+    slave: &SlaveMailbox,
+    to: &IpSettings,
+    seq: u16,
+    payload: &[u8],
+) -> (Vec<u8>, usize, usize) {
     let mut frames = slave.subscribe_eoe();
-    slave
-        .eoe_send(&echo_request(to, 0x4242, seq, payload))
-        .await
-        .unwrap();
+    let request = echo_request(to, 0x4242, seq, payload);
+    slave.eoe_send(&request).await.unwrap();
     loop {
         let frame = tokio::time::timeout(Duration::from_secs(5), frames.recv())
             .await
@@ -64,7 +68,7 @@ async fn ping(slave: &SlaveMailbox, to: &IpSettings, seq: u16, payload: &[u8]) -
         {
             assert_eq!(ip.header().source_addr(), to.ip.unwrap());
             assert_eq!(ip.header().destination_addr(), MASTER_IP);
-            return icmp.payload().to_vec();
+            return (icmp.payload().to_vec(), request.len(), frame.frame.len());
         }
     }
 }
@@ -98,13 +102,19 @@ async fn an_icmp_echo_request_through_eoe_gets_the_slaves_reply() {
         let me = settings(20 + position as u8);
         slave.eoe_set_ip(&me).await.unwrap();
         let small = b"ecatd ping".to_vec();
-        assert_eq!(ping(&slave, &me, 1, &small).await, small);
+        let (echo, out_small, in_small) = ping(&slave, &me, 1, &small).await;
+        assert_eq!(echo, small);
         // 1400 bytes: a dozen fragments each way through 128-byte mailboxes.
         let large: Vec<u8> = (0..1400u32).map(|i| (i * 7) as u8).collect();
-        assert_eq!(ping(&slave, &me, 2, &large).await, large);
+        let (echo, out_large, in_large) = ping(&slave, &me, 2, &large).await;
+        assert_eq!(echo, large);
         let stats = slave.stats();
         assert_eq!(stats.eoe_frames_out, 2);
         assert_eq!(stats.eoe_frames_in, 2);
+        // Whole Ethernet frames, counted once each however many fragments carried them.
+        assert_eq!(stats.eoe_bytes_out, (out_small + out_large) as u64);
+        assert_eq!(stats.eoe_bytes_in, (in_small + in_large) as u64);
+        assert!(stats.eoe_bytes_out > 1400, "{stats:?}");
         assert_eq!(stats.eoe_reassembly_errors, 0);
     }
     assert_eq!(rig.slave(EOE_PORT).station(), station(EOE_PORT));

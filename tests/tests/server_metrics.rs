@@ -278,6 +278,21 @@ fn protocol_counters_equal_the_requests_made() {
     assert_eq!(status, 200);
 
     let text = scrape(&ecatd);
+    // No Ethernet frame went through either EoE slave (only IP parameters): their frame and
+    // byte counters are there, at 0.
+    for station in ["1001", "1005"] {
+        for name in [
+            "ecat_eoe_frames_sent_total",
+            "ecat_eoe_sent_bytes_total",
+            "ecat_eoe_received_bytes_total",
+        ] {
+            assert_eq!(
+                sample(&text, &format!(r#"{name}{{station="{station}"}}"#)),
+                0.0,
+                "{name} {station}"
+            );
+        }
+    }
     let expect = [
         ("1001", "coe", 6.0, 2.0),
         ("1001", "soe", 4.0, 1.0),

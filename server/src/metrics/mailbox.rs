@@ -8,7 +8,7 @@ use crate::core::Core;
 
 type Field = fn(&MailboxStats) -> u64;
 
-const COUNTERS: [(&str, &str, Field); 11] = [
+const COUNTERS: [(&str, &str, Field); 13] = [
     (
         "ecat_mailbox_requests_total",
         "Mailbox requests (CoE, SoE, FoE, VoE, EoE calls).",
@@ -58,6 +58,16 @@ const COUNTERS: [(&str, &str, Field); 11] = [
         "ecat_eoe_frames_sent_total",
         "Ethernet frames sent to the slave over EoE.",
         |s| s.eoe_frames_out,
+    ),
+    (
+        "ecat_eoe_received_bytes_total",
+        "Bytes of the Ethernet frames received from the slave over EoE.",
+        |s| s.eoe_bytes_in,
+    ),
+    (
+        "ecat_eoe_sent_bytes_total",
+        "Bytes of the Ethernet frames sent to the slave over EoE.",
+        |s| s.eoe_bytes_out,
     ),
     (
         "ecat_eoe_reassembly_errors_total",

@@ -9,7 +9,7 @@ use tokio::sync::broadcast;
 
 use crate::wire::coe::EmergencyRepr;
 
-use super::stats::{Stats, inc};
+use super::stats::{Stats, add, inc};
 
 /// A CoE emergency (digest §6.7) as received.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -101,6 +101,7 @@ impl Events {
 
     pub fn eoe_frame(&self, frame: EoeFrame, stats: &Stats) {
         inc(&stats.eoe_frames_in);
+        add(&stats.eoe_bytes_in, frame.frame.len());
         if self.eoe_frames.send(frame).is_err() {
             inc(&stats.events_unheard);
         }

@@ -20,8 +20,15 @@ pub(crate) struct Stats {
     pub soe_notifications: AtomicU64,
     pub eoe_frames_in: AtomicU64,
     pub eoe_frames_out: AtomicU64,
+    pub eoe_bytes_in: AtomicU64,
+    pub eoe_bytes_out: AtomicU64,
     pub eoe_reassembly_errors: AtomicU64,
     pub events_unheard: AtomicU64,
+}
+
+/// Adds `n`.
+pub(crate) fn add(counter: &AtomicU64, n: usize) {
+    counter.fetch_add(u64::try_from(n).unwrap_or(u64::MAX), Ordering::Relaxed);
 }
 
 /// Adds one.
@@ -66,6 +73,10 @@ pub struct MailboxStats {
     pub eoe_frames_in: u64,
     /// Ethernet frames sent over EoE.
     pub eoe_frames_out: u64,
+    /// Bytes of the Ethernet frames received over EoE (destination MAC to payload end).
+    pub eoe_bytes_in: u64,
+    /// Bytes of the Ethernet frames sent over EoE.
+    pub eoe_bytes_out: u64,
     /// Partly received EoE frames dropped (a fragment missing, out of order, or late).
     pub eoe_reassembly_errors: u64,
     /// Events (EoE frames, SoE notifications) published while nobody subscribed. Emergencies
@@ -93,6 +104,8 @@ impl Stats {
             soe_notifications: get(&self.soe_notifications),
             eoe_frames_in: get(&self.eoe_frames_in),
             eoe_frames_out: get(&self.eoe_frames_out),
+            eoe_bytes_in: get(&self.eoe_bytes_in),
+            eoe_bytes_out: get(&self.eoe_bytes_out),
             eoe_reassembly_errors: get(&self.eoe_reassembly_errors),
             events_unheard: get(&self.events_unheard),
         }

@@ -6,7 +6,7 @@ use std::time::Instant;
 use tokio::sync::oneshot;
 
 use crate::mailbox::engine::exchange::Exchange;
-use crate::mailbox::engine::stats::inc;
+use crate::mailbox::engine::stats::{add, inc};
 use crate::mailbox::error::{MailboxError, Result};
 use crate::wire::eoe::{EoePacket, EoeRepr, Fragmenter};
 use crate::wire::mailbox::MailboxType;
@@ -72,6 +72,7 @@ impl EoeTx {
         self.frame_number = (self.frame_number + 1) % 16;
         if result.is_ok() {
             inc(&exchange.stats().eoe_frames_out);
+            add(&exchange.stats().eoe_bytes_out, send.frame.len());
         }
         let _ = send.done.send(result);
     }
