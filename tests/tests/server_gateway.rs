@@ -7,15 +7,13 @@
 
 mod server_support;
 
+use std::collections::BTreeMap;
 use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 
 use master_core::gateway::BROADCAST_ADDRESS;
 use master_core::master_od::MasterIdentity;
-use master_core::wire::coe::info::OdListType;
-use master_core::wire::coe::{
-    AbortCode, CoeRepr, SdoInfoRepr, SdoInfoService, SdoRequest, SdoResponse,
-};
+use master_core::wire::coe::{AbortCode, CoeRepr, DataType, ObjectCode, SdoRequest, SdoResponse};
 use master_core::wire::foe::{self, FoePacket, FoeRepr};
 use master_core::wire::mailbox::{ErrorReply, ErrorReplyRepr, MailboxErrorCode, MailboxType};
 use master_core::wire::soe::{
@@ -23,7 +21,9 @@ use master_core::wire::soe::{
 };
 use master_core::wire::voe::{VoePacket, VoeRepr};
 use serde_json::Value;
-use server_support::gateway_client::{GatewayClient, Reply, coe_bytes, object_missing};
+use server_support::gateway_client::{
+    EntrySummary, GatewayClient, Reply, coe_bytes, object_missing,
+};
 use server_support::{Ecatd, call, curl};
 use sha2::{Digest, Sha256};
 use sim::topology::{Protocol, Topology};
@@ -204,43 +204,6 @@ fn foe_read(client: &mut GatewayClient, address: u16, name: &str, limit: usize) 
     panic!("{name} is longer than {limit} bytes");
 }
 
-/// The object list (SDO Information, all objects), from every fragment.
-fn object_list(client: &mut GatewayClient, address: u16) -> Vec<u16> {
-    let request = CoeRepr::SdoInfo(SdoInfoRepr {
-        incomplete: false,
-        fragments_left: 0,
-        service: SdoInfoService::OdListRequest {
-            list_type: OdListType::All,
-        },
-    });
-    client.send(address, MailboxType::Coe, &coe_bytes(&request));
-    let mut raw = Vec::new();
-    // Bounded: one fragment per datagram, the count given by the first.
-    for _ in 0..1000 {
-        let reply = client.recv();
-        let CoeRepr::SdoInfo(info) = reply.coe() else {
-            panic!("not SDO Information: {reply:?}");
-        };
-        let SdoInfoService::OdListResponse(list) = info.service else {
-            panic!("not an object list: {info:?}");
-        };
-        raw.extend_from_slice(list.raw());
-        if !info.incomplete {
-            let words: Vec<u16> = raw
-                .chunks_exact(2)
-                .map(|w| u16::from_le_bytes([w[0], w[1]]))
-                .collect();
-            assert_eq!(
-                words.first(),
-                Some(&u16::from(OdListType::All)),
-                "list type first"
-            );
-            return words[1..].to_vec();
-        }
-    }
-    panic!("the object list never ended");
-}
-
 #[test]
 fn coe_through_ecatd_reaches_the_simulators_dictionaries() {
     let ecatd = Ecatd::start(&[]);
@@ -320,7 +283,7 @@ fn coe_through_ecatd_reaches_the_simulators_dictionaries() {
 
     // SDO Information: the store's object list holds its topology objects and equals what
     // the gRPC API reports.
-    let listed = object_list(&mut client, COE_STORE);
+    let (listed, _) = client.od_list(COE_STORE);
     for object in &store.objects {
         assert!(
             listed.contains(&object.index),
@@ -521,6 +484,249 @@ fn the_master_dictionary_at_address_0_describes_the_bus() {
         Ok(2u16.to_le_bytes().to_vec()),
         "AL status"
     );
+}
+
+/// Whether an entry's bit length is a capacity rather than its value's size.
+fn is_variable(data_type: DataType) -> bool {
+    matches!(
+        data_type,
+        DataType::VisibleString
+            | DataType::OctetString
+            | DataType::UnicodeString
+            | DataType::Domain
+    )
+}
+
+/// Whether complete access packs an entry at bit granularity (digest §6.5: BOOL, BITn,
+/// any length that is not whole bytes); the others start on a byte boundary.
+fn bit_packed(entry: &EntrySummary) -> bool {
+    entry.data_type == DataType::Boolean
+        || (u16::from(DataType::Bit1)..=u16::from(DataType::Bit16))
+            .contains(&u16::from(entry.data_type))
+        || !entry.bit_length.is_multiple_of(8)
+}
+
+/// The complete-access image (digest §6.5) of an ARRAY/RECORD built from single-entry
+/// reads: SI0 (`count`) in 16 bits, then the entries 1..=count that exist (gaps left out) at
+/// their described bit length: byte-sized ones byte-aligned (strings padded with zeros),
+/// bit-sized ones packed LSB first.
+fn image_from_entries(count: u8, entries: &[(EntrySummary, Vec<u8>)]) -> Vec<u8> {
+    let mut image = vec![count, 0];
+    let mut bit: usize = 16;
+    for (entry, value) in entries.iter().filter(|(e, _)| e.subindex <= count) {
+        if !bit_packed(entry) {
+            bit = bit.div_ceil(8) * 8;
+        }
+        let len = usize::from(entry.bit_length);
+        image.resize((bit + len).div_ceil(8), 0);
+        for i in 0..len {
+            if value
+                .get(i / 8)
+                .is_some_and(|byte| byte >> (i % 8) & 1 == 1)
+            {
+                image[(bit + i) / 8] |= 1 << ((bit + i) % 8);
+            }
+        }
+        bit += len;
+    }
+    image
+}
+
+/// Reads SI0 and every described entry of `index` one by one.
+fn read_entries(
+    client: &mut GatewayClient,
+    index: u16,
+    described: &[EntrySummary],
+) -> (u8, Vec<(EntrySummary, Vec<u8>)>) {
+    let count = client.sdo_upload(0, index, 0).expect("SI0");
+    assert_eq!(count.len(), 1, "{index:#06x}:00 is a u8");
+    let entries = described
+        .iter()
+        .filter(|e| e.subindex > 0)
+        .map(|e| {
+            let value = client
+                .sdo_upload(0, index, e.subindex)
+                .unwrap_or_else(|code| panic!("{index:#06x}:{:02x}: {code:#010x}", e.subindex));
+            (e.clone(), value)
+        })
+        .collect();
+    (count[0], entries)
+}
+
+/// Complete access to `index` from subindex 0 and 1 equals the image of its single
+/// entries. Live values (counters, frame rates) may move between reads, so one attempt
+/// counts only when the single entries read before and after agree; bounded. Returns the
+/// attempts it took.
+fn complete_access_matches_entries(
+    client: &mut GatewayClient,
+    index: u16,
+    described: &[EntrySummary],
+) -> usize {
+    const ATTEMPTS: usize = 20;
+    let mut last = None;
+    for attempt in 1..=ATTEMPTS {
+        let (count, before) = read_entries(client, index, described);
+        let whole = client.sdo_upload_with(0, index, 0, true);
+        let from_one = client.sdo_upload_with(0, index, 1, true);
+        let after = read_entries(client, index, described);
+        let image = image_from_entries(count, &before);
+        let from_one_expected = image.get(2..).map(<[u8]>::to_vec);
+        if (count, &before) == (after.0, &after.1)
+            && whole.as_ref() == Ok(&image)
+            && from_one.as_ref().ok() == from_one_expected.as_ref()
+        {
+            return attempt;
+        }
+        last = Some((whole, from_one, image));
+    }
+    panic!("{index:#06x}: complete access never matched the entries: {last:?}");
+}
+
+#[test]
+fn the_master_dictionary_is_listed_described_and_readable_through_ecatd() {
+    let ecatd = Ecatd::start(&[]);
+    let mut client = GatewayClient::new(ecatd.gateway_addr());
+    let topology = Topology::default_segment();
+    let slaves = u16::try_from(topology.slaves.len()).unwrap();
+
+    // Get OD List (all objects): the master's identity, three objects per slave of the
+    // topology (digest §12.2-12.4), the device-level objects (§12.5).
+    let (list, list_fragments) = client.od_list(0);
+    let mut expected = vec![0x1000, 0x1008, 0x1009, 0x100A, 0x1018];
+    for base in [0x8000u16, 0x9000, 0xA000] {
+        expected.extend((0..slaves).map(|n| base + n));
+        let listed = list
+            .iter()
+            .filter(|&&i| (base..=base + 0xFFF).contains(&i))
+            .count();
+        assert_eq!(listed, topology.slaves.len(), "objects {base:#06x}+n");
+    }
+    expected.extend([0xF000, 0xF002, 0xF020, 0xF040, 0xF120, 0xF200]);
+    assert_eq!(list, expected);
+
+    // Every object described, every subindex up to its highest described and read.
+    let mut values: BTreeMap<(u16, u8), Vec<u8>> = BTreeMap::new();
+    let (mut entries, mut gaps, mut images, mut retries) = (0usize, 0usize, 0usize, 0usize);
+    for &index in &list {
+        let object = client
+            .object_description(0, index)
+            .unwrap_or_else(|code| panic!("{index:#06x}: {code:#010x}"));
+        assert_eq!(object.index, index);
+        assert!(!object.name.is_empty(), "{index:#06x} has a name");
+        let composite = match object.object_code {
+            ObjectCode::Var => {
+                assert_eq!(object.max_subindex, 0, "{index:#06x} VAR");
+                false
+            }
+            ObjectCode::Array | ObjectCode::Record => true,
+            other => panic!("{index:#06x}: object code {other}"),
+        };
+        let mut described = Vec::new();
+        for subindex in 0..=object.max_subindex {
+            let at = format!("{index:#06x}:{subindex:02x}");
+            match (
+                client.entry_description(0, index, subindex),
+                client.sdo_upload(0, index, subindex),
+            ) {
+                (Ok(entry), Ok(value)) => {
+                    assert_eq!((entry.index, entry.subindex), (index, subindex), "{at}");
+                    assert!(!entry.name.is_empty(), "{at} has a name");
+                    assert!(entry.access.readable(), "{at} was read: {}", entry.access);
+                    let bits = usize::from(entry.bit_length);
+                    if is_variable(entry.data_type) {
+                        assert!(value.len() * 8 <= bits, "{at} {entry:?}: {value:?}");
+                    } else {
+                        assert_eq!(value.len(), bits.div_ceil(8), "{at} {entry:?}");
+                        // No bits beyond the described length.
+                        let used = u32::try_from(bits % 8).unwrap();
+                        if used != 0 {
+                            assert_eq!(value.last().unwrap() >> used, 0, "{at} {value:?}");
+                        }
+                    }
+                    if composite && subindex == 0 {
+                        // SI0 is the highest subindex, as the description says.
+                        assert_eq!(entry.data_type, DataType::Unsigned8, "{at}");
+                        assert_eq!(value, [object.max_subindex], "{at}");
+                    }
+                    if object.object_code == ObjectCode::Array && subindex > 0 {
+                        assert_eq!(entry.data_type, object.data_type, "{at} array type");
+                    }
+                    values.insert((index, subindex), value);
+                    described.push(entry);
+                    entries += 1;
+                }
+                // A gap in a record: neither described nor readable (digest §12.6).
+                (Err(a), Err(b)) if composite && subindex > 0 => {
+                    let gap = u32::from(AbortCode::TransferFailed);
+                    assert_eq!((a, b), (gap, gap), "{at}");
+                    gaps += 1;
+                }
+                (d, r) => panic!("{at}: description {d:?}, upload {r:?}"),
+            }
+        }
+        if composite {
+            retries += complete_access_matches_entries(&mut client, index, &described) - 1;
+            images += 1;
+        }
+    }
+    println!(
+        "{} objects ({list_fragments} OD list fragment(s)), {entries} entries described and \
+         read, {gaps} gaps, {images} complete-access images ({retries} retries)",
+        list.len()
+    );
+    assert!(entries > 100, "{entries}");
+
+    // The values describe the bus as ecatd's APIs and the topology do.
+    let u16_at = |index: u16, subindex: u8| -> u16 {
+        u16::from_le_bytes(values[&(index, subindex)][..].try_into().unwrap())
+    };
+    let u32_at = |index: u16, subindex: u8| -> u32 {
+        u32::from_le_bytes(values[&(index, subindex)][..].try_into().unwrap())
+    };
+    let grpc = call(&ecatd.grpc, &[], "ecat.v1.BusService/ListSlaves", "{}").unwrap();
+    let grpc_stations: Vec<u16> = grpc["slaves"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| u16::try_from(s["station"].as_u64().unwrap()).unwrap())
+        .collect();
+    let (status, body) = curl(&["-s", &format!("{}/api/v1/slaves", ecatd.http)]);
+    assert_eq!(status, 200, "{body}");
+    let rest: Value = serde_json::from_str(&body).unwrap();
+    let rest_stations: Vec<u16> = rest
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| u16::try_from(s["station"].as_u64().unwrap()).unwrap())
+        .collect();
+    assert_eq!(grpc_stations, rest_stations);
+    assert_eq!(grpc_stations.len(), topology.slaves.len());
+    assert_eq!(values[&(0xF020, 0)], [u8::try_from(slaves).unwrap()]);
+    for (n, (spec, &station)) in topology.slaves.iter().zip(&grpc_stations).enumerate() {
+        let n16 = u16::try_from(n).unwrap();
+        let (config, info, diag) = (0x8000 + n16, 0x9000 + n16, 0xA000 + n16);
+        assert_eq!(u16_at(config, 1), station, "{config:#06x}:01");
+        assert_eq!(u16_at(info, 1), station, "{info:#06x}:01");
+        assert_eq!(u16_at(0xF020, u8::try_from(n + 1).unwrap()), station);
+        assert_eq!(
+            values[&(config, 3)],
+            spec.name.as_bytes(),
+            "{config:#06x}:03"
+        );
+        for object in [config, info] {
+            assert_eq!(u32_at(object, 5), spec.vendor_id, "{object:#06x}:05");
+            assert_eq!(u32_at(object, 6), spec.product_code, "{object:#06x}:06");
+            assert_eq!(u32_at(object, 7), spec.revision, "{object:#06x}:07");
+            assert_eq!(u32_at(object, 8), spec.serial, "{object:#06x}:08");
+        }
+        // Every slave in OP, as the gRPC list says: AL status 0x0008.
+        assert_eq!(grpc["slaves"][n]["state"], "AL_STATE_OP");
+        assert_eq!(u16_at(diag, 1), 0x0008, "{diag:#06x}:01");
+    }
+    let identity = MasterIdentity::default();
+    assert_eq!(values[&(0x1008, 0)], identity.device_name.as_bytes());
+    assert_eq!(u32_at(0x1018, 1), identity.vendor_id);
+    assert_eq!(u32_at(0x1018, 2), identity.product_code);
 }
 
 #[test]

@@ -4,8 +4,12 @@
 use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 
+use master_core::wire::coe::info::{
+    EntryDescription, ObjectDescription, OdList, OdListType, SdoInfoOpcode, ValueInfo,
+};
 use master_core::wire::coe::{
-    AbortCode, CoeFrame, CoeRepr, SdoPayload, SdoRequest, SdoResponse, max_initiate_data,
+    AbortCode, CoeFrame, CoeRepr, CoeService, DataType, ObjectAccess, ObjectCode, SdoInfoFrame,
+    SdoInfoRepr, SdoInfoService, SdoPayload, SdoRequest, SdoResponse, max_initiate_data,
     max_segment_data,
 };
 use master_core::wire::gateway::{GatewayMessage, GatewayRepr};
@@ -142,14 +146,26 @@ impl GatewayClient {
         self.exchange(address, MailboxType::Coe, &coe_bytes(repr))
     }
 
-    /// SDO upload (expedited or segmented): the value, or the abort code.
+    /// SDO upload (expedited, normal or segmented): the value, or the abort code.
     pub fn sdo_upload(&mut self, address: u16, index: u16, subindex: u8) -> Result<Vec<u8>, u32> {
+        self.sdo_upload_with(address, index, subindex, false)
+    }
+
+    /// SDO upload, with complete access when `complete_access` (from `subindex` 0 or 1):
+    /// the value, or the abort code. A normal upload must bring exactly the announced size.
+    pub fn sdo_upload_with(
+        &mut self,
+        address: u16,
+        index: u16,
+        subindex: u8,
+        complete_access: bool,
+    ) -> Result<Vec<u8>, u32> {
         let reply = self.coe(
             address,
             &CoeRepr::SdoRequest(SdoRequest::InitiateUpload {
                 index,
                 subindex,
-                complete_access: false,
+                complete_access,
             }),
         );
         let (mut value, size) = match reply.coe() {
@@ -192,6 +208,13 @@ impl GatewayClient {
                 other => panic!("unexpected segment answer {other:?}"),
             }
             toggle = !toggle;
+        }
+        if size != usize::MAX {
+            assert_eq!(
+                value.len(),
+                size,
+                "{index:#06x}:{subindex:02x}: the announced size"
+            );
         }
         Ok(value)
     }
@@ -256,6 +279,166 @@ impl GatewayClient {
             toggle = !toggle;
         }
         Ok(())
+    }
+}
+
+/// Most fragments one SDO Information answer may take (a bound for the receive loop).
+const MAX_FRAGMENTS: usize = 4096;
+
+/// What Get Object Description says of an object.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ObjectSummary {
+    /// The index the answer names.
+    pub index: u16,
+    /// Data type (of the entries, for an ARRAY).
+    pub data_type: DataType,
+    /// Highest subindex.
+    pub max_subindex: u8,
+    /// VAR, ARRAY or RECORD.
+    pub object_code: ObjectCode,
+    /// The object's name.
+    pub name: String,
+}
+
+/// What Get Entry Description says of an entry.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EntrySummary {
+    /// The index the answer names.
+    pub index: u16,
+    /// The subindex the answer names.
+    pub subindex: u8,
+    /// Data type.
+    pub data_type: DataType,
+    /// Size in bits (the capacity, for strings).
+    pub bit_length: u16,
+    /// Access word.
+    pub access: ObjectAccess,
+    /// The entry's name.
+    pub name: String,
+}
+
+/// An answer to an SDO Information request: the service data of every fragment, in order.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InfoAnswer {
+    /// The fragments' service data, concatenated.
+    pub data: Vec<u8>,
+    /// How many datagrams (fragments) it took.
+    pub fragments: usize,
+}
+
+impl GatewayClient {
+    /// One SDO Information request (built with `master_core::wire`): the answer of
+    /// `expected` opcode with every fragment collected (no request between fragments; the
+    /// fragments-left count must go down by one each time), or the SDO Info Error's code.
+    pub fn sdo_info(
+        &mut self,
+        address: u16,
+        service: SdoInfoService<'_>,
+        expected: SdoInfoOpcode,
+    ) -> Result<InfoAnswer, u32> {
+        let request = CoeRepr::SdoInfo(SdoInfoRepr {
+            incomplete: false,
+            fragments_left: 0,
+            service,
+        });
+        self.send(address, MailboxType::Coe, &coe_bytes(&request));
+        let mut data = Vec::new();
+        let mut left: Option<u16> = None;
+        for fragments in 1..=MAX_FRAGMENTS {
+            let reply = self.recv();
+            assert_eq!(reply.header.mailbox_type, MailboxType::Coe, "{reply:?}");
+            assert_eq!(reply.header.address, address, "{reply:?}");
+            let frame = SdoInfoFrame::new_checked(&reply.data[..]).expect("an SDO Info frame");
+            assert_eq!(frame.service(), CoeService::SdoInfo, "{reply:?}");
+            if frame.opcode() == SdoInfoOpcode::Error {
+                assert!(data.is_empty(), "an error after fragments: {reply:?}");
+                let repr = SdoInfoRepr::parse(&frame).expect("an SDO Info Error");
+                let SdoInfoService::Error { code } = repr.service else {
+                    unreachable!("opcode 7 parses as an error");
+                };
+                return Err(u32::from(code));
+            }
+            assert_eq!(frame.opcode(), expected, "{reply:?}");
+            if let Some(before) = left {
+                assert_eq!(
+                    frame.fragments_left() + 1,
+                    before,
+                    "fragments left counts down"
+                );
+            }
+            left = Some(frame.fragments_left());
+            data.extend_from_slice(frame.data());
+            if !frame.incomplete() {
+                assert_eq!(frame.fragments_left(), 0, "the last fragment has none left");
+                return Ok(InfoAnswer { data, fragments });
+            }
+        }
+        panic!("more than {MAX_FRAGMENTS} fragments");
+    }
+
+    /// Get OD List of all objects: the indices (the list type word, only at the start of
+    /// the first fragment, is checked and dropped) and how many fragments it took.
+    pub fn od_list(&mut self, address: u16) -> (Vec<u16>, usize) {
+        let answer = self
+            .sdo_info(
+                address,
+                SdoInfoService::OdListRequest {
+                    list_type: OdListType::All,
+                },
+                SdoInfoOpcode::OdListResponse,
+            )
+            .expect("an object list");
+        assert_eq!(answer.data.len() % 2, 0, "whole words");
+        let (list_type, indices) = OdList(&answer.data)
+            .first_fragment()
+            .expect("a list type word");
+        assert_eq!(list_type, OdListType::All);
+        (indices.words().collect(), answer.fragments)
+    }
+
+    /// Get Object Description of `index`, or the SDO Info Error's code.
+    pub fn object_description(&mut self, address: u16, index: u16) -> Result<ObjectSummary, u32> {
+        let answer = self.sdo_info(
+            address,
+            SdoInfoService::ObjectDescriptionRequest { index },
+            SdoInfoOpcode::ObjectDescriptionResponse,
+        )?;
+        let d = ObjectDescription::parse(&answer.data).expect("an object description");
+        Ok(ObjectSummary {
+            index: d.index,
+            data_type: d.data_type,
+            max_subindex: d.max_subindex,
+            object_code: d.object_code,
+            name: String::from_utf8(d.name.to_vec()).expect("an ASCII name"),
+        })
+    }
+
+    /// Get Entry Description of `index:subindex` (no optional values), or the SDO Info
+    /// Error's code.
+    pub fn entry_description(
+        &mut self,
+        address: u16,
+        index: u16,
+        subindex: u8,
+    ) -> Result<EntrySummary, u32> {
+        let answer = self.sdo_info(
+            address,
+            SdoInfoService::EntryDescriptionRequest {
+                index,
+                subindex,
+                value_info: ValueInfo(0),
+            },
+            SdoInfoOpcode::EntryDescriptionResponse,
+        )?;
+        let e = EntryDescription::parse(&answer.data).expect("an entry description");
+        Ok(EntrySummary {
+            index: e.index,
+            subindex: e.subindex,
+            data_type: e.data_type,
+            bit_length: e.bit_length,
+            access: e.access,
+            name: String::from_utf8(e.description.to_vec()).expect("an ASCII name"),
+        })
     }
 }
 
