@@ -19,8 +19,9 @@
 
 #![allow(missing_docs)]
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+#[path = "../../master-core/benches/support/storm.rs"]
+mod storm;
+
 use std::thread;
 use std::time::{Duration, Instant};
 
@@ -28,7 +29,8 @@ use ecat_tests::rig::{Rig, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
 use ecat_tests::veth_master::VethMaster;
 use master_core::bus::{BusConfig, HistogramSnapshot, ThreadPriority};
-use master_core::master::{MasterConfig, SlaveAddress};
+use master_core::master::MasterConfig;
+use storm::Storm;
 
 /// How long each jitter measurement runs.
 const RUN: Duration = Duration::from_secs(2);
@@ -122,59 +124,18 @@ fn jitter(storm: bool, priority: ThreadPriority) -> JitterRun {
     let slaves = 16;
     let setup = setup(slaves, priority);
     let master = setup.master.master();
-    let stop = Arc::new(AtomicBool::new(false));
-    let uploads = Arc::new(AtomicU64::new(0));
-    let mut storms = Vec::new();
-    if storm {
-        // Every drive (every fifth slave) gets uploads, one thread driving them all.
-        let drives: Vec<_> = (0..slaves)
-            .step_by(5)
-            .map(|p| {
-                master
-                    .mailbox(SlaveAddress::Position(p as u16))
-                    .expect("mailbox")
-            })
-            .collect();
-        let stop = Arc::clone(&stop);
-        let uploads = Arc::clone(&uploads);
-        storms.push(thread::spawn(move || {
-            let runtime = tokio::runtime::Builder::new_current_thread()
-                .enable_all()
-                .build()
-                .expect("runtime");
-            runtime.block_on(async {
-                let tasks: Vec<_> = drives
-                    .into_iter()
-                    .map(|drive| {
-                        let stop = Arc::clone(&stop);
-                        let uploads = Arc::clone(&uploads);
-                        tokio::spawn(async move {
-                            while !stop.load(Ordering::Relaxed) {
-                                drive.sdo_upload(0x1018, 1).await.expect("upload");
-                                uploads.fetch_add(1, Ordering::Relaxed);
-                            }
-                        })
-                    })
-                    .collect();
-                for task in tasks {
-                    task.await.expect("storm task");
-                }
-            });
-        }));
-    }
+    // Every drive (every fifth slave) gets uploads.
+    let storm = storm.then(|| Storm::start(master, (0..slaves as u16).step_by(5)));
     // A fresh master: its histograms hold this run (and the few cycles of its bring-up).
     thread::sleep(RUN);
-    stop.store(true, Ordering::Relaxed);
-    for s in storms {
-        s.join().expect("storm thread");
-    }
+    let uploads = storm.map_or(0, Storm::stop);
     let bus = master.bus().stats();
     let timing = master.cycle_timing();
     JitterRun {
         jitter: timing.jitter,
         start_delay: timing.start_delay,
         round_trip: timing.round_trip,
-        uploads: uploads.load(Ordering::Relaxed),
+        uploads,
         late: bus.cycles_late,
         lost: master.cycle_stats().lost,
         held: bus.acyclic_held,
