@@ -11,7 +11,7 @@
 
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use crate::bus::Pending;
+use crate::bus::{BusHandle, Pending};
 use crate::wire::register::address as reg;
 use crate::wire::register::dc::{
     DcActivation, ECAT_EPOCH_UNIX_SECS, OffsetDelay, PortReceiveTimes, SPEED_COUNTER_START_DEFAULT,
@@ -168,31 +168,9 @@ pub(crate) async fn configure(
         // System time = master time at the latch, plus the time the latch frame took from
         // the reference to this slave (it saw the frame that much later).
         let offset = master_time.wrapping_sub(*pu).wrapping_add(u64::from(delay)) as i64;
-        let mut block = [0u8; OffsetDelay::LEN];
-        OffsetDelay { offset, delay }
-            .emit(&mut block)
-            .map_err(|source| MasterError::Malformed {
-                position: record.info.position,
-                what: "DC offset",
-                source,
-            })?;
         let station = record.info.station;
-        fpwr(
-            bus,
-            station,
-            reg::DC_SYSTEM_TIME_OFFSET,
-            block,
-            "DC offset and delay",
-        )
-        .await?;
-        fpwr(
-            bus,
-            station,
-            reg::DC_SPEED_COUNTER_START,
-            SPEED_COUNTER_START_DEFAULT.to_le_bytes(),
-            "DC filter reset",
-        )
-        .await?;
+        write_offset_delay(bus, record, offset, delay).await?;
+        reset_filter(bus, station).await?;
         slaves.push(DcSlave {
             position: record.info.position,
             station,
@@ -309,33 +287,10 @@ pub(crate) async fn restore(ctx: &Context, record: &SlaveRecord) -> Result<(), M
     let offset = reference_time
         .wrapping_add(u64::from(delay))
         .wrapping_sub(pu) as i64;
-    let mut block = [0u8; OffsetDelay::LEN];
-    OffsetDelay { offset, delay }
-        .emit(&mut block)
-        .map_err(|source| MasterError::Malformed {
-            position: record.info.position,
-            what: "DC offset",
-            source,
-        })?;
-    let station = record.info.station;
-    fpwr(
-        &ctx.bus,
-        station,
-        reg::DC_SYSTEM_TIME_OFFSET,
-        block,
-        "DC offset and delay",
-    )
-    .await?;
+    write_offset_delay(&ctx.bus, record, offset, delay).await?;
     let source_delay = delays.get(source).copied().unwrap_or(from.delay_ns);
     let offset = settle_offset(ctx, record, from.station, source_delay, delay).await?;
-    fpwr(
-        &ctx.bus,
-        station,
-        reg::DC_SPEED_COUNTER_START,
-        SPEED_COUNTER_START_DEFAULT.to_le_bytes(),
-        "DC filter reset",
-    )
-    .await?;
+    reset_filter(&ctx.bus, record.info.station).await?;
     let mut dc = ctx
         .dc
         .lock()
@@ -347,6 +302,44 @@ pub(crate) async fn restore(ctx: &Context, record: &SlaveRecord) -> Result<(), M
         slave.offset = offset;
     }
     Ok(())
+}
+
+/// Writes a slave's system-time offset and propagation delay (0x0920..0x092B, one write).
+async fn write_offset_delay(
+    bus: &BusHandle,
+    record: &SlaveRecord,
+    offset: i64,
+    delay: u32,
+) -> Result<(), MasterError> {
+    let mut block = [0u8; OffsetDelay::LEN];
+    OffsetDelay { offset, delay }
+        .emit(&mut block)
+        .map_err(|source| MasterError::Malformed {
+            position: record.info.position,
+            what: "DC offset",
+            source,
+        })?;
+    fpwr(
+        bus,
+        record.info.station,
+        reg::DC_SYSTEM_TIME_OFFSET,
+        block,
+        "DC offset and delay",
+    )
+    .await
+}
+
+/// Resets the slave's time-control loop filter (speed counter start), as after every new
+/// offset.
+async fn reset_filter(bus: &BusHandle, station: u16) -> Result<(), MasterError> {
+    fpwr(
+        bus,
+        station,
+        reg::DC_SPEED_COUNTER_START,
+        SPEED_COUNTER_START_DEFAULT.to_le_bytes(),
+        "DC filter reset",
+    )
+    .await
 }
 
 /// Reads the system time of the slave of `record` and of a synchronised slave `source`
