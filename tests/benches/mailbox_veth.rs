@@ -17,12 +17,16 @@
 
 #![allow(missing_docs)]
 
-use std::time::{Duration, Instant};
+#[path = "support/latency.rs"]
+mod latency;
+
+use std::time::Instant;
 
 use ecat_tests::python::run_script;
 use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
 use ecat_tests::veth_master::VethMaster;
+use latency::{Row, row};
 use master_core::master::{MasterConfig, SlaveAddress};
 use master_core::wire::register::AlState;
 use sim::topology::Topology;
@@ -42,27 +46,8 @@ fn topology() -> Topology {
     Topology { slaves }
 }
 
-struct Row {
-    p50: f64,
-    p99: f64,
-    per_second: f64,
-}
-
-fn row(mut samples: Vec<Duration>, elapsed: Duration) -> Row {
-    samples.sort();
-    let at = |q: f64| samples[((samples.len() - 1) as f64 * q) as usize].as_secs_f64() * 1e6;
-    Row {
-        p50: at(0.50),
-        p99: at(0.99),
-        per_second: samples.len() as f64 / elapsed.as_secs_f64(),
-    }
-}
-
 fn print(name: &str, r: &Row) {
-    println!(
-        "{name:<44} {:>10.1} {:>10.1} {:>12.0}",
-        r.p50, r.p99, r.per_second
-    );
+    latency::print(name, 44, r);
 }
 
 fn main() {

@@ -28,6 +28,9 @@
 
 #![allow(missing_docs)]
 
+#[path = "support/latency.rs"]
+mod latency;
+
 #[path = "../tests/server_support/mod.rs"]
 mod server_support;
 
@@ -35,6 +38,7 @@ use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
 use std::sync::Barrier;
 use std::time::{Duration, Instant};
 
+use latency::{Row, row};
 use master_core::bus::{Bus, BusConfig};
 use master_core::master::{Master, MasterConfig, SlaveAddress};
 use master_core::wire::coe::{CoeFrame, CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
@@ -61,29 +65,6 @@ fn coe_positions(topology: &Topology) -> Vec<u16> {
         .filter(|(_, s)| s.protocols.contains(&Protocol::Coe))
         .map(|(p, _)| p as u16)
         .collect()
-}
-
-struct Row {
-    p50: f64,
-    p99: f64,
-    per_second: f64,
-}
-
-fn row(mut samples: Vec<Duration>, elapsed: Duration) -> Row {
-    samples.sort();
-    let at = |q: f64| samples[((samples.len() - 1) as f64 * q) as usize].as_secs_f64() * 1e6;
-    Row {
-        p50: at(0.50),
-        p99: at(0.99),
-        per_second: samples.len() as f64 / elapsed.as_secs_f64(),
-    }
-}
-
-fn print(name: &str, r: &Row) {
-    println!(
-        "{name:<40} {:>10.1} {:>10.1} {:>12.0}",
-        r.p50, r.p99, r.per_second
-    );
 }
 
 /// Runs `op` `count` times after a warm-up of a tenth, timing each.
@@ -335,6 +316,10 @@ fn grpc_load(ecatd: &Ecatd, positions: &[u16]) {
             c.upload(positions[t % positions.len()]);
         },
     );
+}
+
+fn print(name: &str, r: &Row) {
+    latency::print(name, 40, r);
 }
 
 fn main() {

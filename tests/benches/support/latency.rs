@@ -1,0 +1,30 @@
+//! One latency row of the request benchmarks: p50 and p99 of the timed requests and the
+//! requests per second over the whole run, printed as a table line.
+
+use std::time::Duration;
+
+/// p50 and p99 in µs, and requests per second.
+pub struct Row {
+    pub p50: f64,
+    pub p99: f64,
+    pub per_second: f64,
+}
+
+/// The row of `samples` (one duration per request) taken over `elapsed`.
+pub fn row(mut samples: Vec<Duration>, elapsed: Duration) -> Row {
+    samples.sort();
+    let at = |q: f64| samples[((samples.len() - 1) as f64 * q) as usize].as_secs_f64() * 1e6;
+    Row {
+        p50: at(0.50),
+        p99: at(0.99),
+        per_second: samples.len() as f64 / elapsed.as_secs_f64(),
+    }
+}
+
+/// Prints `name` in a column of `width` and the row's numbers.
+pub fn print(name: &str, width: usize, r: &Row) {
+    println!(
+        "{name:<width$} {:>10.1} {:>10.1} {:>12.0}",
+        r.p50, r.p99, r.per_second
+    );
+}
