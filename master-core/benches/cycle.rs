@@ -19,15 +19,18 @@
 
 #[path = "../tests/master_support/mod.rs"]
 mod master_support;
+#[path = "support/rate.rs"]
+mod rate;
 #[path = "support/storm.rs"]
 mod storm;
 
 use std::thread;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use master_core::bus::{BusConfig, HistogramSnapshot, ThreadPriority};
 use master_core::master::MasterConfig;
 use master_support::{Rig, block_on, rig_with};
+use rate::{fastest_period, micros};
 use sim::link::InProcessLink;
 use sim::topology::Topology;
 use storm::Storm;
@@ -66,31 +69,8 @@ fn max_rate(slaves: usize) -> (Duration, f64, f64, usize) {
     let rig = scanned(slaves, Duration::from_millis(1), ThreadPriority::Inherit);
     let master = rig.master();
     let image = master.cycle_stats().image_len;
-    let mut best = (Duration::ZERO, 0.0, f64::NAN);
-    for us in PERIODS_US {
-        let period = Duration::from_micros(us);
-        master.set_cycle_period(period);
-        thread::sleep(Duration::from_millis(50));
-        let before = master.cycle_stats();
-        let start = Instant::now();
-        thread::sleep(TRY);
-        let after = master.cycle_stats();
-        let elapsed = start.elapsed();
-        let cycles = (after.completed - before.completed) as f64;
-        let due = elapsed.as_secs_f64() / period.as_secs_f64();
-        let lost = after.lost - before.lost;
-        let wrong = after.wrong_wkc - before.wrong_wkc;
-        if lost > 0 || wrong > 0 || cycles < 0.9 * due {
-            break;
-        }
-        let round_trip = micros(master.cycle_timing().round_trip.quantile(0.5));
-        best = (period, cycles / elapsed.as_secs_f64(), round_trip);
-    }
-    (best.0, best.1, best.2, image)
-}
-
-fn micros(d: Option<Duration>) -> f64 {
-    d.map_or(f64::NAN, |d| d.as_secs_f64() * 1e6)
+    let (period, rate, round_trip) = fastest_period(master, &PERIODS_US, TRY);
+    (period, rate, round_trip, image)
 }
 
 /// One jitter measurement.

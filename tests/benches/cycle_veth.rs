@@ -19,17 +19,20 @@
 
 #![allow(missing_docs)]
 
+#[path = "../../master-core/benches/support/rate.rs"]
+mod rate;
 #[path = "../../master-core/benches/support/storm.rs"]
 mod storm;
 
 use std::thread;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use ecat_tests::rig::{Rig, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
 use ecat_tests::veth_master::VethMaster;
 use master_core::bus::{BusConfig, HistogramSnapshot, ThreadPriority};
 use master_core::master::MasterConfig;
+use rate::{fastest_period, micros};
 use storm::Storm;
 
 /// How long each jitter measurement runs.
@@ -70,42 +73,14 @@ fn setup(slaves: usize, priority: ThreadPriority) -> Setup {
     }
 }
 
-fn micros(d: Option<Duration>) -> f64 {
-    d.map_or(f64::NAN, |d| d.as_secs_f64() * 1e6)
-}
-
 /// The shortest sustainable period, the cycles per second achieved there, the round-trip
 /// median and the image size.
 fn max_rate(slaves: usize) -> (Duration, f64, f64, usize) {
     let setup = setup(slaves, ThreadPriority::Inherit);
     let master = setup.master.master();
     let image = master.cycle_stats().image_len;
-    let mut best = (Duration::ZERO, 0.0, f64::NAN);
-    for us in PERIODS_US {
-        let period = Duration::from_micros(us);
-        master.set_cycle_period(period);
-        // Settle on the new period before counting.
-        let settle = master.cycle_stats().completed + 20;
-        let deadline = Instant::now() + Duration::from_secs(2);
-        while master.cycle_stats().completed < settle && Instant::now() < deadline {
-            thread::sleep(Duration::from_millis(5));
-        }
-        let before = master.cycle_stats();
-        let start = Instant::now();
-        thread::sleep(TRY);
-        let after = master.cycle_stats();
-        let elapsed = start.elapsed();
-        let cycles = (after.completed - before.completed) as f64;
-        let due = elapsed.as_secs_f64() / period.as_secs_f64();
-        let lost = after.lost - before.lost;
-        let wrong = after.wrong_wkc - before.wrong_wkc;
-        if lost > 0 || wrong > 0 || cycles < 0.9 * due {
-            break;
-        }
-        let round_trip = micros(master.cycle_timing().round_trip.quantile(0.5));
-        best = (period, cycles / elapsed.as_secs_f64(), round_trip);
-    }
-    (best.0, best.1, best.2, image)
+    let (period, rate, round_trip) = fastest_period(master, &PERIODS_US, TRY);
+    (period, rate, round_trip, image)
 }
 
 struct JitterRun {
