@@ -155,12 +155,13 @@ async fn each_drive_of_a_multi_axis_slave_has_its_own_idns() {
     let mode = Idn::from_raw(32);
     let before = drive.soe_read(0, mode, ElementFlags::VALUE).await.unwrap();
     drive
-        .soe_write(1, mode, ElementFlags::VALUE, &0x0007u16.to_le_bytes())
+        .soe_write(1, mode, ElementFlags::VALUE, &0x0007u32.to_le_bytes())
         .await
         .unwrap();
+    // The default drive's S-0-0032 holds 4 bytes (sim/src/topology/default.rs).
     assert_eq!(
         drive.soe_read(1, mode, ElementFlags::VALUE).await.unwrap(),
-        0x0007u16.to_le_bytes()
+        0x0007u32.to_le_bytes()
     );
     assert_eq!(
         drive.soe_read(0, mode, ElementFlags::VALUE).await.unwrap(),

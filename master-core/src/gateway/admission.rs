@@ -1,8 +1,9 @@
-//! Caps on the requests worked on at once, overall and per client: a request beyond either
-//! is answered "busy" at once instead of queueing without bound.
+//! Caps on the requests worked on at once, overall and per client host: a request beyond
+//! either is answered "busy" at once instead of queueing without bound. A client counts by
+//! its IP address, whatever its ports: a host cannot take more places by opening sockets.
 
 use std::collections::HashMap;
-use std::net::SocketAddr;
+use std::net::{IpAddr, SocketAddr};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 
@@ -14,7 +15,7 @@ pub(crate) struct Admission {
     max_total: usize,
     max_per_client: usize,
     total: AtomicUsize,
-    per_client: Mutex<HashMap<SocketAddr, usize>>,
+    per_client: Mutex<HashMap<IpAddr, usize>>,
     stats: Arc<Stats>,
 }
 
@@ -22,7 +23,7 @@ pub(crate) struct Admission {
 #[derive(Debug)]
 pub(crate) struct Ticket {
     admission: Arc<Admission>,
-    client: SocketAddr,
+    client: IpAddr,
 }
 
 impl Admission {
@@ -38,6 +39,7 @@ impl Admission {
 
     /// A place for a request of `client`, or `None` if a cap is reached.
     pub fn admit(self: &Arc<Self>, client: SocketAddr) -> Option<Ticket> {
+        let client = host(client);
         let mut per_client = self
             .per_client
             .lock()
@@ -62,6 +64,14 @@ impl Admission {
     #[cfg(test)]
     pub fn in_flight(&self) -> usize {
         self.total.load(Ordering::Relaxed)
+    }
+}
+
+/// The host of a client; an IPv4 address mapped into IPv6 counts as IPv4.
+fn host(client: SocketAddr) -> IpAddr {
+    match client.ip() {
+        IpAddr::V6(v6) => v6.to_ipv4_mapped().map_or(IpAddr::V6(v6), IpAddr::V4),
+        v4 => v4,
     }
 }
 
@@ -90,7 +100,7 @@ mod tests {
         let stats = Arc::new(Stats::default());
         let a = Arc::new(Admission::new(3, 2, Arc::clone(&stats)));
         let c1 = SocketAddr::from(([127, 0, 0, 1], 1));
-        let c2 = SocketAddr::from(([127, 0, 0, 1], 2));
+        let c2 = SocketAddr::from(([127, 0, 0, 2], 2));
         let t1 = a.admit(c1).unwrap();
         let _t2 = a.admit(c1).unwrap();
         assert!(a.admit(c1).is_none(), "per-client cap");
@@ -100,5 +110,15 @@ mod tests {
         drop(t1);
         assert_eq!(a.in_flight(), 2);
         assert!(a.admit(c1).is_some());
+    }
+
+    #[test]
+    fn the_cap_counts_per_host_not_per_port() {
+        let stats = Arc::new(Stats::default());
+        let a = Arc::new(Admission::new(10, 2, stats));
+        let _t1 = a.admit(SocketAddr::from(([127, 0, 0, 1], 1))).unwrap();
+        let _t2 = a.admit(SocketAddr::from(([127, 0, 0, 1], 2))).unwrap();
+        assert!(a.admit(SocketAddr::from(([127, 0, 0, 1], 3))).is_none());
+        assert!(a.admit(SocketAddr::from(([127, 0, 0, 2], 3))).is_some());
     }
 }

@@ -2,7 +2,8 @@
 //! `192.168.10.0/24`).
 //!
 //! A prefix match is all the gateway needs, so this small type stands in for a network
-//! crate.
+//! crate. Each allowed network carries a [`GatewayRole`] ([`AllowedNet`]): what its clients
+//! may do through the gateway.
 
 use core::fmt;
 use core::str::FromStr;
@@ -24,6 +25,69 @@ pub enum ClientNetError {
     /// The prefix length is not a number within the address's bits.
     #[error("bad prefix length: {0:?}")]
     Prefix(String),
+    /// The role is neither `read` nor `write`.
+    #[error("bad role {0:?} (read or write)")]
+    Role(String),
+}
+
+/// What the clients of an allowed network may do through the gateway.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum GatewayRole {
+    /// Uploads, SDO Information, SoE reads, FoE reads, master-dictionary reads.
+    Read,
+    /// Everything, writes included.
+    Write,
+}
+
+impl GatewayRole {
+    /// `read` or `write`.
+    pub fn name(self) -> &'static str {
+        match self {
+            GatewayRole::Read => "read",
+            GatewayRole::Write => "write",
+        }
+    }
+}
+
+impl FromStr for GatewayRole {
+    type Err = ClientNetError;
+
+    fn from_str(s: &str) -> Result<GatewayRole, ClientNetError> {
+        match s.trim() {
+            "read" => Ok(GatewayRole::Read),
+            "write" => Ok(GatewayRole::Write),
+            other => Err(ClientNetError::Role(other.to_owned())),
+        }
+    }
+}
+
+/// One allowlist entry: a client network and its role.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct AllowedNet {
+    /// The clients.
+    pub net: ClientNet,
+    /// What they may do.
+    pub role: GatewayRole,
+}
+
+impl AllowedNet {
+    /// `net` with `role`.
+    pub fn new(net: ClientNet, role: GatewayRole) -> AllowedNet {
+        AllowedNet { net, role }
+    }
+
+    /// Every network of `nets` with `role`.
+    pub fn all(nets: Vec<ClientNet>, role: GatewayRole) -> Vec<AllowedNet> {
+        nets.into_iter()
+            .map(|net| AllowedNet { net, role })
+            .collect()
+    }
+}
+
+impl fmt::Display for AllowedNet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} {}", self.net, self.role.name())
+    }
 }
 
 impl ClientNet {
@@ -64,6 +128,18 @@ impl ClientNet {
                 prefix: 0,
             },
         ]
+    }
+
+    /// Whether every address of this network is a loopback address (inside `127.0.0.0/8`
+    /// or exactly `::1`).
+    pub fn is_loopback(&self) -> bool {
+        match self.address {
+            IpAddr::V4(v4) => self.prefix >= 8 && v4.octets()[0] == 127,
+            IpAddr::V6(v6) => {
+                self.prefix == 128
+                    && (v6.is_loopback() || v6.to_ipv4_mapped().is_some_and(|a| a.is_loopback()))
+            }
+        }
     }
 
     /// Whether `ip` is in this network. An IPv4 address mapped into IPv6 (`::ffff:a.b.c.d`,
@@ -192,5 +268,17 @@ mod tests {
             Err(ClientNetError::Address(_))
         ));
         assert_eq!(net("10.0.0.0/8").to_string(), "10.0.0.0/8");
+        assert!("admin".parse::<GatewayRole>().is_err());
+    }
+
+    #[test]
+    fn loopback_networks_are_told_apart() {
+        assert!(net("127.0.0.0/8").is_loopback());
+        assert!(net("127.0.0.1").is_loopback());
+        assert!(net("::1").is_loopback());
+        assert!(!net("0.0.0.0/0").is_loopback());
+        assert!(!net("126.0.0.0/7").is_loopback());
+        assert!(!net("10.0.0.0/8").is_loopback());
+        assert!(!net("::/0").is_loopback());
     }
 }

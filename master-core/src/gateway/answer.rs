@@ -10,10 +10,12 @@
 //! | busy | mailbox error 0x0009 | same | same | same |
 //! | larger than the mailbox | mailbox error 0x0008 | same | same | same |
 //! | other failure | abort 0x08000000 | — | error 0x8000 | — |
+//! | a `read` client's write | abort 0x06010002 | error 0x7004 (read only) | error 0x8002 (access denied) | mailbox error 0x0004 |
 //!
 //! CoE aborts name the request's index and subindex; an SDO Information request gets an
 //! SDO Information error with the same code. "—": no answer (the protocol has no way to say
-//! it), the failure is only counted.
+//! it), the failure is only counted. Requests in the compatibility layout get the codes
+//! of `compat::errors` instead.
 
 use crate::wire::coe::info::{SdoInfoFrame, SdoInfoRepr, SdoInfoService};
 use crate::wire::coe::{AbortCode, CoeFrame, CoeService, SdoFrame, SdoResponse};
@@ -38,6 +40,8 @@ pub(crate) enum Fault {
     Busy,
     /// Larger than the slave's receive mailbox.
     Oversized,
+    /// A write from a client whose role is `read`.
+    Denied,
     /// Anything else.
     Other,
 }
@@ -51,6 +55,7 @@ impl Fault {
             Fault::Timeout => FailureReason::Timeout,
             Fault::Busy => FailureReason::Busy,
             Fault::Oversized => FailureReason::Oversized,
+            Fault::Denied => FailureReason::Denied,
             Fault::Other => FailureReason::Other,
         }
     }
@@ -69,15 +74,46 @@ pub(crate) fn answer(
         _ => {}
     }
     match mailbox_type {
-        MailboxType::Coe => coe(request, fault),
-        MailboxType::Soe => soe(request, fault),
-        MailboxType::Foe => foe(fault),
+        MailboxType::Coe => Some(coe_answer(request, coe_code(fault))),
+        MailboxType::Soe => soe_answer(request, soe_code(fault)?),
+        MailboxType::Foe => Some(foe_answer(foe_code(fault))),
         _ => match fault {
             Fault::UnknownAddress | Fault::Unsupported | Fault::NotRunning => {
                 Some(mailbox_error(MailboxErrorCode::UnsupportedProtocol))
             }
+            Fault::Denied => Some(mailbox_error(MailboxErrorCode::ServiceNotSupported)),
             _ => None,
         },
+    }
+}
+
+fn coe_code(fault: Fault) -> AbortCode {
+    match fault {
+        Fault::UnknownAddress => AbortCode::ObjectDoesNotExist,
+        Fault::Unsupported => AbortCode::UnsupportedAccess,
+        Fault::NotRunning => AbortCode::DeviceState,
+        Fault::Timeout => AbortCode::Timeout,
+        Fault::Denied => AbortCode::ReadOnly,
+        Fault::Busy | Fault::Oversized | Fault::Other => AbortCode::GeneralError,
+    }
+}
+
+fn soe_code(fault: Fault) -> Option<SoeError> {
+    match fault {
+        Fault::UnknownAddress => Some(SoeError::NoIdn),
+        Fault::Unsupported | Fault::NotRunning => Some(SoeError::InvalidAccessElement1),
+        // ETG.1000.6 §5.7 error codes (IEC 61800-7-304): operation data read only.
+        Fault::Denied => Some(SoeError::DataReadOnly),
+        _ => None,
+    }
+}
+
+fn foe_code(fault: Fault) -> (FoeError, &'static [u8]) {
+    match fault {
+        Fault::UnknownAddress => (FoeError::NotFound, b""),
+        Fault::Unsupported | Fault::NotRunning | Fault::Denied => (FoeError::AccessDenied, b""),
+        Fault::Timeout => (FoeError::NotDefined, b"timeout"),
+        _ => (FoeError::NotDefined, b""),
     }
 }
 
@@ -90,24 +126,19 @@ pub(crate) fn mailbox_error(code: MailboxErrorCode) -> (MailboxType, Vec<u8>) {
     (MailboxType::Error, data)
 }
 
-fn coe(request: &[u8], fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
-    let code = match fault {
-        Fault::UnknownAddress => AbortCode::ObjectDoesNotExist,
-        Fault::Unsupported => AbortCode::UnsupportedAccess,
-        Fault::NotRunning => AbortCode::DeviceState,
-        Fault::Timeout => AbortCode::Timeout,
-        Fault::Busy | Fault::Oversized | Fault::Other => AbortCode::GeneralError,
-    };
+/// The CoE answer with `code` to `request`: an SDO Information error for an SDO Information
+/// request, else an SDO abort naming the request's index and subindex.
+pub(crate) fn coe_answer(request: &[u8], code: AbortCode) -> (MailboxType, Vec<u8>) {
     let service = CoeFrame::new_checked(request)
         .map(|f| f.service())
         .unwrap_or(CoeService::SdoRequest);
     if service == CoeService::SdoInfo {
-        return Some((MailboxType::Coe, sdo_info_error(code)));
+        return (MailboxType::Coe, sdo_info_error(code));
     }
     let (index, subindex) = SdoFrame::new_checked(request)
         .map(|f| (f.index(), f.subindex()))
         .unwrap_or((0, 0));
-    Some((MailboxType::Coe, sdo_abort(index, subindex, code)))
+    (MailboxType::Coe, sdo_abort(index, subindex, code))
 }
 
 /// An SDO abort (CoE data) for `index:subindex`.
@@ -134,12 +165,9 @@ fn sdo_info_error(code: AbortCode) -> Vec<u8> {
     data
 }
 
-fn soe(request: &[u8], fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
-    let code = match fault {
-        Fault::UnknownAddress => SoeError::NoIdn,
-        Fault::Unsupported | Fault::NotRunning => SoeError::InvalidAccessElement1,
-        _ => return None,
-    };
+/// The SoE answer with `code` to `request`: the response of the request's kind with the
+/// error bit set, naming its drive, elements and IDN.
+pub(crate) fn soe_answer(request: &[u8], code: SoeError) -> Option<(MailboxType, Vec<u8>)> {
     let packet = SoePacket::new_checked(request).ok()?;
     let opcode = match packet.opcode() {
         SoeOpcode::WriteRequest => SoeOpcode::WriteResponse,
@@ -161,18 +189,13 @@ fn soe(request: &[u8], fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
     Some((MailboxType::Soe, data))
 }
 
-fn foe(fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
-    let (code, text): (FoeError, &[u8]) = match fault {
-        Fault::UnknownAddress => (FoeError::NotFound, b""),
-        Fault::Unsupported | Fault::NotRunning => (FoeError::AccessDenied, b""),
-        Fault::Timeout => (FoeError::NotDefined, b"timeout"),
-        _ => (FoeError::NotDefined, b""),
-    };
+/// An FoE ERROR with `code` and `text`.
+pub(crate) fn foe_answer((code, text): (FoeError, &[u8])) -> (MailboxType, Vec<u8>) {
     let repr = FoeRepr::Error { code, text };
     let mut data = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut FoePacket::new_unchecked(&mut data[..]))
-        .ok()?;
-    Some((MailboxType::Foe, data))
+    // The buffer has exactly the room the ERROR needs.
+    let _ = repr.emit(&mut FoePacket::new_unchecked(&mut data[..]));
+    (MailboxType::Foe, data)
 }
 
 #[cfg(test)]

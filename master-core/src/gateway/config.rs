@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use crate::master_od::MasterIdentity;
 
-use super::allow::ClientNet;
+use super::allow::{AllowedNet, ClientNet, GatewayRole};
 
 /// The ETG.8200 UDP port, 0x88A4.
 pub const DEFAULT_PORT: u16 = 0x88A4;
@@ -34,9 +34,10 @@ pub struct GatewayConfig {
     /// port actually bound is reported by [`MailboxGateway::port`](super::MailboxGateway::port)).
     /// Default true.
     pub fallback: bool,
-    /// Clients allowed to send requests; datagrams from others are dropped and counted.
-    /// Default: loopback only.
-    pub allow: Vec<ClientNet>,
+    /// Clients allowed to send requests, each network with its role (a client in several
+    /// gets the highest); datagrams from others are dropped and counted. A `read` client's
+    /// writes are refused with the protocol's access error. Default: loopback, `write`.
+    pub allow: Vec<AllowedNet>,
     /// Strict ETG.8200: the gateway itself never answers with an error (unknown slave,
     /// unsupported protocol, busy, timeout); such requests get no reply. Errors from the
     /// slaves and from the master's dictionary still reach the client. Default false.
@@ -44,7 +45,8 @@ pub struct GatewayConfig {
     /// Requests being worked on at once, over all clients; beyond it a request is answered
     /// "busy". Default 256.
     pub max_in_flight: usize,
-    /// Requests being worked on at once for one client (IP address and port). Default 16.
+    /// Requests being worked on at once for one client host (IP address, whatever the
+    /// port). Default 16.
     pub max_in_flight_per_client: usize,
     /// Longest a forwarded request may take (queueing at the slave and its whole exchange).
     /// Default 5 s.
@@ -68,6 +70,13 @@ pub struct GatewayConfig {
     /// A TCP connection that sends nothing (or stops in the middle of a message) for this
     /// long is closed. Default 60 s.
     pub tcp_idle_timeout: Duration,
+    /// How long after its answer a UDP request repeated by the same client (same bytes,
+    /// counter 1-7, nothing else sent in between) is answered from the stored reply instead
+    /// of being executed again. Zero: never. Default 1 s.
+    pub retry_window: Duration,
+    /// Clients whose last request and reply are kept for repeats; beyond it the oldest is
+    /// forgotten. Default 1024.
+    pub max_retry_clients: usize,
 }
 
 impl Default for GatewayConfig {
@@ -77,7 +86,7 @@ impl Default for GatewayConfig {
             port: None,
             master_number: 1,
             fallback: true,
-            allow: ClientNet::loopback(),
+            allow: AllowedNet::all(ClientNet::loopback(), GatewayRole::Write),
             strict: false,
             max_in_flight: 256,
             max_in_flight_per_client: 16,
@@ -88,6 +97,8 @@ impl Default for GatewayConfig {
             tcp: false,
             max_tcp_connections: 16,
             tcp_idle_timeout: Duration::from_secs(60),
+            retry_window: Duration::from_secs(1),
+            max_retry_clients: 1024,
         }
     }
 }
@@ -101,7 +112,16 @@ impl GatewayConfig {
 
     /// Whether a client at `ip` may use the gateway.
     pub fn allows(&self, ip: IpAddr) -> bool {
-        self.allow.iter().any(|net| net.contains(ip))
+        self.role_of(ip).is_some()
+    }
+
+    /// The role of a client at `ip`: the highest of the networks it is in, `None` if none.
+    pub fn role_of(&self, ip: IpAddr) -> Option<GatewayRole> {
+        self.allow
+            .iter()
+            .filter(|entry| entry.net.contains(ip))
+            .map(|entry| entry.role)
+            .max()
     }
 }
 

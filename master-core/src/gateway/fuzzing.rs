@@ -2,7 +2,7 @@
 //! `gateway_service` (fuzz/) and the corpus replay test.
 //!
 //! Beyond what the wire codec checks, the service reads into the protocol headers:
-//! tolerance rewrites of short SDO requests, what a message makes the slave do and which
+//! the compatibility layout's translation, tolerance rewrites of short SDO requests, what a message makes the slave do and which
 //! transfer it leaves open, its error answers, and the reply datagrams. All of it runs here
 //! on the fuzzer's bytes — the request also stands in for a slave's reply — and must never
 //! panic.
@@ -10,18 +10,21 @@
 use crate::wire::gateway::{GatewayMessage, GatewayRepr};
 use crate::wire::mailbox::{HEADER_LEN, MailboxType};
 
+use super::access;
 use super::answer::{Fault, answer};
+use super::compat::{self, Layout};
 use super::normalize;
 use super::plan::{self, Expect, Sizes, Transfer};
 use super::reply;
 
-const FAULTS: [Fault; 7] = [
+const FAULTS: [Fault; 8] = [
     Fault::UnknownAddress,
     Fault::Unsupported,
     Fault::NotRunning,
     Fault::Timeout,
     Fault::Busy,
     Fault::Oversized,
+    Fault::Denied,
     Fault::Other,
 ];
 
@@ -44,11 +47,24 @@ pub fn request(datagram: &[u8]) -> bool {
     let Ok(repr) = GatewayRepr::parse(&message) else {
         return false;
     };
-    let ty = repr.header.mailbox_type;
-    let data = match ty {
-        MailboxType::Coe => normalize::coe_request(repr.data).into_owned(),
-        _ => repr.data.to_vec(),
+    let (ty, data, layout) = match compat::request(&repr, compat::type_byte(&message)) {
+        None => (
+            repr.header.mailbox_type,
+            repr.data.to_vec(),
+            Layout::Standard,
+        ),
+        Some(Ok(t)) => (t.header.mailbox_type, t.data, Layout::Compat(t.compat)),
+        // Well formed as a gateway message; its protocol data are refused (the service
+        // counts it as malformed).
+        Some(Err(())) => return true,
     };
+    let data = match ty {
+        MailboxType::Coe => normalize::coe_request(&data).into_owned(),
+        _ => data,
+    };
+    let _ = access::is_write(ty, &data);
+    let _ = access::is_audited(ty, &data);
+    let _ = access::object(ty, &data);
     // The slave's mailbox sizes, from the bytes themselves (any size goes).
     let sizes = Sizes {
         write: usize::from(repr.header.length),
@@ -63,16 +79,26 @@ pub fn request(datagram: &[u8]) -> bool {
         let _ = plan::after(ty, &data, None, transfer, sizes);
     }
     for fault in FAULTS {
-        if let Some((reply_ty, reply_data)) = answer(ty, &data, fault) {
+        let answers = [answer(ty, &data, fault), compat::answer(ty, &data, fault)];
+        for (reply_ty, reply_data) in answers.into_iter().flatten() {
             let _ = reply::made(
                 repr.header.address,
                 reply_ty,
                 repr.header.counter,
                 &reply_data,
+                layout,
             );
         }
     }
-    let _ = reply::from_slave(repr.header.address, message.mailbox_bytes());
+    let _ = reply::from_slave(repr.header.address, message.mailbox_bytes(), layout);
+    // A slave's reply of any type in the compatibility layout.
+    let _ = reply::from_slave(
+        repr.header.address,
+        message.mailbox_bytes(),
+        Layout::Compat(compat::Compat {
+            soe_element: repr.header.counter,
+        }),
+    );
     let _ = plan::data_of(
         message
             .mailbox_bytes()

@@ -22,15 +22,19 @@
 //! Files: `config`, `allow` (client networks), `bind` (port and fallback), `serve` (the
 //! loop and the request tasks), `route` (addresses), `forward` (one slave), `plan` (what
 //! a message makes the slave do), `session` (multi-message transfers), `normalize`
-//! (tolerated short SDO requests), `answer` (the gateway's own error answers), `reply`
-//! (datagrams back), `admission` (in-flight caps), `stats`, `tcp` (the optional TCP
-//! transport over the same request handling), `fuzzing` (the parsing steps for the fuzz
-//! target).
+//! (tolerated short SDO requests), `compat` (the layout of the seed manual's clients),
+//! `answer` (the gateway's own error answers), `reply` (datagrams back), `retry` (repeated
+//! requests answered once), `access` (which requests write: roles), `audit` (audit lines of
+//! writes), `admission` (in-flight caps), `stats`, `tcp` (the optional TCP transport over
+//! the same request handling), `fuzzing` (the parsing steps for the fuzz target).
 
+mod access;
 mod admission;
 mod allow;
 mod answer;
+mod audit;
 mod bind;
+mod compat;
 mod config;
 mod forward;
 #[doc(hidden)]
@@ -38,6 +42,7 @@ pub mod fuzzing;
 mod normalize;
 mod plan;
 mod reply;
+mod retry;
 mod route;
 mod serve;
 mod session;
@@ -54,7 +59,7 @@ use tokio::sync::watch;
 use crate::master::Master;
 use crate::master_od::MasterDictionary;
 
-pub use allow::{ClientNet, ClientNetError};
+pub use allow::{AllowedNet, ClientNet, ClientNetError, GatewayRole};
 pub use config::{DEFAULT_PORT, GatewayConfig, port_for_master};
 pub use route::{BROADCAST_ADDRESS, MASTER_ADDRESS, POSITION_BASE};
 pub use stats::{FailureCounts, FailureReason, MailboxGatewayStats};
@@ -202,6 +207,7 @@ impl MailboxGateway {
                 self.config.max_in_flight_per_client,
                 Arc::clone(&self.stats),
             )),
+            retries: retry::Retries::new(self.config.retry_window, self.config.max_retry_clients),
             socket,
         });
         let (stop, stopped) = watch::channel(false);

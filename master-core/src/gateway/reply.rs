@@ -1,18 +1,24 @@
 //! Reply datagrams: a mailbox message wrapped in the ETG.8200 EtherCAT header, its address
-//! field set to the address the client asked (the slave writes its own, or none).
+//! field set to the address the client asked (the slave writes its own, or none), in the
+//! layout the request came in (`compat`).
 
 use crate::wire::gateway::{GatewayMessage, GatewayRepr};
 use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
 
+use super::compat::{self, Layout};
+
 /// The datagram for a message from a slave (header and data) going back to a client that
 /// used `address`; `None` if the message does not parse or is too long for ETG.8200.
-pub(crate) fn from_slave(address: u16, message: &[u8]) -> Option<Vec<u8>> {
+pub(crate) fn from_slave(address: u16, message: &[u8], layout: Layout) -> Option<Vec<u8>> {
     let header = Mailbox::new_checked(message)
         .and_then(|m| MailboxHeader::parse(&m))
         .ok()?;
     let end = crate::wire::mailbox::HEADER_LEN + usize::from(header.length);
     let data = message.get(crate::wire::mailbox::HEADER_LEN..end)?;
-    encode(MailboxHeader { address, ..header }, data)
+    match layout {
+        Layout::Standard => encode(MailboxHeader { address, ..header }, data),
+        Layout::Compat(c) => compat::encode(address, header.mailbox_type, data, c),
+    }
 }
 
 /// The datagram for a reply the gateway makes (the master's dictionary, an error answer).
@@ -21,7 +27,11 @@ pub(crate) fn made(
     mailbox_type: MailboxType,
     counter: u8,
     data: &[u8],
+    layout: Layout,
 ) -> Option<Vec<u8>> {
+    if let Layout::Compat(c) = layout {
+        return compat::encode(address, mailbox_type, data, c);
+    }
     let header = MailboxHeader {
         length: u16::try_from(data.len()).ok()?,
         address,
@@ -52,11 +62,11 @@ mod tests {
             0x0a, 0x00, 0xe9, 0x03, 0x00, 0x13, 0x00, 0x30, 0x43, 0x80, 0xf9, 0x02, 0xea, 0x82,
             0x1e, 0x00,
         ];
-        let datagram = from_slave(0x8001, &message).unwrap();
+        let datagram = from_slave(0x8001, &message, Layout::Standard).unwrap();
         assert_eq!(datagram[..2], [0x10, 0x50]);
         assert_eq!(datagram[4..6], [0x01, 0x80]);
         assert_eq!(datagram[7], 0x13);
         assert_eq!(datagram[8..], message[6..]);
-        assert_eq!(from_slave(1, &message[..5]), None);
+        assert_eq!(from_slave(1, &message[..5], Layout::Standard), None);
     }
 }

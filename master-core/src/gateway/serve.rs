@@ -2,9 +2,13 @@
 //! work on it in its own task so a slow slave never holds up the others. TCP connections
 //! (`tcp`) hand their messages to the same [`admit`] and [`serve`]; only where the replies
 //! go differs ([`ReplyTo`]).
+//!
+//! A request is turned into its standard form first (`compat`, `normalize`); [`serve`]
+//! then answers a UDP repeat from the store (`retry`), refuses a `read` client's write
+//! (`access`), routes it, and writes the audit line of a write (`audit`).
 
 use std::net::SocketAddr;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant as StdInstant;
 
 use tokio::net::{TcpListener, UdpSocket};
@@ -17,12 +21,18 @@ use crate::master_od::MasterDictionary;
 use crate::wire::gateway::{GatewayMessage, GatewayRepr};
 use crate::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
 
+use super::access;
 use super::admission::{Admission, Ticket};
+use super::allow::GatewayRole;
 use super::answer::{Fault, answer, mailbox_error};
+use super::audit::{self, Outcome};
+use super::compat::{self, Layout};
 use super::config::GatewayConfig;
 use super::forward::{Forward, forward};
 use super::normalize;
+use super::plan::data_of;
 use super::reply;
+use super::retry::{Check, Retries};
 use super::route::{self, Target};
 use super::session::Sessions;
 use super::stats::{FailureReason, Stats};
@@ -40,6 +50,7 @@ pub(crate) struct Shared {
     pub sessions: Sessions,
     pub admission: Arc<Admission>,
     pub dictionary: MasterDictionary,
+    pub retries: Retries,
     pub socket: UdpSocket,
 }
 
@@ -52,13 +63,20 @@ pub(crate) enum ReplyTo {
     Tcp(mpsc::Sender<Vec<u8>>),
 }
 
-/// One request: who sent it, its header, its (normalised) data, where replies go.
+/// One request: who sent it, its header, its data (in the standard form), where replies go
+/// and in which layout, what its client may do.
 pub(crate) struct Request {
     client: SocketAddr,
     header: MailboxHeader,
     data: Vec<u8>,
     received: StdInstant,
     reply_to: ReplyTo,
+    layout: Layout,
+    role: GatewayRole,
+    /// The message as received, for UDP requests that may be repeated (counter 1-7).
+    raw: Option<Box<[u8]>>,
+    /// The datagrams sent for it, kept for its repeats (with `raw` only).
+    sent: Mutex<Vec<Vec<u8>>>,
 }
 
 /// What became of a received message.
@@ -80,7 +98,12 @@ pub(crate) async fn admit(
     reply_to: ReplyTo,
     received: StdInstant,
 ) -> Admitted {
-    let Some(request) = parse(message, client, received, reply_to) else {
+    // The caller checked the allowlist; a client it let through has a role.
+    let role = shared
+        .config
+        .role_of(client.ip())
+        .unwrap_or(GatewayRole::Read);
+    let Some(request) = parse(message, client, received, reply_to, role) else {
         shared.stats.failed(FailureReason::Malformed);
         return Admitted::Malformed;
     };
@@ -96,6 +119,17 @@ pub(crate) async fn admit(
 
 impl Shared {
     async fn send(&self, request: &Request, datagram: Vec<u8>) {
+        if request.raw.is_some() {
+            request
+                .sent
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .push(datagram.clone());
+        }
+        self.send_only(request, datagram).await;
+    }
+
+    async fn send_only(&self, request: &Request, datagram: Vec<u8>) {
         match &request.reply_to {
             // A client that went away is its own problem; UDP has no one to tell.
             ReplyTo::Udp => {
@@ -108,26 +142,37 @@ impl Shared {
         }
     }
 
-    /// Answers a failed request as the error table says (unless strict) and counts it.
-    async fn fail(&self, request: &Request, fault: Fault) {
+    /// Answers a failed request as the error table of its layout says (unless strict) and
+    /// counts it.
+    async fn fail(&self, request: &Request, fault: Fault) -> Outcome {
         self.stats.failed(fault.reason());
         if self.config.strict {
-            return;
+            return Outcome::Failed(fault);
         }
-        let answer = if request.header.address == route::MASTER_ADDRESS
-            && request.header.mailbox_type != MailboxType::Coe
-            && fault == Fault::Unsupported
-        {
-            Some(mailbox_error(MailboxErrorCode::UnsupportedProtocol))
-        } else {
-            answer(request.header.mailbox_type, &request.data, fault)
+        let ty = request.header.mailbox_type;
+        let answer = match request.layout {
+            Layout::Compat(_) => compat::answer(ty, &request.data, fault),
+            Layout::Standard
+                if request.header.address == route::MASTER_ADDRESS
+                    && ty != MailboxType::Coe
+                    && fault == Fault::Unsupported =>
+            {
+                Some(mailbox_error(MailboxErrorCode::UnsupportedProtocol))
+            }
+            Layout::Standard => answer(ty, &request.data, fault),
         };
         if let Some((ty, data)) = answer
-            && let Some(datagram) =
-                reply::made(request.header.address, ty, request.header.counter, &data)
+            && let Some(datagram) = reply::made(
+                request.header.address,
+                ty,
+                request.header.counter,
+                &data,
+                request.layout,
+            )
         {
             self.send(request, datagram).await;
         }
+        Outcome::Failed(fault)
     }
 
     fn answered(&self, request: &Request) {
@@ -187,33 +232,101 @@ fn parse(
     client: SocketAddr,
     received: StdInstant,
     reply_to: ReplyTo,
+    role: GatewayRole,
 ) -> Option<Request> {
     let message = GatewayMessage::new_checked(datagram).ok()?;
     let repr = GatewayRepr::parse(&message).ok()?;
-    let data = match repr.header.mailbox_type {
-        MailboxType::Coe => normalize::coe_request(repr.data).into_owned(),
-        _ => repr.data.to_vec(),
+    let (header, data, layout) = match compat::request(&repr, compat::type_byte(&message)) {
+        None => (repr.header, repr.data.to_vec(), Layout::Standard),
+        Some(Ok(t)) => (t.header, t.data, Layout::Compat(t.compat)),
+        Some(Err(())) => return None,
     };
+    let data = match header.mailbox_type {
+        MailboxType::Coe => normalize::coe_request(&data).into_owned(),
+        _ => data,
+    };
+    // Only UDP loses replies; the layout without a counter never repeats.
+    let raw = (matches!(reply_to, ReplyTo::Udp) && header.counter != 0)
+        .then(|| datagram.get(..message.total_len()).map(Box::from))
+        .flatten();
     Some(Request {
         client,
-        header: repr.header,
+        header,
         data,
         received,
         reply_to,
+        layout,
+        role,
+        raw,
+        sent: Mutex::new(Vec::new()),
     })
 }
 
 /// Works on one admitted request and sends its replies.
 pub(crate) async fn serve(shared: Arc<Shared>, request: Request, _ticket: Ticket) {
-    match route::target(&shared.master, request.header.address) {
-        Ok(Target::Master) => to_master(&shared, &request).await,
-        Ok(Target::Slave(station)) => to_slave(&shared, &request, station).await,
-        Ok(Target::Broadcast) => broadcast(&shared, &request).await,
-        Err(fault) => shared.fail(&request, fault).await,
+    let repeat = match &request.raw {
+        Some(raw) => shared.retries.check(
+            request.client,
+            raw,
+            request.header.counter,
+            request.received,
+        ),
+        None => Check::New(None),
+    };
+    let ticket = match repeat {
+        Check::New(ticket) => ticket,
+        Check::Repeat(datagrams) => {
+            shared.stats.retry_answered();
+            for datagram in datagrams {
+                shared.send_only(&request, datagram).await;
+            }
+            return;
+        }
+        Check::InFlight => {
+            shared.stats.retry_answered();
+            return;
+        }
+    };
+    let ty = request.header.mailbox_type;
+    let address = request.header.address;
+    let write = access::is_write(ty, &request.data);
+    if write && request.role < GatewayRole::Write {
+        audit::refused(request.client, address, ty, &request.data);
+        shared.fail(&request, Fault::Denied).await;
+    } else {
+        let outcome = match route::target(&shared.master, address) {
+            Ok(Target::Master) => to_master(&shared, &request).await,
+            Ok(Target::Slave(station)) => to_slave(&shared, &request, station).await,
+            Ok(Target::Broadcast) => broadcast(&shared, &request).await,
+            Err(fault) => shared.fail(&request, fault).await,
+        };
+        if write {
+            audit::write(request.client, address, ty, &request.data, &outcome);
+        }
+    }
+    if let Some(ticket) = ticket {
+        let sent =
+            std::mem::take(&mut *request.sent.lock().unwrap_or_else(PoisonError::into_inner));
+        shared
+            .retries
+            .finish(request.client, ticket, sent, StdInstant::now());
     }
 }
 
-async fn to_master(shared: &Shared, request: &Request) {
+/// The outcome of a request answered with `replies` (whole mailbox messages).
+fn answered_with(replies: &[Vec<u8>]) -> Outcome {
+    match replies.first() {
+        Some(first) => {
+            let ty = crate::wire::mailbox::Mailbox::new_checked(&first[..])
+                .and_then(|m| MailboxHeader::parse(&m))
+                .map_or(MailboxType::Error, |h| h.mailbox_type);
+            Outcome::Answered(ty, data_of(first).to_vec())
+        }
+        None => Outcome::Sent,
+    }
+}
+
+async fn to_master(shared: &Shared, request: &Request) -> Outcome {
     if request.header.mailbox_type != MailboxType::Coe {
         return shared.fail(request, Fault::Unsupported).await;
     }
@@ -222,13 +335,22 @@ async fn to_master(shared: &Shared, request: &Request) {
         .handle(request.client, &request.data)
         .await;
     shared.answered(request);
+    let outcome = match replies.first() {
+        Some((ty, data)) => Outcome::Answered(*ty, data.clone()),
+        None => Outcome::Sent,
+    };
     for (ty, data) in replies {
-        if let Some(datagram) =
-            reply::made(request.header.address, ty, request.header.counter, &data)
-        {
+        if let Some(datagram) = reply::made(
+            request.header.address,
+            ty,
+            request.header.counter,
+            &data,
+            request.layout,
+        ) {
             shared.send(request, datagram).await;
         }
     }
+    outcome
 }
 
 fn forward_for<'a>(shared: &'a Shared, request: &Request, sessions: bool) -> Forward<'a> {
@@ -240,7 +362,7 @@ fn forward_for<'a>(shared: &'a Shared, request: &Request, sessions: bool) -> For
     }
 }
 
-async fn to_slave(shared: &Shared, request: &Request, station: u16) {
+async fn to_slave(shared: &Shared, request: &Request, station: u16) -> Outcome {
     let ty = request.header.mailbox_type;
     let mailbox = match route::mailbox(&shared.master, station, ty) {
         Ok(mailbox) => mailbox,
@@ -250,11 +372,15 @@ async fn to_slave(shared: &Shared, request: &Request, station: u16) {
     match forward(&f, &mailbox, ty, &request.data).await {
         Ok(replies) => {
             shared.answered(request);
+            let outcome = answered_with(&replies);
             for message in replies {
-                if let Some(datagram) = reply::from_slave(request.header.address, &message) {
+                if let Some(datagram) =
+                    reply::from_slave(request.header.address, &message, request.layout)
+                {
                     shared.send(request, datagram).await;
                 }
             }
+            outcome
         }
         Err(fault) => shared.fail(request, fault).await,
     }
@@ -264,7 +390,7 @@ async fn to_slave(shared: &Shared, request: &Request, station: u16) {
 /// the client as its own datagram, as it comes, carrying the answering slave's station
 /// address. Broadcasts take no sessions (a multi-message transfer with every slave at once
 /// is not something a client can drive).
-async fn broadcast(shared: &Arc<Shared>, request: &Request) {
+async fn broadcast(shared: &Arc<Shared>, request: &Request) -> Outcome {
     let ty = request.header.mailbox_type;
     let targets: Vec<_> = shared
         .master
@@ -293,6 +419,7 @@ async fn broadcast(shared: &Arc<Shared>, request: &Request) {
         });
     }
     let mut any = false;
+    let mut outcome = Outcome::Sent;
     let mut last_fault = Fault::Timeout;
     while let Some(joined) = tasks.join_next().await {
         let Ok((station, result)) = joined else {
@@ -302,10 +429,11 @@ async fn broadcast(shared: &Arc<Shared>, request: &Request) {
             Ok(replies) => {
                 if !any {
                     shared.answered(request);
+                    outcome = answered_with(&replies);
                     any = true;
                 }
                 for message in replies {
-                    if let Some(datagram) = reply::from_slave(station, &message) {
+                    if let Some(datagram) = reply::from_slave(station, &message, request.layout) {
                         shared.send(request, datagram).await;
                     }
                 }
@@ -314,6 +442,7 @@ async fn broadcast(shared: &Arc<Shared>, request: &Request) {
         }
     }
     if !any {
-        shared.fail(request, last_fault).await;
+        return shared.fail(request, last_fault).await;
     }
+    outcome
 }

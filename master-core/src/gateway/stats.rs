@@ -134,6 +134,9 @@ pub struct MailboxGatewayStats {
     pub port: u16,
     /// Time from receiving a request to sending its (first) reply, for answered requests.
     pub latency: HistogramSnapshot,
+    /// Repeated UDP requests answered from the stored reply (or left to the original still
+    /// being worked on) instead of being executed again; neither forwarded nor failed.
+    pub retries_answered: u64,
 }
 
 impl Default for MailboxGatewayStats {
@@ -153,6 +156,7 @@ pub(crate) struct Stats {
     foe: AtomicU64,
     voe: AtomicU64,
     eoe: AtomicU64,
+    retries: AtomicU64,
     started_at_ms: AtomicU64,
     in_flight: AtomicU64,
     port: AtomicU64,
@@ -171,6 +175,7 @@ impl Default for Stats {
             foe: AtomicU64::new(0),
             voe: AtomicU64::new(0),
             eoe: AtomicU64::new(0),
+            retries: AtomicU64::new(0),
             started_at_ms: AtomicU64::new(0),
             in_flight: AtomicU64::new(0),
             port: AtomicU64::new(0),
@@ -218,6 +223,11 @@ impl Stats {
         inc(&self.failures[reason.slot()]);
     }
 
+    /// A repeated request was answered without executing it again.
+    pub fn retry_answered(&self) {
+        inc(&self.retries);
+    }
+
     pub fn in_flight_add(&self) {
         inc(&self.in_flight);
     }
@@ -237,6 +247,7 @@ impl Stats {
             &self.foe,
             &self.voe,
             &self.eoe,
+            &self.retries,
         ] {
             counter.store(0, Ordering::Relaxed);
         }
@@ -282,6 +293,7 @@ impl Stats {
             in_flight: get(&self.in_flight),
             port: u16::try_from(get(&self.port)).unwrap_or(0),
             latency: self.latency.snapshot(),
+            retries_answered: get(&self.retries),
         }
     }
 }

@@ -10,7 +10,7 @@ use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use master_core::gateway::{ClientNet, GatewayConfig, MailboxGateway};
+use master_core::gateway::{AllowedNet, ClientNet, GatewayConfig, GatewayRole, MailboxGateway};
 use master_core::master::{Master, MasterConfig};
 use master_core::wire::coe::info::entry::{EntryDescription, ValueInfo};
 use master_core::wire::coe::info::object::ObjectDescription;
@@ -469,10 +469,18 @@ pub struct EntrySummary {
     pub name: String,
 }
 
-/// A config allowing only `net`.
+/// A config allowing only `net`, with the write role.
 pub fn allowing(net: &str) -> GatewayConfig {
+    allowing_as(net, GatewayRole::Write)
+}
+
+/// A config allowing only `net`, with `role`.
+pub fn allowing_as(net: &str, role: GatewayRole) -> GatewayConfig {
     GatewayConfig {
-        allow: vec![net.parse::<ClientNet>().expect("network")],
+        allow: vec![AllowedNet::new(
+            net.parse::<ClientNet>().expect("network"),
+            role,
+        )],
         ..test_config()
     }
 }

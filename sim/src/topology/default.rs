@@ -2,7 +2,7 @@
 //!
 //! | pos | name | mailbox | protocols | process data |
 //! |---|---|---|---|---|
-//! | 0 | ECATD-SIM Drive | 128/128 | CoE SoE FoE VoE EoE | drive: 0x1600 (0x6040, 0x607A) / 0x1A00 (0x6041, 0x6064); SoE: default IDNs + P-0-0100 |
+//! | 0 | ECATD-SIM Drive | 128/128 | CoE SoE FoE VoE EoE | drive: 0x1600 (0x6040, 0x607A) / 0x1A00 (0x6041, 0x6064); SoE: default IDNs, S-0-0032 with 4 bytes, P-0-0100; FoE `firmware.bin` (1024 bytes); VoE for vendor 0x00001164 |
 //! | 1 | ECATD-SIM DO8 | none | – | 8 digital outputs |
 //! | 2 | ECATD-SIM DI8 | none | – | 8 digital inputs |
 //! | 3 | ECATD-SIM CoE Store | 128/128 | CoE | none; 0x2000 OCTET_STRING of 4096 bytes |
@@ -125,7 +125,7 @@ fn drive() -> SlaveSpec {
             object(0x607A, "INTEGER32", "rw_rx", "Target position", 0),
             object(0x6064, "INTEGER32", "ro_tx", "Position actual value", 0),
         ],
-        idns: vec![motor_temperature()],
+        idns: vec![operation_mode(), motor_temperature()],
         foe_files: vec![FoeFileSpec {
             name: "firmware.bin".into(),
             content: None,
@@ -137,6 +137,27 @@ fn drive() -> SlaveSpec {
         }),
         voe_vendor_id: Some(0x0000_1164),
         ..base("ECATD-SIM Drive", 0x0000_0001)
+    }
+}
+
+/// S-0-0032 "Primary operation mode" on the drive with a 4-byte value instead of the
+/// default set's 2 bytes: the gateway manual's sample clients (docs/gateway.md) write it
+/// with a 4-byte value (1000), and the default segment answers every one of their samples.
+fn operation_mode() -> IdnSpec {
+    let u32_bytes = |v: u32| v.to_le_bytes().to_vec();
+    IdnSpec {
+        idn: 32,
+        drive: None,
+        name: "Primary operation mode".into(),
+        // Conversion factor 1, 4-byte element, hexadecimal.
+        attribute: 0x0032_0001,
+        unit: None,
+        min: None,
+        max: None,
+        value: Some(u32_bytes(0x0002)),
+        default: Some(u32_bytes(0x0002)),
+        read_only: false,
+        list_capacity: None,
     }
 }
 

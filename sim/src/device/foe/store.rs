@@ -65,6 +65,10 @@ struct Files {
     files: BTreeMap<Vec<u8>, FoeFile>,
     capacity: usize,
     create_on_write: bool,
+    /// Write requests accepted (transfers started).
+    write_requests: u64,
+    /// Downloads stored.
+    commits: u64,
 }
 
 impl Files {
@@ -95,6 +99,8 @@ impl FileStore {
                 files: BTreeMap::new(),
                 capacity,
                 create_on_write: true,
+                write_requests: 0,
+                commits: 0,
             })),
         }
     }
@@ -143,6 +149,17 @@ impl FileStore {
         self.lock().used()
     }
 
+    /// Write requests (WRQ) accepted so far: each starts a download (a test counts with it
+    /// how often a file was written).
+    pub fn write_requests(&self) -> u64 {
+        self.lock().write_requests
+    }
+
+    /// Downloads completed and stored so far.
+    pub fn commits(&self) -> u64 {
+        self.lock().commits
+    }
+
     /// Total capacity in bytes.
     pub fn capacity(&self) -> usize {
         self.lock().capacity
@@ -162,7 +179,7 @@ impl FileStore {
     /// Opens `name` for a download (WRQ): the bytes it may grow to without overflowing the
     /// store (its current contents will be replaced, so they count as free).
     pub(crate) fn open_write(&self, name: &[u8], password: u32) -> Result<usize, FoeError> {
-        let files = self.lock();
+        let mut files = self.lock();
         let replaced = match files.files.get(name) {
             Some(file) => {
                 file.check_password(password)?;
@@ -174,12 +191,14 @@ impl FileStore {
             None if files.create_on_write => 0,
             None => return Err(FoeError::NotFound),
         };
+        files.write_requests += 1;
         Ok(files.capacity.saturating_sub(files.used() - replaced))
     }
 
     /// Stores the downloaded contents of `name`, keeping an existing file's flags.
     pub(crate) fn commit(&self, name: &[u8], data: Vec<u8>) {
         let mut files = self.lock();
+        files.commits += 1;
         match files.files.get_mut(name) {
             Some(file) => file.data = data,
             None => {

@@ -1,0 +1,122 @@
+//! Audit lines for writes through the gateway: the same `tracing` target (`audit`) the
+//! gRPC and REST APIs write to, so one log filter shows every change made to the segment,
+//! whichever way it came. A line names the client (address and port), the slave (the address
+//! the client used, `master` for address 0), the object, IDN or file, and the outcome.
+
+use std::net::SocketAddr;
+
+use crate::wire::coe::{CoeFrame, CoeService, SdoFrame};
+use crate::wire::foe::{FoePacket, FoeRepr};
+use crate::wire::mailbox::{ErrorReply, ErrorReplyRepr, MailboxType};
+use crate::wire::soe::SoePacket;
+
+use super::access;
+use super::answer::Fault;
+
+/// What became of a request, as far as the audit line says.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum Outcome {
+    /// The slave (or the master's dictionary) answered with this message (type, data).
+    Answered(MailboxType, Vec<u8>),
+    /// Delivered; the protocol gives no answer.
+    Sent,
+    /// The gateway answered itself (or dropped it).
+    Failed(Fault),
+}
+
+impl Outcome {
+    /// `done`, or the error the answer carries.
+    fn describe(&self) -> String {
+        match self {
+            Outcome::Sent => "sent".into(),
+            Outcome::Failed(fault) => format!("failed: {}", fault.reason().name()),
+            Outcome::Answered(ty, data) => match error_of(*ty, data) {
+                Some(error) => error,
+                None => "done".into(),
+            },
+        }
+    }
+}
+
+/// The error an answer carries, if it is one.
+fn error_of(ty: MailboxType, data: &[u8]) -> Option<String> {
+    match ty {
+        MailboxType::Error => {
+            let reply = ErrorReply::new_checked(data)
+                .and_then(|r| ErrorReplyRepr::parse(&r))
+                .ok()?;
+            Some(format!("mailbox error {}", reply.detail.name()))
+        }
+        MailboxType::Coe => {
+            let service = CoeFrame::new_checked(data).ok()?.service();
+            let frame = SdoFrame::new_checked(data).ok()?;
+            let abort = matches!(service, CoeService::SdoResponse | CoeService::SdoRequest)
+                && frame.specifier() == 4;
+            abort.then(|| {
+                let code = data
+                    .get(6..10)
+                    .map_or(0, |c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+                format!("SDO abort 0x{code:08X}")
+            })
+        }
+        MailboxType::Soe => {
+            let packet = SoePacket::new_checked(data).ok()?;
+            packet.error().then(|| {
+                let code = data
+                    .get(4..6)
+                    .map_or(0, |c| u16::from_le_bytes([c[0], c[1]]));
+                format!("SoE error 0x{code:04X}")
+            })
+        }
+        MailboxType::Foe => match FoePacket::new_checked(data).and_then(|p| FoeRepr::parse(&p)) {
+            Ok(FoeRepr::Error { code, .. }) => Some(format!("FoE error 0x{:04X}", u32::from(code))),
+            _ => None,
+        },
+        _ => None,
+    }
+}
+
+/// The slave part of the line.
+fn slave(address: u16) -> String {
+    if address == super::route::MASTER_ADDRESS {
+        "master".into()
+    } else {
+        format!("0x{address:04X}")
+    }
+}
+
+/// Logs the audit line of a write (request of `ty`, standard data `data`, to `address`)
+/// that was carried out with `outcome`; nothing for the follow-up messages of a transfer.
+pub(crate) fn write(
+    client: SocketAddr,
+    address: u16,
+    ty: MailboxType,
+    data: &[u8],
+    outcome: &Outcome,
+) {
+    if !access::is_audited(ty, data) {
+        return;
+    }
+    tracing::info!(
+        target: "audit",
+        client = %client,
+        slave = %slave(address),
+        object = %access::object(ty, data),
+        protocol = ty.name(),
+        outcome = %outcome.describe(),
+        "gateway write"
+    );
+}
+
+/// Logs the audit line of a write refused because the client's role is `read`.
+pub(crate) fn refused(client: SocketAddr, address: u16, ty: MailboxType, data: &[u8]) {
+    tracing::warn!(
+        target: "audit",
+        client = %client,
+        slave = %slave(address),
+        object = %access::object(ty, data),
+        protocol = ty.name(),
+        outcome = "refused: read role",
+        "gateway write refused"
+    );
+}
