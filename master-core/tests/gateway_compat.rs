@@ -1,0 +1,119 @@
+//! Issue 15, item 1, in process: the seed manual's Python and Rust sample clients (replayed
+//! byte for byte by `gateway_support::compat_client`) get real answers from the default
+//! segment in their own layout (type code in bits 7:4), and the gateway's own error answers
+//! in that layout use the manual's code table. The standard clients' suites
+//! (`gateway_*.rs`) run unchanged beside it.
+
+mod gateway_support;
+
+#[path = "gateway_support/compat_client.rs"]
+mod compat_client;
+
+use std::time::Duration;
+
+use compat_client::{COE, CompatClient, Expected, FOE, SLAVE, SOE, VENDOR, VOE, replay};
+use gateway_support::{COE_STORE, DRIVE, GwRig, test_config};
+use master_core::gateway::GatewayConfig;
+use master_core::master_od::MasterIdentity;
+use master_core::wire::foe;
+
+/// A short session: the manual's FoE read leaves its transfer open (the client never
+/// ACKs), and the next client's requests to that slave wait for it.
+fn config() -> GatewayConfig {
+    GatewayConfig {
+        session_timeout: Duration::from_millis(300),
+        ..test_config()
+    }
+}
+
+fn expected(rig: &GwRig, mode_before: u32) -> Expected {
+    let firmware = rig.handles[DRIVE]
+        .files
+        .as_ref()
+        .expect("FoE store")
+        .data("firmware.bin")
+        .expect("firmware.bin");
+    Expected {
+        master_vendor_id: MasterIdentity::default().vendor_id,
+        operation_mode_before: mode_before,
+        firmware_first_packet: firmware[..foe::max_data(128)].to_vec(),
+    }
+}
+
+#[test]
+fn the_manuals_python_and_rust_samples_get_real_answers() {
+    let rig = GwRig::start(config());
+    let dict = rig.handles[DRIVE].dictionary.as_ref().expect("CoE");
+    let writes = dict.lock().unwrap().write_count(0x6040);
+    // The Python client, then the Rust client: each its own socket.
+    let python = CompatClient::new(rig.addr(), Duration::from_secs(10));
+    replay(&python, &expected(&rig, 0x0002));
+    assert_eq!(
+        dict.lock().unwrap().write_count(0x6040),
+        writes + 1,
+        "0x6040 written once"
+    );
+    let rust = CompatClient::new(rig.addr(), Duration::from_secs(10));
+    replay(&rust, &expected(&rig, 1000));
+    assert_eq!(dict.lock().unwrap().write_count(0x6040), writes + 2);
+    let stats = rig.gateway().stats();
+    assert_eq!(stats.failures.malformed, 0);
+    assert_eq!(
+        (
+            stats.coe_count,
+            stats.soe_count,
+            stats.foe_count,
+            stats.voe_count
+        ),
+        (6, 6, 2, 2)
+    );
+}
+
+#[test]
+fn the_gateways_own_errors_use_the_manuals_codes_in_that_layout() {
+    let rig = GwRig::start(config());
+    let client = CompatClient::new(rig.addr(), Duration::from_secs(10));
+    // CoE to an unknown address: abort 0x06020000 naming the object.
+    let r = client.coe_sdo_read(0x0999, 0x6040, 0).expect("answer");
+    assert_eq!((r.code, r.low_nibble, r.address), (COE, 0, 0x0999));
+    assert_eq!(r.data[2], 0x80);
+    assert_eq!(r.data[3..6], [0x40, 0x60, 0x00]);
+    assert_eq!(r.data[6..10], 0x0602_0000u32.to_le_bytes());
+    // SoE to an unknown address: 0x1009, error bit set, the client's op code and element.
+    let r = client.soe_read(0x0999, 32, 0, 5).expect("answer");
+    assert_eq!((r.code, r.low_nibble), (SOE, 0));
+    assert_eq!(r.data, [0x11, 0x05, 0x20, 0x00, 0x09, 0x10]);
+    // SoE at the master's address: not served there, 0x8001.
+    let r = client.soe_read(0x0000, 32, 0, 5).expect("answer");
+    assert_eq!(r.data[4..], 0x8001u16.to_le_bytes());
+    // FoE to a slave without FoE: 0x8001 (not implemented), FoE error without the
+    // reserved byte.
+    let store = 1001 + COE_STORE as u16;
+    let r = client.foe_read(store, "firmware.bin").expect("answer");
+    assert_eq!((r.code, r.low_nibble), (FOE, 0));
+    assert_eq!(r.data[..5], [0x05, 0x01, 0x80, 0, 0]);
+    // FoE to an unknown address: 0x8002 (not found, in the manual's table).
+    let r = client.foe_read(0x0999, "firmware.bin").expect("answer");
+    assert_eq!(r.data[..5], [0x05, 0x02, 0x80, 0, 0]);
+    // VoE to a slave without VoE: a mailbox error (type byte 0x00) with the manual's VoE
+    // code 0x0001 "service not available".
+    let r = client.voe_send(store, VENDOR, 1, &[1]).expect("answer");
+    assert_eq!((r.code, r.low_nibble), (0, 0));
+    assert_eq!(r.data, [0x01, 0x00, 0x01, 0x00]);
+    // A slave's own answers pass through in the layout: VoE for another vendor gets the
+    // simulated slave's mailbox error 0x0004.
+    let r = client.voe_send(SLAVE, 0x42, 1, &[1]).expect("answer");
+    assert_eq!((r.code, r.data.clone()), (0, vec![0x01, 0x00, 0x04, 0x00]));
+    // The layout is detected per message: a standard request from the same socket still
+    // gets a standard answer (type CoE = 3 in bits 3:0, the counter in 6:4).
+    let standard = gateway_support::datagram(
+        SLAVE,
+        master_core::wire::mailbox::MailboxType::Coe,
+        5,
+        &[0x00, 0x20, 0x40, 0x40, 0x60, 0x00, 0, 0, 0, 0],
+    );
+    client.socket.send_to(&standard, rig.addr()).expect("send");
+    let r = client.receive().expect("answer");
+    assert_eq!(r.low_nibble, 3, "standard type CoE: {r:02X?}");
+    let _ = VOE;
+}
