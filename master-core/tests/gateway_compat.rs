@@ -1,4 +1,4 @@
-//! Issue 15, item 1, in process: the seed manual's Python and Rust sample clients (replayed
+//! Issue 15, item 1, in process: the Python and Rust sample clients of the gateway manual (docs/gateway.md, "Compatibility layout") (replayed
 //! byte for byte by `gateway_support::compat_client`) get real answers from the default
 //! segment in their own layout (type code in bits 7:4), and the gateway's own error answers
 //! in that layout use the manual's code table. The standard clients' suites

@@ -8,7 +8,7 @@ use std::str::FromStr;
 use clap::Parser;
 use serde::{Deserialize, Serialize};
 
-use master_core::gateway::{ClientNet, GatewayConfig};
+use master_core::gateway::{AllowedNet, ClientNet, GatewayConfig, GatewayRole};
 
 use crate::security::Token;
 
@@ -156,21 +156,61 @@ impl<'de> Deserialize<'de> for GatewayListen {
     }
 }
 
+/// One client network of the gateway's allowlist: `"10.0.0.0/8"` (role `write`) or
+/// `{ net = "10.0.0.0/8", role = "read" }`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum GatewayAllow {
+    /// A network whose clients may write.
+    Net(String),
+    /// A network and its role (`read` or `write`).
+    WithRole {
+        /// The network (CIDR).
+        net: String,
+        /// `read` or `write`.
+        role: String,
+    },
+}
+
+impl GatewayAllow {
+    /// The network and role, checked.
+    pub fn allowed(&self) -> Result<AllowedNet, String> {
+        let (net, role) = match self {
+            GatewayAllow::Net(net) => (net, GatewayRole::Write),
+            GatewayAllow::WithRole { net, role } => (
+                net,
+                role.parse::<GatewayRole>()
+                    .map_err(|err| format!("gateway allow {net:?}: {err}"))?,
+            ),
+        };
+        let net = net
+            .parse::<ClientNet>()
+            .map_err(|err| format!("gateway allow {net:?}: {err}"))?;
+        Ok(AllowedNet::new(net, role))
+    }
+}
+
 /// The mailbox gateway's settings (`[gateway]`).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GatewaySettings {
+    /// Whether ecatd runs the gateway (`false`: as `--no-gateway`).
+    pub enabled: bool,
     /// UDP listen address: `IP` or `IP:PORT`; default `127.0.0.1` with the port from
     /// `master_number` (34980 for master 1). A taken port falls back to a free one, which
     /// the log, the API and the metrics report.
     pub listen: GatewayListen,
     /// This master's number (1-based) when several masters run on one host.
     pub master_number: u16,
-    /// Client networks allowed to send requests (CIDR, e.g. `10.0.0.0/8`); empty: loopback
-    /// only.
-    pub allow: Vec<String>,
+    /// Client networks allowed to send requests, each with a role (`"10.0.0.0/8"`: write;
+    /// `{ net = "10.0.0.0/8", role = "read" }`); empty: loopback with write. A non-loopback
+    /// network with write needs `insecure`.
+    pub allow: Vec<GatewayAllow>,
     /// Strict mode: no error replies from the gateway itself (ETG.8200 permits silence).
     pub strict: bool,
+    /// Milliseconds after its answer during which a repeated UDP request (same bytes,
+    /// counter 1-7) is answered from the stored reply instead of running again; 0: never.
+    pub retry_window_ms: u64,
 }
 
 impl Default for GatewaySettings {
@@ -180,9 +220,11 @@ impl Default for GatewaySettings {
                 ip: IpAddr::from([127, 0, 0, 1]),
                 port: None,
             },
+            enabled: true,
             master_number: 1,
             allow: Vec::new(),
             strict: false,
+            retry_window_ms: 1000,
         }
     }
 }
@@ -194,14 +236,11 @@ impl GatewaySettings {
             return Err("gateway master_number must be 1 or more".into());
         }
         let allow = if self.allow.is_empty() {
-            ClientNet::loopback()
+            AllowedNet::all(ClientNet::loopback(), GatewayRole::Write)
         } else {
             self.allow
                 .iter()
-                .map(|net| {
-                    net.parse::<ClientNet>()
-                        .map_err(|err| format!("gateway allow {net:?}: {err}"))
-                })
+                .map(GatewayAllow::allowed)
                 .collect::<Result<Vec<_>, _>>()?
         };
         Ok(GatewayConfig {
@@ -210,8 +249,29 @@ impl GatewaySettings {
             master_number: self.master_number,
             allow,
             strict: self.strict,
+            retry_window: std::time::Duration::from_millis(self.retry_window_ms),
             ..GatewayConfig::default()
         })
+    }
+
+    /// Refuses clients outside loopback with the write role unless `insecure`: the gateway
+    /// has no tokens, so such a network could change the segment unauthenticated.
+    fn check(&self, insecure: bool) -> Result<(), String> {
+        let config = self.gateway_config()?;
+        if insecure {
+            return Ok(());
+        }
+        match config
+            .allow
+            .iter()
+            .find(|a| a.role == GatewayRole::Write && !a.net.is_loopback())
+        {
+            Some(open) => Err(format!(
+                "refusing to let gateway clients of {} write without tokens; give that [gateway] allow entry role = \"read\" ({{ net = \"{}\", role = \"read\" }}), or pass --insecure",
+                open.net, open.net
+            )),
+            None => Ok(()),
+        }
     }
 }
 
@@ -315,6 +375,10 @@ impl Config {
         if let Some(log) = &args.log {
             config.log = log.clone();
         }
+        // `enabled = false` wins over a listen address given on the command line.
+        if config.gateway.as_ref().is_some_and(|g| !g.enabled) {
+            config.gateway = None;
+        }
         config.insecure |= args.insecure;
         if let (Some(cert), Some(key)) = (&args.tls_cert, &args.tls_key) {
             config.tls = Some(TlsSettings {
@@ -325,10 +389,11 @@ impl Config {
         Ok(config)
     }
 
-    /// Refuses a non-loopback listen address without tokens, unless `insecure`.
+    /// Refuses a non-loopback listen address without tokens, and non-loopback gateway
+    /// clients with the write role, unless `insecure`.
     pub fn check(&self) -> Result<(), String> {
         if let Some(gateway) = &self.gateway {
-            gateway.gateway_config()?;
+            gateway.check(self.insecure)?;
         }
         crate::watch::spec::check_all(&self.watch)?;
         if self.tokens.is_empty() && !self.insecure {
@@ -446,6 +511,48 @@ mod tests {
         assert_eq!(file.gateway_config().unwrap().wanted_port(), 34982);
         assert!(Args::try_parse_from(["ecatd", "--gateway-master-number", "0"]).is_err());
         assert!("300.0.0.1".parse::<GatewayListen>().is_err());
+        let off: Config = toml::from_str("[gateway]\nenabled = false\n").unwrap();
+        assert!(!off.gateway.unwrap().enabled);
+    }
+
+    #[test]
+    fn gateway_roles_come_from_the_file_and_open_writers_need_insecure() {
+        let file: Config = toml::from_str(
+            "[gateway]\nallow = [\"127.0.0.0/8\", { net = \"10.0.0.0/8\", role = \"read\" }]\nretry_window_ms = 250\n",
+        )
+        .unwrap();
+        let config = file.gateway.as_ref().unwrap().gateway_config().unwrap();
+        assert_eq!(
+            config.role_of("127.0.0.1".parse().unwrap()),
+            Some(GatewayRole::Write)
+        );
+        assert_eq!(
+            config.role_of("10.1.2.3".parse().unwrap()),
+            Some(GatewayRole::Read)
+        );
+        assert_eq!(config.role_of("192.168.0.1".parse().unwrap()), None);
+        assert_eq!(config.retry_window, std::time::Duration::from_millis(250));
+        assert!(
+            file.check().is_ok(),
+            "read clients outside loopback are fine"
+        );
+        let open: Config = toml::from_str("[gateway]\nallow = [\"10.0.0.0/8\"]\n").unwrap();
+        let err = open.check().unwrap_err();
+        assert!(
+            err.contains("10.0.0.0/8")
+                && err.contains("role = \"read\"")
+                && err.contains("--insecure"),
+            "{err}"
+        );
+        let insecure = Config {
+            insecure: true,
+            ..open
+        };
+        assert!(insecure.check().is_ok());
+        let bad: Config =
+            toml::from_str("[gateway]\nallow = [{ net = \"10.0.0.0/8\", role = \"admin\" }]\n")
+                .unwrap();
+        assert!(bad.check().unwrap_err().contains("admin"));
     }
 
     #[test]

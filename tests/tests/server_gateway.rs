@@ -794,10 +794,15 @@ fn strict_mode_answers_no_errors_but_relays_the_slaves() {
 
 #[test]
 fn clients_outside_the_allowlist_get_nothing_and_are_counted() {
-    let ecatd = start_with_config("allow", "[gateway]\nallow = [\"10.0.0.0/8\"]\n", &[]);
+    // A network outside loopback with the write role needs --insecure (issue 15).
+    let ecatd = start_with_config(
+        "allow",
+        "[gateway]\nallow = [\"10.0.0.0/8\"]\n",
+        &["--insecure"],
+    );
     assert_eq!(
         gateway_view(&ecatd)["allow"],
-        serde_json::json!(["10.0.0.0/8"])
+        serde_json::json!(["10.0.0.0/8 write"])
     );
     let mut client = GatewayClient::new(ecatd.gateway_addr());
     client.send(

@@ -386,7 +386,7 @@ fn gateway_service_reports_stops_and_starts_the_gateway() {
     assert_eq!(status["masterNumber"], 1);
     assert_eq!(
         status["allow"],
-        serde_json::json!(["127.0.0.0/8", "::1/128"])
+        serde_json::json!(["127.0.0.0/8 write", "::1/128 write"])
     );
     assert!(status["strict"].is_null(), "not strict: {status}");
     assert_eq!(status["stats"]["port"], bound.port());

@@ -22,7 +22,7 @@
 //! Files: `config`, `allow` (client networks), `bind` (port and fallback), `serve` (the
 //! loop and the request tasks), `route` (addresses), `forward` (one slave), `plan` (what
 //! a message makes the slave do), `session` (multi-message transfers), `normalize`
-//! (tolerated short SDO requests), `compat` (the layout of the seed manual's clients),
+//! (tolerated short SDO requests), `compat` (the layout of the replaced gateway's manual clients),
 //! `answer` (the gateway's own error answers), `reply` (datagrams back), `retry` (repeated
 //! requests answered once), `access` (which requests write: roles), `audit` (audit lines of
 //! writes), `admission` (in-flight caps), `stats`, `tcp` (the optional TCP transport over

@@ -1,4 +1,4 @@
-//! A UDP client of our own that speaks the layout of the seed manual's sample clients
+//! A UDP client of our own that speaks the layout of the gateway manual's sample clients
 //! (docs/gateway.md, "Compatibility layout"): the mailbox type code in bits 7:4 of the type
 //! byte (3 CoE, 4 SoE, 5 FoE, 15 VoE), no counter, SoE as op code / drive << 3 | element /
 //! IDN, FoE with the file name at offset 5. Its requests are built byte for byte as the

@@ -47,11 +47,13 @@ pub struct GwRig {
     rig: Option<master_support::Rig<InProcessLink>>,
 }
 
-/// The test configuration: any free port on loopback.
+/// The test configuration: any free port on loopback. Every test client is on the one host
+/// 127.0.0.1, which the in-flight cap counts as one client: the cap is the overall one.
 pub fn test_config() -> GatewayConfig {
     GatewayConfig {
         bind: Ipv4Addr::LOCALHOST.into(),
         port: Some(0),
+        max_in_flight_per_client: GatewayConfig::default().max_in_flight,
         ..GatewayConfig::default()
     }
 }

@@ -30,7 +30,8 @@ pub struct GatewayView {
     pub master_number: u16,
     /// Strict mode: no error replies from the gateway itself.
     pub strict: bool,
-    /// Client networks allowed to send requests (CIDR).
+    /// Client networks allowed to send requests, each with its role (`127.0.0.0/8 write`,
+    /// `10.0.0.0/8 read`).
     pub allow: Vec<String>,
     /// Statistics since the last start.
     pub stats: GatewayStatsView,
@@ -65,6 +66,8 @@ pub struct GatewayStatsView {
     pub port: u16,
     /// Time from a request's arrival to its first reply.
     pub latency: LatencyView,
+    /// Repeated UDP requests answered from the stored reply instead of running again.
+    pub retries_answered: u64,
 }
 
 /// Failed requests by reason.
@@ -78,7 +81,7 @@ pub struct GatewayFailuresView {
     pub unsupported_protocol: u64,
     /// No answer in time.
     pub timeout: u64,
-    /// Client not in the allowlist.
+    /// Client not in the allowlist, or a write from a client with the `read` role.
     pub denied: u64,
     /// Too many requests in flight, or the slave held too long.
     pub busy: u64,
@@ -160,6 +163,7 @@ impl From<&MailboxGatewayStats> for GatewayStatsView {
             in_flight: s.in_flight,
             port: s.port,
             latency: LatencyView::from(&s.latency),
+            retries_answered: s.retries_answered,
         }
     }
 }

@@ -85,6 +85,11 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
             "Requests that failed (see ecat_mailbox_gateway_failures_total for why).",
             s.failed_requests,
         ),
+        counter(
+            "ecat_mailbox_gateway_retries_answered_total",
+            "Repeated UDP requests answered from the stored reply instead of running again.",
+            s.retries_answered,
+        ),
         protocols.done(),
         failures.done(),
         gauge(
