@@ -8,7 +8,8 @@
 //! 0, other bytes, or any other request of the client in between make it new, so a tool
 //! polling one object with cycling counters is never served a stale value. A repeat that
 //! comes while the original is still being worked on is dropped: the original's answer goes
-//! to the same address.
+//! to the same address. "Busy" and "no answer in time" are not final answers: they are not
+//! kept, and a repeat runs.
 //!
 //! Memory is bounded: one request and its reply per client (address and port), replies
 //! larger than [`MAX_STORED`] are not kept (a repeat of such a request, an SDO Information
@@ -122,8 +123,15 @@ impl Retries {
     }
 
     /// Stores the reply datagrams of the request with `ticket`, answered `now` (unless the
-    /// client sent another request meanwhile, or they are too large to keep).
-    pub fn finish(&self, client: SocketAddr, ticket: u64, replies: Vec<Vec<u8>>, now: Instant) {
+    /// client sent another request meanwhile, or they are too large to keep); `None`: the
+    /// answer says nothing final (busy, timeout), so a repeat runs again.
+    pub fn finish(
+        &self,
+        client: SocketAddr,
+        ticket: u64,
+        replies: Option<Vec<Vec<u8>>>,
+        now: Instant,
+    ) {
         let mut inner = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
         let Some(entry) = inner.entries.get_mut(&client) else {
             return;
@@ -131,10 +139,11 @@ impl Retries {
         if !matches!(entry.state, State::InFlight(t) if t == ticket) {
             return;
         }
-        if replies.iter().map(Vec::len).sum::<usize>() > MAX_STORED {
+        let Some(replies) = replies.filter(|r| r.iter().map(Vec::len).sum::<usize>() <= MAX_STORED)
+        else {
             inner.entries.remove(&client);
             return;
-        }
+        };
         entry.state = State::Done(replies);
         entry.at = now;
     }
@@ -166,7 +175,7 @@ mod tests {
             panic!("new")
         };
         assert_eq!(r.check(client(1), b"req", 1, t0), Check::InFlight);
-        r.finish(client(1), ticket, vec![b"reply".to_vec()], t0);
+        r.finish(client(1), ticket, Some(vec![b"reply".to_vec()]), t0);
         let later = t0 + Duration::from_millis(900);
         assert_eq!(
             r.check(client(1), b"req", 1, later),
@@ -191,7 +200,7 @@ mod tests {
         let now = Instant::now();
         let done = |bytes: &[u8], counter: u8| {
             if let Check::New(Some(t)) = r.check(client(1), bytes, counter, now) {
-                r.finish(client(1), t, vec![bytes.to_vec()], now);
+                r.finish(client(1), t, Some(vec![bytes.to_vec()]), now);
             }
         };
         done(b"a", 0);
@@ -217,15 +226,24 @@ mod tests {
             let Check::New(Some(t)) = r.check(client(port), b"x", 1, now) else {
                 panic!("new")
             };
-            r.finish(client(port), t, vec![vec![0; 10]], now);
+            r.finish(client(port), t, Some(vec![vec![0; 10]]), now);
         }
         assert_eq!(r.len(), 4);
         let Check::New(Some(t)) = r.check(client(7), b"big", 1, now) else {
             panic!("new")
         };
-        r.finish(client(7), t, vec![vec![0; MAX_STORED + 1]], now);
+        r.finish(client(7), t, Some(vec![vec![0; MAX_STORED + 1]]), now);
         assert!(matches!(
             r.check(client(7), b"big", 1, now),
+            Check::New(Some(_))
+        ));
+        // A busy or timed-out request is not final: its repeat runs.
+        let Check::New(Some(t)) = r.check(client(8), b"busy", 1, now) else {
+            panic!("new")
+        };
+        r.finish(client(8), t, None, now);
+        assert!(matches!(
+            r.check(client(8), b"busy", 1, now),
             Check::New(Some(_))
         ));
     }

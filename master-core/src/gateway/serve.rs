@@ -290,9 +290,9 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Request, _ticket: Ticket
     let ty = request.header.mailbox_type;
     let address = request.header.address;
     let write = access::is_write(ty, &request.data);
-    if write && request.role < GatewayRole::Write {
+    let outcome = if write && request.role < GatewayRole::Write {
         audit::refused(request.client, address, ty, &request.data);
-        shared.fail(&request, Fault::Denied).await;
+        shared.fail(&request, Fault::Denied).await
     } else {
         let outcome = match route::target(&shared.master, address) {
             Ok(Target::Master) => to_master(&shared, &request).await,
@@ -303,13 +303,19 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Request, _ticket: Ticket
         if write {
             audit::write(request.client, address, ty, &request.data, &outcome);
         }
-    }
+        outcome
+    };
     if let Some(ticket) = ticket {
+        // "Busy" and "no answer in time" are no final answer: a repeat may run.
+        let final_answer = !matches!(outcome, Outcome::Failed(Fault::Busy | Fault::Timeout));
         let sent =
             std::mem::take(&mut *request.sent.lock().unwrap_or_else(PoisonError::into_inner));
-        shared
-            .retries
-            .finish(request.client, ticket, sent, StdInstant::now());
+        shared.retries.finish(
+            request.client,
+            ticket,
+            final_answer.then_some(sent),
+            StdInstant::now(),
+        );
     }
 }
 
