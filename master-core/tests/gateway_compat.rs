@@ -11,7 +11,7 @@ mod compat_client;
 
 use std::time::Duration;
 
-use compat_client::{COE, CompatClient, Expected, FOE, SLAVE, SOE, VENDOR, VOE, replay};
+use compat_client::{COE, CompatClient, Expected, FOE, SLAVE, SOE, VENDOR, replay};
 use gateway_support::{COE_STORE, DRIVE, GwRig, test_config};
 use master_core::gateway::GatewayConfig;
 use master_core::master_od::MasterIdentity;
@@ -115,5 +115,48 @@ fn the_gateways_own_errors_use_the_manuals_codes_in_that_layout() {
     client.socket.send_to(&standard, rig.addr()).expect("send");
     let r = client.receive().expect("answer");
     assert_eq!(r.low_nibble, 3, "standard type CoE: {r:02X?}");
-    let _ = VOE;
+}
+
+#[test]
+fn element_numbers_map_to_the_standard_elements() {
+    let rig = GwRig::start(config());
+    let client = CompatClient::new(rig.addr(), Duration::from_secs(10));
+    // 0 name: the standard name element (actual length, maximum length, text).
+    let r = client.soe_read(SLAVE, 32, 0, 0).expect("name");
+    assert_eq!(r.data[..4], [0x01, 0x00, 0x20, 0x00], "{r:02X?}");
+    let text = b"Primary operation mode";
+    assert_eq!(
+        u16::from_le_bytes([r.data[4], r.data[5]]) as usize,
+        text.len()
+    );
+    assert_eq!(&r.data[8..8 + text.len()], text);
+    // 1 attribute and 7 data type: the 4-byte attribute (4-byte element, hexadecimal:
+    // data type 3 in bits 22:20).
+    for element in [1, 7] {
+        let r = client.soe_read(SLAVE, 32, 0, element).expect("attribute");
+        assert_eq!(r.data[1], element);
+        assert_eq!(r.data[4..], 0x0032_0001u32.to_le_bytes());
+    }
+    // 6 default: 2, as 4 bytes.
+    let r = client.soe_read(SLAVE, 32, 0, 6).expect("default");
+    assert_eq!(r.data[4..], 2u32.to_le_bytes());
+    // An IDN the drive lacks: the slave's own error, error bit set, in the layout.
+    let r = client.soe_read(SLAVE, 0x7FFF, 0, 5).expect("error");
+    assert_eq!(r.data[0], 0x11, "read with error bit: {r:02X?}");
+    assert_eq!(r.data[4..], 0x1001u16.to_le_bytes());
+}
+
+#[test]
+fn an_foe_write_in_that_layout_stores_the_file() {
+    let rig = GwRig::start(config());
+    let client = CompatClient::new(rig.addr(), Duration::from_secs(10));
+    let r = client.foe_write(SLAVE, "compat.bin").expect("ACK 0");
+    assert_eq!((r.code, r.data.clone()), (FOE, vec![0x04, 0, 0, 0, 0]));
+    // DATA packet 1 in the layout: op code, packet number, data.
+    let r = client
+        .send_request(SLAVE, FOE, &[0x03, 1, 0, 0, 0, b'o', b'k'])
+        .expect("ACK 1");
+    assert_eq!(r.data, [0x04, 1, 0, 0, 0]);
+    let store = rig.handles[DRIVE].files.as_ref().expect("FoE store");
+    assert_eq!(store.data("compat.bin").as_deref(), Some(&b"ok"[..]));
 }
