@@ -10,7 +10,7 @@ use tokio::sync::watch;
 use master_core::gateway::MailboxGateway;
 
 use crate::config::{Config, GatewaySettings};
-use crate::core::Core;
+use crate::service::Core;
 use crate::security::Tokens;
 use crate::{grpc, http, segment};
 

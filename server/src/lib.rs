@@ -1,10 +1,10 @@
-//! ecatd, the EtherCAT master daemon: configuration, the service layer (`core`) and the
+//! ecatd, the EtherCAT master daemon: configuration, the service layer (`service`) and the
 //! APIs over it (gRPC in `grpc`, REST/metrics/health in `http`), security, and start-up.
 //!
 //! Binaries: `ecatd` (the daemon, `src/main.rs`) and `ecat` (the command-line client).
 
 pub mod config;
-pub mod core;
+pub mod service;
 pub mod daemon;
 pub mod grpc;
 pub mod http;

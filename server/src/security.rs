@@ -8,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 use tonic::{Request, Status};
 
-use crate::core::ApiError;
+use crate::service::ApiError;
 use crate::grpc::status::status;
 
 /// What a token may do.

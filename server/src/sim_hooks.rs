@@ -5,7 +5,7 @@
 use sim::device::coe::EmergencyTrigger;
 use sim::topology::SlaveHandles;
 
-use crate::core::ApiError;
+use crate::service::ApiError;
 
 /// Hooks into the simulated slaves, by ring position.
 #[derive(Debug, Clone, Default)]

@@ -12,7 +12,7 @@ use tonic::{Request, Response, Status};
 
 use super::convert::{event, slave, state_name};
 use super::status::{narrow, status};
-use crate::core::{Core, EventView};
+use crate::service::{Core, EventView};
 use crate::security::require_write;
 
 /// The bus service over the core.

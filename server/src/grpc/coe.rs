@@ -5,7 +5,7 @@ use proto::v1::coe_service_server::CoeService;
 use tonic::{Request, Response, Status};
 
 use super::status::{narrow, status};
-use crate::core::Core;
+use crate::service::Core;
 use crate::security::require_write;
 
 /// The CoE service over the core.

@@ -13,7 +13,7 @@ use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 
 use super::status::status;
-use crate::core::{ApiError, Core};
+use crate::service::{ApiError, Core};
 use crate::security::require_write;
 
 /// Largest file a client may write in one call.

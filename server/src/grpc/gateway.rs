@@ -5,8 +5,8 @@ use proto::v1::gateway_service_server::GatewayService;
 use tonic::{Request, Response, Status};
 
 use super::status::status;
-use crate::core::Core;
-use crate::core::gateway::{GatewayStatsView, GatewayView};
+use crate::service::Core;
+use crate::service::gateway::{GatewayStatsView, GatewayView};
 use crate::security::{Caller, authorize_write};
 
 /// The gateway service over the core.

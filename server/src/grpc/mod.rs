@@ -25,7 +25,7 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Server;
 use tonic::transport::server::TcpIncoming;
 
-use crate::core::Core;
+use crate::service::Core;
 use crate::security::{Tokens, grpc_interceptor};
 
 /// Largest request message accepted (FoE writes come in chunks below this).

@@ -7,7 +7,7 @@ use proto::v1::voe_service_server::VoeService;
 use tonic::{Request, Response, Status};
 
 use super::status::{narrow, status};
-use crate::core::{Core, IpView};
+use crate::service::{Core, IpView};
 use crate::security::require_write;
 
 /// The SoE, VoE and EoE services over the core.

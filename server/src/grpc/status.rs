@@ -7,7 +7,7 @@ use std::collections::HashMap;
 use tonic::Status;
 use tonic_types::{ErrorDetails, StatusExt};
 
-use crate::core::ApiError;
+use crate::service::ApiError;
 
 /// The status for `err`.
 pub fn status(err: ApiError) -> Status {

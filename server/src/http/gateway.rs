@@ -4,7 +4,7 @@
 use axum::Json;
 use axum::extract::State;
 
-use crate::core::{ApiError, Core, GatewayView};
+use crate::service::{ApiError, Core, GatewayView};
 
 #[utoipa::path(get, path = "/api/v1/gateway", tag = "gateway",
     responses((status = 200, body = GatewayView)))]

@@ -22,7 +22,7 @@ use axum::http::{StatusCode, header};
 use axum::routing::{get, post, put};
 use tower_http::timeout::TimeoutLayer;
 
-use crate::core::Core;
+use crate::service::Core;
 use crate::security::Tokens;
 
 /// Largest request body (an FoE file).

@@ -5,10 +5,10 @@ use utoipa::OpenApi;
 
 use super::error::{ErrorBody, ErrorInfo};
 use super::{gateway, rest};
-use crate::core::gateway::{
+use crate::service::gateway::{
     GatewayFailuresView, GatewayStatsView, GatewayView, LatencyBucketView, LatencyView,
 };
-use crate::core::{
+use crate::service::{
     EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
 };
 

@@ -9,7 +9,7 @@ use axum::{Json, Router};
 use serde::Deserialize;
 
 use super::rest::Done;
-use crate::core::{ApiError, Core, parse_slave};
+use crate::service::{ApiError, Core, parse_slave};
 
 /// The emergency to raise.
 #[derive(Debug, Deserialize)]

@@ -5,7 +5,7 @@ use std::time::Duration;
 use prometheus::proto::{MetricFamily, MetricType};
 
 use super::family::Family;
-use crate::core::Core;
+use crate::service::Core;
 
 /// Upper bounds of the round-trip histogram, in seconds.
 const RTT_BOUNDS: [f64; 12] = [

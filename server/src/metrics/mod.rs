@@ -19,7 +19,7 @@ use std::sync::Arc;
 use prometheus::proto::MetricFamily;
 use prometheus::{Encoder, TextEncoder};
 
-use crate::core::Core;
+use crate::service::Core;
 use family::Family;
 
 /// Every family, in a stable order.
