@@ -10,8 +10,8 @@ use tokio::sync::watch;
 use master_core::gateway::MailboxGateway;
 
 use crate::config::{Config, GatewaySettings};
-use crate::service::Core;
 use crate::security::Tokens;
+use crate::service::Core;
 use crate::{grpc, http, segment};
 
 /// How long shutdown waits for the slaves to reach the safe state.

@@ -4,7 +4,6 @@
 //! Binaries: `ecatd` (the daemon, `src/main.rs`) and `ecat` (the command-line client).
 
 pub mod config;
-pub mod service;
 pub mod daemon;
 pub mod grpc;
 pub mod http;
@@ -12,6 +11,7 @@ pub mod logging;
 pub mod metrics;
 pub mod security;
 pub mod segment;
+pub mod service;
 pub mod sim_hooks;
 pub mod tls;
 pub mod watch;

@@ -8,8 +8,8 @@
 use serde::{Deserialize, Serialize};
 use tonic::{Request, Status};
 
-use crate::service::ApiError;
 use crate::grpc::status::status;
+use crate::service::ApiError;
 
 /// What a token may do.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]

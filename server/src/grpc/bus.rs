@@ -12,8 +12,8 @@ use tonic::{Request, Response, Status};
 
 use super::convert::{event, slave, state_name};
 use super::status::{narrow, status};
-use crate::service::{Core, EventView};
 use crate::security::require_write;
+use crate::service::{Core, EventView};
 
 /// The bus service over the core.
 pub struct Bus {

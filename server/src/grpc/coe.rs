@@ -5,8 +5,8 @@ use proto::v1::coe_service_server::CoeService;
 use tonic::{Request, Response, Status};
 
 use super::status::{narrow, status};
-use crate::service::Core;
 use crate::security::require_write;
+use crate::service::Core;
 
 /// The CoE service over the core.
 pub struct Coe {

@@ -13,8 +13,8 @@ use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 
 use super::status::status;
-use crate::service::{ApiError, Core};
 use crate::security::require_write;
+use crate::service::{ApiError, Core};
 
 /// Largest file a client may write in one call.
 pub const MAX_FOE_WRITE: usize = 16 << 20;

@@ -25,8 +25,8 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Server;
 use tonic::transport::server::TcpIncoming;
 
-use crate::service::Core;
 use crate::security::{Tokens, grpc_interceptor};
+use crate::service::Core;
 
 /// Largest request message accepted (FoE writes come in chunks below this).
 pub const MAX_MESSAGE: usize = 4 << 20;

@@ -7,8 +7,8 @@ use proto::v1::voe_service_server::VoeService;
 use tonic::{Request, Response, Status};
 
 use super::status::{narrow, status};
-use crate::service::{Core, IpView};
 use crate::security::require_write;
+use crate::service::{Core, IpView};
 
 /// The SoE, VoE and EoE services over the core.
 pub struct Protocols {

@@ -22,8 +22,8 @@ use axum::http::{StatusCode, header};
 use axum::routing::{get, post, put};
 use tower_http::timeout::TimeoutLayer;
 
-use crate::service::Core;
 use crate::security::Tokens;
+use crate::service::Core;
 
 /// Largest request body (an FoE file).
 pub const MAX_BODY: usize = 16 << 20;

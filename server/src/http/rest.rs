@@ -14,7 +14,9 @@ use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 use utoipa::{IntoParams, ToSchema};
 
 use crate::service::value::parse_number;
-use crate::service::{ApiError, Core, EntryView, EventView, IpView, ObjectView, SlaveView, VoeView};
+use crate::service::{
+    ApiError, Core, EntryView, EventView, IpView, ObjectView, SlaveView, VoeView,
+};
 
 type Result<T> = std::result::Result<T, ApiError>;
 

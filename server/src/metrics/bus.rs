@@ -20,7 +20,7 @@ fn counter(name: &str, help: &str, value: u64) -> Option<MetricFamily> {
 
 /// The bus families.
 pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
-    let s = core.master().bus().stats();
+    let s = core.master().bus_stats();
     let cycle = core.master().cycle_stats();
     let mut out = vec![
         counter(
