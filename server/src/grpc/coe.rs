@@ -4,8 +4,8 @@ use proto::v1 as pb;
 use proto::v1::coe_service_server::CoeService;
 use tonic::{Request, Response, Status};
 
+use super::auth::require_write;
 use super::status::{narrow, status};
-use crate::security::require_write;
 use crate::service::Core;
 
 /// The CoE service over the core.

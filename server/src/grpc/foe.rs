@@ -12,8 +12,8 @@ use tokio_stream::wrappers::ReceiverStream;
 use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 
+use super::auth::require_write;
 use super::status::status;
-use crate::security::require_write;
 use crate::service::{ApiError, Core};
 
 /// Largest file a client may write in one call.
