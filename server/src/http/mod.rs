@@ -14,6 +14,7 @@ pub mod rest;
 pub mod sim;
 
 use std::future::Future;
+use std::sync::Arc;
 use std::time::Duration;
 
 use axum::Router;
@@ -22,16 +23,24 @@ use axum::http::{StatusCode, header};
 use axum::routing::{get, post, put};
 use tower_http::timeout::TimeoutLayer;
 
+use crate::metrics;
 use crate::security::Tokens;
 use crate::service::Core;
+use crate::sim_hooks::SimHooks;
 
 /// Largest request body (an FoE file).
 pub const MAX_BODY: usize = 16 << 20;
 /// Time limit of one request (the event stream excepted).
 pub const TIMEOUT: Duration = Duration::from_secs(60);
 
-/// Every HTTP route.
-pub fn router(core: Core, tokens: Tokens) -> Router {
+/// Every HTTP route: the API over `core`, the metrics from `core` and `metrics`, and the
+/// simulator's debug route when `sim` hooks are given (`--simulate`).
+pub fn router(
+    core: Core,
+    tokens: Tokens,
+    metrics: Arc<metrics::Store>,
+    sim: Option<SimHooks>,
+) -> Router {
     use rest::*;
     let api = Router::new()
         .route("/slaves", get(list_slaves))
@@ -62,7 +71,7 @@ pub fn router(core: Core, tokens: Tokens) -> Router {
         .route("/gateway", get(gateway::get_gateway))
         .route("/gateway/start", post(gateway::start_gateway))
         .route("/gateway/stop", post(gateway::stop_gateway))
-        .merge(sim::routes(&core))
+        .merge(sim::routes(core.clone(), sim))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::GATEWAY_TIMEOUT,
             TIMEOUT,
@@ -85,37 +94,48 @@ pub fn router(core: Core, tokens: Tokens) -> Router {
                 )
             }),
         )
-        .route("/metrics", get(metrics).with_state(core.clone()))
+        .route(
+            "/metrics",
+            get(render_metrics).with_state(MetricsState {
+                core: core.clone(),
+                store: metrics,
+            }),
+        )
         .merge(health::routes(core))
 }
 
-async fn metrics(
-    axum::extract::State(core): axum::extract::State<Core>,
+/// What `/metrics` reads: the master through the core, and what ecatd recorded itself.
+#[derive(Clone)]
+struct MetricsState {
+    core: Core,
+    store: Arc<metrics::Store>,
+}
+
+async fn render_metrics(
+    axum::extract::State(MetricsState { core, store }): axum::extract::State<MetricsState>,
 ) -> axum::response::Response {
     use axum::response::IntoResponse;
-    match crate::metrics::render(&core) {
+    match metrics::render(&core, &store) {
         Ok(text) => ([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], text).into_response(),
         Err(err) => (StatusCode::INTERNAL_SERVER_ERROR, err).into_response(),
     }
 }
 
-/// Serves the HTTP routes over TLS on `listener` until `shutdown` completes.
+/// Serves `app` (the [`router`]) over TLS on `listener` until `shutdown` completes.
 pub async fn serve_tls(
-    core: Core,
-    tokens: Tokens,
+    app: Router,
     listener: crate::tls::TlsListener,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
-    axum::serve(listener, router(core, tokens))
+    axum::serve(listener, app)
         .with_graceful_shutdown(shutdown)
         .await
         .map_err(|err| format!("HTTPS server: {err}"))
 }
 
-/// Serves the HTTP routes on `listener` until `shutdown` completes.
+/// Serves `app` (the [`router`]) on `listener` until `shutdown` completes.
 pub async fn serve(
-    core: Core,
-    tokens: Tokens,
+    app: Router,
     listener: tokio::net::TcpListener,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
@@ -127,7 +147,7 @@ pub async fn serve(
             tracing::debug!(%err, "cannot set TCP_NODELAY");
         }
     });
-    axum::serve(listener, router(core, tokens))
+    axum::serve(listener, app)
         .with_graceful_shutdown(shutdown)
         .await
         .map_err(|err| format!("HTTP server: {err}"))
