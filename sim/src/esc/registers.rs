@@ -7,12 +7,14 @@
 //! [`super::physical`]; their mask here only says what is stored.
 
 use master_core::wire::register::address as reg;
+use master_core::wire::register::al::{AlControl, AlState, AlStatus};
 use master_core::wire::register::dc::SPEED_COUNTER_START_DEFAULT;
 use master_core::wire::register::info::{EscInfo, EscInfoRepr};
-use master_core::wire::register::sync_manager::SM_LEN;
+use master_core::wire::register::sync_manager::SmPdiControl;
 
 use super::config::EscConfig;
 use super::memory::Memory;
+use super::sync_manager::update_registers;
 
 /// The parts of the configuration that decide which registers exist.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -36,8 +38,6 @@ impl Layout {
     }
 }
 
-/// Reset value of AL status and AL control: INIT.
-pub const AL_INIT: u16 = 0x0001;
 /// Watchdog divider reset value: (2498 + 2) × 40 ns = 100 µs per tick (digest §2.8).
 pub const WATCHDOG_DIVIDER_DEFAULT: u16 = 0x09C2;
 /// Watchdog times reset value: 1000 ticks = 100 ms.
@@ -46,8 +46,6 @@ pub const WATCHDOG_TIME_DEFAULT: u16 = 1000;
 pub const TIME_FILTER_DEPTH_DEFAULT: u8 = 4;
 /// DC speed counter filter depth after reset (KickCAT).
 pub const SPEED_FILTER_DEPTH_DEFAULT: u8 = 12;
-/// SM PDI control bit 0: the PDI has not enabled the SyncManager.
-pub const SM_PDI_DEACTIVATED: u8 = 0x01;
 /// Watchdog status process data: bit 0 = 1 means active or disabled (not expired).
 pub const WATCHDOG_STATUS_OK: u16 = 0x0001;
 
@@ -153,13 +151,22 @@ pub(crate) fn load_reset_values(mem: &mut Memory, config: &EscConfig) {
         // The block has exactly buffer_len() bytes, so emit cannot fail.
         let _ = info.emit(&mut EscInfo::new_unchecked(block));
     }
-    mem.set_u16(reg::AL_CONTROL.into(), AL_INIT);
-    mem.set_u16(reg::AL_STATUS.into(), AL_INIT);
+    // AL control and status reset to INIT, without error or acknowledge flags.
+    if let Some(control) = mem.get_mut(reg::AL_CONTROL.into(), AlControl::LEN) {
+        // Two bytes and a state that fits its 4 bits: emit cannot fail.
+        let _ = AlControl::request(AlState::Init).emit(control);
+    }
+    if let Some(status) = mem.get_mut(reg::AL_STATUS.into(), AlStatus::LEN) {
+        let _ = AlStatus::new(AlState::Init).emit(status);
+    }
+    let deactivated = SmPdiControl {
+        deactivate: true,
+        repeat_ack: false,
+    };
     for n in 0..config.effective_sm_count() {
         // SyncManagers start disabled by the PDI: the slave application enables them on the
         // state transitions that need them (§3.2).
-        let pdi_control = u32::from(reg::SM_BASE) + u32::from(n) * SM_LEN as u32 + 7;
-        mem.set_u8(pdi_control, SM_PDI_DEACTIVATED);
+        update_registers(mem, n, |sm| sm.set_pdi_control_raw(deactivated.encode()));
     }
     mem.set_u16(reg::WATCHDOG_DIVIDER.into(), WATCHDOG_DIVIDER_DEFAULT);
     mem.set_u16(reg::WATCHDOG_TIME_PDI.into(), WATCHDOG_TIME_DEFAULT);
