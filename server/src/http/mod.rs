@@ -2,9 +2,8 @@
 //! `/healthz`, `/readyz`.
 //!
 //! Files: `rest` (handlers, one file per resource), `gateway` (the gateway's handlers),
-//! `openapi` (the document's frame), `error`
-//! (errors as JSON), `auth` (tokens), `health`, `sim` (the simulator's debug route,
-//! `--simulate` only).
+//! `openapi` (the document's frame), `error` (errors as JSON), `auth` (tokens), `health`,
+//! `sim` (the simulator's debug route, `--simulate` only).
 
 pub mod auth;
 pub mod error;
