@@ -9,7 +9,7 @@ use axum::{Json, Router};
 use serde::Deserialize;
 
 use super::rest::Done;
-use crate::service::{ApiError, Core, parse_slave};
+use crate::service::{ApiError, Core};
 use crate::sim_hooks::SimHooks;
 
 /// What the route needs: the core (to name slaves) and the simulator's hooks.
@@ -50,7 +50,7 @@ async fn raise_emergency(
         .ok()
         .and_then(|bytes| bytes.try_into().ok())
         .ok_or_else(|| ApiError::invalid("data must be 5 bytes, hex"))?;
-    let position = core.master().slave(parse_slave(&slave)?)?.position;
+    let position = core.get_slave(&slave)?.position;
     hooks.raise_emergency(position, body.error_code, body.error_register, data)?;
     Ok(Json(Done { ok: true }))
 }
