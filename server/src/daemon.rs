@@ -1,6 +1,7 @@
 //! Start-up and shutdown: open the segment, scan it, serve both APIs, and on SIGINT or
 //! SIGTERM stop serving, bring the slaves to a safe state (INIT) and close the link.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use master_core::wire::register::AlState;
@@ -10,8 +11,8 @@ use tokio::sync::watch;
 use master_core::gateway::MailboxGateway;
 
 use crate::config::{Config, GatewaySettings};
-use crate::core::Core;
 use crate::security::Tokens;
+use crate::service::Core;
 use crate::{grpc, http, segment};
 
 /// How long shutdown waits for the slaves to reach the safe state.
@@ -33,10 +34,9 @@ pub async fn run(config: Config) -> Result<(), String> {
         .map(crate::tls::TlsFiles::load)
         .transpose()?;
     let running = segment::open(&segment_config)?;
-    let core = Core::new(running.master.clone());
-    if let Some(hooks) = &running.sim {
-        core.set_sim(hooks.clone());
-    }
+    // What the metrics record lives beside the core; the core only records its requests.
+    let metrics = Arc::new(crate::metrics::Store::default());
+    let core = Core::new(running.master.clone(), Arc::clone(&metrics.calls));
     let tokens = Tokens::new(config.tokens.clone());
     tracing::info!(
         grpc = %config.grpc_listen_of(&grpc_listener),
@@ -56,19 +56,19 @@ pub async fn run(config: Config) -> Result<(), String> {
         tls.as_ref().map(crate::tls::TlsFiles::grpc),
         stopped(stop_rx.clone()),
     ));
+    let app = http::router(
+        core.clone(),
+        tokens,
+        Arc::clone(&metrics),
+        running.sim.clone(),
+    );
     let http_task = match &tls {
         Some(files) => tokio::spawn(http::serve_tls(
-            core.clone(),
-            tokens,
+            app,
             crate::tls::TlsListener::new(http_listener, files.http()?),
             stopped(stop_rx),
         )),
-        None => tokio::spawn(http::serve(
-            core.clone(),
-            tokens,
-            http_listener,
-            stopped(stop_rx),
-        )),
+        None => tokio::spawn(http::serve(app, http_listener, stopped(stop_rx))),
     };
 
     match core.master().scan().await {
@@ -81,7 +81,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         Err(err) => tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan"),
     }
     core.master().start_watch(Duration::from_millis(100));
-    let background = crate::metrics::start(&core, &config.watch);
+    let background = crate::metrics::start(&core, &metrics, &config.watch);
     if let Some(settings) = &config.gateway
         && let Err(err) = start_gateway(&core, settings).await
     {

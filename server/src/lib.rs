@@ -1,10 +1,9 @@
-//! ecatd, the EtherCAT master daemon: configuration, the service layer (`core`) and the
+//! ecatd, the EtherCAT master daemon: configuration, the service layer (`service`) and the
 //! APIs over it (gRPC in `grpc`, REST/metrics/health in `http`), security, and start-up.
 //!
 //! Binaries: `ecatd` (the daemon, `src/main.rs`) and `ecat` (the command-line client).
 
 pub mod config;
-pub mod core;
 pub mod daemon;
 pub mod grpc;
 pub mod http;
@@ -12,6 +11,7 @@ pub mod logging;
 pub mod metrics;
 pub mod security;
 pub mod segment;
+pub mod service;
 pub mod sim_hooks;
 pub mod tls;
 pub mod watch;

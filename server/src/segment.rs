@@ -6,12 +6,9 @@ use std::thread::JoinHandle;
 use master_core::bus::{Bus, BusConfig, BusHandle};
 use master_core::link::{RawSocket, RawSocketOptions};
 use master_core::master::{Master, MasterConfig};
-use sim::link::InProcessLink;
-use sim::topology::{Topology, build_with_handles};
-
-use crate::sim_hooks::SimHooks;
 
 use crate::config::Segment;
+use crate::sim_hooks::SimHooks;
 
 /// A running bus and master; [`Running::stop`] shuts them down.
 pub struct Running {
@@ -49,21 +46,9 @@ pub fn open(segment: &Segment) -> Result<Running, String> {
     let mut sim = None;
     let (bus, thread) = match segment {
         Segment::Simulate { topology } => {
-            let topology = match topology {
-                None => Topology::default_segment(),
-                Some(path) => {
-                    let text = std::fs::read_to_string(path)
-                        .map_err(|err| format!("cannot read topology {}: {err}", path.display()))?;
-                    Topology::from_toml(&text)
-                        .map_err(|err| format!("topology {}: {err}", path.display()))?
-                }
-            };
-            let built = build_with_handles(&topology).map_err(|err| format!("topology: {err}"))?;
-            sim = Some(SimHooks::new(&built.slaves));
-            let segment = built.segment;
-            let (bus, thread) = Bus::start(InProcessLink::new(segment), BusConfig::default())
-                .map_err(|err| format!("cannot start the bus: {err}"))?;
-            (bus, joiner(thread))
+            let (bus, thread, hooks) = simulate(topology.as_deref())?;
+            sim = Some(hooks);
+            (bus, thread)
         }
         Segment::Iface { name } => {
             let socket = RawSocket::open(name, RawSocketOptions::default())
@@ -81,4 +66,59 @@ pub fn open(segment: &Segment) -> Result<Running, String> {
         bus,
         thread,
     })
+}
+
+type Started = (BusHandle, Box<dyn FnOnce() + Send>, SimHooks);
+
+/// The bus on the in-process simulator: the built-in segment, or the topology file given.
+#[cfg(feature = "simulate")]
+fn simulate(topology: Option<&std::path::Path>) -> Result<Started, String> {
+    use sim::link::InProcessLink;
+    use sim::topology::{Topology, build_with_handles};
+
+    let topology = match topology {
+        None => Topology::default_segment(),
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .map_err(|err| format!("cannot read topology {}: {err}", path.display()))?;
+            Topology::from_toml(&text)
+                .map_err(|err| format!("topology {}: {err}", path.display()))?
+        }
+    };
+    let built = build_with_handles(&topology).map_err(|err| format!("topology: {err}"))?;
+    let hooks = SimHooks::new(&built.slaves);
+    let (bus, thread) = Bus::start(InProcessLink::new(built.segment), BusConfig::default())
+        .map_err(|err| format!("cannot start the bus: {err}"))?;
+    Ok((bus, joiner(thread), hooks))
+}
+
+/// Without the simulator built in, `--simulate` is refused before anything starts.
+#[cfg(not(feature = "simulate"))]
+fn simulate(_topology: Option<&std::path::Path>) -> Result<Started, String> {
+    Err(NO_SIMULATOR.into())
+}
+
+/// Why `--simulate` is refused by an ecatd built without the `simulate` feature.
+pub const NO_SIMULATOR: &str = "this ecatd was built without the simulator (cargo feature \
+     `simulate`): --simulate is not available; run on a segment with --iface NAME, or \
+     rebuild with the default features";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[cfg(not(feature = "simulate"))]
+    #[test]
+    fn simulate_is_refused_without_the_simulator() {
+        let refused = open(&Segment::Simulate { topology: None }).err();
+        assert_eq!(refused.as_deref(), Some(NO_SIMULATOR));
+    }
+
+    #[cfg(feature = "simulate")]
+    #[test]
+    fn simulate_runs_the_built_in_segment_with_its_hooks() {
+        let running = open(&Segment::Simulate { topology: None }).expect("simulated segment");
+        assert!(running.sim.is_some());
+        running.stop();
+    }
 }

@@ -31,6 +31,7 @@ mod configure;
 mod context;
 mod cycle_stats;
 mod dc;
+mod diagnostics;
 mod eeprom;
 mod error;
 mod event;

@@ -17,9 +17,7 @@ use crate::master::{Master, SlaveAddress};
 use crate::od::{MIN_MAILBOX_SIZE, Outcome, SdoServer, ServerContext};
 use crate::wire::coe::{AbortCode, CoeFrame, CoeService, SdoFrame};
 use crate::wire::mailbox::{MailboxErrorCode, MailboxType};
-use crate::wire::register::address::ERROR_COUNTERS;
-use crate::wire::register::error_counters::ERROR_COUNTERS_LEN;
-use crate::wire::register::{AlState, ErrorCounters, ErrorCountersRepr};
+use crate::wire::register::{AlState, ErrorCountersRepr};
 use crate::wire::sii::SiiImage;
 
 use super::diagnosis::{Diagnosis, track};
@@ -111,26 +109,18 @@ impl MasterDictionary {
             }
             Some(index) if (DIAGNOSIS..DIAGNOSIS + count).contains(&index) => {
                 let position = index - DIAGNOSIS;
-                let read = self
+                if let Ok(repr) = self
                     .master
-                    .read_register(
-                        SlaveAddress::Position(position),
-                        ERROR_COUNTERS,
-                        ERROR_COUNTERS_LEN,
-                    )
-                    .await;
-                if let Some(repr) = read.ok().and_then(|bytes| {
-                    ErrorCounters::new_checked(&bytes[..])
-                        .and_then(|v| ErrorCountersRepr::parse(&v))
-                        .ok()
-                }) {
+                    .error_counters(SlaveAddress::Position(position))
+                    .await
+                {
                     lock(&self.counters).insert(position, repr);
                 }
             }
             _ => {}
         }
         snap.error_counters = lock(&self.counters).clone();
-        let bus = self.master.bus().stats();
+        let bus = self.master.bus_stats();
         snap.cyclic_lost = bus.cycles_lost;
         snap.acyclic_lost = bus.frames_lost.saturating_sub(bus.cycles_lost);
         snap.wkc_errors = self.master.wkc_errors();
@@ -242,16 +232,10 @@ impl MasterDictionary {
             Action::ResetDiagnosis => {
                 self.diagnosis.reset();
                 lock(&self.counters).clear();
-                // Any write clears the ESC's error counters (digest §2.7).
-                let zeros = [0u8; ERROR_COUNTERS_LEN];
                 for slave in self.master.slaves().iter().filter(|s| s.present) {
                     let _ = self
                         .master
-                        .write_register(
-                            SlaveAddress::Position(slave.position),
-                            ERROR_COUNTERS,
-                            &zeros,
-                        )
+                        .clear_error_counters(SlaveAddress::Position(slave.position))
                         .await;
                 }
                 Ok(())

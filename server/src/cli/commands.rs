@@ -2,7 +2,7 @@
 
 use proto::v1 as pb;
 use serde_json::{Value, json};
-use server::core::value::{ValueType, decode, encode, parse_number};
+use server::service::value::{ValueType, decode, encode, parse_number};
 use tonic::Status;
 
 use crate::client::{Clients, connect};
@@ -17,7 +17,7 @@ fn num<T: TryFrom<u64>>(text: &str, what: &str) -> Result<T, String> {
 }
 
 fn typed(ty: &str) -> Result<ValueType, String> {
-    ty.parse().map_err(|e: server::core::ApiError| e.message)
+    ty.parse().map_err(|e: server::service::ApiError| e.message)
 }
 
 fn unhex(text: &str) -> Result<Vec<u8>, String> {

@@ -10,10 +10,10 @@ use tokio_stream::wrappers::BroadcastStream;
 use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 use tonic::{Request, Response, Status};
 
+use super::auth::require_write;
 use super::convert::{event, slave, state_name};
 use super::status::{narrow, status};
-use crate::core::{Core, EventView};
-use crate::security::require_write;
+use crate::service::{Core, EventView};
 
 /// The bus service over the core.
 pub struct Bus {

@@ -4,9 +4,9 @@ use proto::v1 as pb;
 use proto::v1::coe_service_server::CoeService;
 use tonic::{Request, Response, Status};
 
+use super::auth::require_write;
 use super::status::{narrow, status};
-use crate::core::Core;
-use crate::security::require_write;
+use crate::service::Core;
 
 /// The CoE service over the core.
 pub struct Coe {

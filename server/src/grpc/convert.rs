@@ -4,7 +4,7 @@ use proto::v1 as pb;
 use tonic::Status;
 
 use super::status::status;
-use crate::core::{ApiError, EventView, IdentityView, SlaveView};
+use crate::service::{ApiError, EventView, IdentityView, SlaveView};
 
 /// The protobuf enum for a state name.
 pub fn al_state(name: &str) -> pb::AlState {

@@ -12,9 +12,9 @@ use tokio_stream::wrappers::ReceiverStream;
 use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 
+use super::auth::require_write;
 use super::status::status;
-use crate::core::{ApiError, Core};
-use crate::security::require_write;
+use crate::service::{ApiError, Core};
 
 /// Largest file a client may write in one call.
 pub const MAX_FOE_WRITE: usize = 16 << 20;

@@ -5,9 +5,9 @@ use proto::v1::gateway_service_server::GatewayService;
 use tonic::{Request, Response, Status};
 
 use super::status::status;
-use crate::core::Core;
-use crate::core::gateway::{GatewayStatsView, GatewayView};
 use crate::security::{Caller, authorize_write};
+use crate::service::Core;
+use crate::service::gateway::{GatewayStatsView, GatewayView};
 
 /// The gateway service over the core.
 pub struct Gateway {

@@ -1,8 +1,10 @@
 //! The gRPC API (`ecat.v1`), server reflection (v1 and v1alpha) and `grpc.health.v1`.
 //!
-//! Files: one per service (`bus`, `coe`, `foe`, `gateway`, `protocols` for SoE/VoE/EoE), `convert`
-//! (views to messages), `status` (the error mapping).
+//! Files: one per service (`bus`, `coe`, `foe`, `gateway`, `protocols` for SoE/VoE/EoE),
+//! `auth` (the token interceptor and write check), `convert` (views to messages), `status`
+//! (the error mapping).
 
+pub mod auth;
 pub mod bus;
 pub mod coe;
 pub mod convert;
@@ -25,8 +27,9 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Server;
 use tonic::transport::server::TcpIncoming;
 
-use crate::core::Core;
-use crate::security::{Tokens, grpc_interceptor};
+use crate::security::Tokens;
+use crate::service::Core;
+use auth::grpc_interceptor;
 
 /// Largest request message accepted (FoE writes come in chunks below this).
 pub const MAX_MESSAGE: usize = 4 << 20;

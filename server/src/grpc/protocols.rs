@@ -6,9 +6,9 @@ use proto::v1::soe_service_server::SoeService;
 use proto::v1::voe_service_server::VoeService;
 use tonic::{Request, Response, Status};
 
+use super::auth::require_write;
 use super::status::{narrow, status};
-use crate::core::{Core, IpView};
-use crate::security::require_write;
+use crate::service::{Core, IpView};
 
 /// The SoE, VoE and EoE services over the core.
 pub struct Protocols {

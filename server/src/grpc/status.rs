@@ -1,4 +1,5 @@
-//! [`ApiError`] as a gRPC status: the code from [`ErrorKind::grpc`], the message, and a
+//! [`ApiError`] as a gRPC status: the code from
+//! [`ErrorKind::grpc`](crate::service::ErrorKind::grpc), the message, and a
 //! `google.rpc.ErrorInfo` detail (domain `ecat.v1`, reason = the error's tag, metadata
 //! `code` / `code_text` for the protocol's own error code).
 
@@ -7,7 +8,7 @@ use std::collections::HashMap;
 use tonic::Status;
 use tonic_types::{ErrorDetails, StatusExt};
 
-use crate::core::ApiError;
+use crate::service::ApiError;
 
 /// The status for `err`.
 pub fn status(err: ApiError) -> Status {

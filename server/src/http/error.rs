@@ -1,4 +1,4 @@
-//! [`ApiError`] as an HTTP response: the status from [`ErrorKind::http`](crate::core::ErrorKind::http)
+//! [`ApiError`] as an HTTP response: the status from [`ErrorKind::http`](crate::service::ErrorKind::http)
 //! and a JSON body with the same fields gRPC carries.
 
 use axum::Json;
@@ -7,7 +7,7 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use crate::core::ApiError;
+use crate::service::ApiError;
 
 /// The JSON body of every failed REST call.
 #[derive(Debug, Serialize, ToSchema)]

@@ -4,16 +4,16 @@
 use axum::Json;
 use axum::extract::State;
 
-use crate::core::{ApiError, Core, GatewayView};
+use crate::service::{ApiError, Core, GatewayView};
 
-#[utoipa::path(get, path = "/api/v1/gateway", tag = "gateway",
+#[utoipa::path(get, path = "/gateway", tag = "gateway",
     responses((status = 200, body = GatewayView)))]
 /// The mailbox gateway: running, address bound, settings, statistics.
 pub async fn get_gateway(State(core): State<Core>) -> Json<GatewayView> {
     Json(core.gateway())
 }
 
-#[utoipa::path(post, path = "/api/v1/gateway/start", tag = "gateway",
+#[utoipa::path(post, path = "/gateway/start", tag = "gateway",
     responses((status = 200, body = GatewayView),
         (status = 409, description = "no gateway configured", body = super::error::ErrorBody),
         (status = 503, description = "cannot bind", body = super::error::ErrorBody)))]
@@ -22,7 +22,7 @@ pub async fn start_gateway(State(core): State<Core>) -> Result<Json<GatewayView>
     core.start_gateway().await.map(Json)
 }
 
-#[utoipa::path(post, path = "/api/v1/gateway/stop", tag = "gateway",
+#[utoipa::path(post, path = "/gateway/stop", tag = "gateway",
     responses((status = 200, body = GatewayView),
         (status = 409, description = "no gateway configured", body = super::error::ErrorBody)))]
 /// Stops the mailbox gateway and releases its port.

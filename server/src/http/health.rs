@@ -5,7 +5,7 @@ use axum::extract::State;
 use axum::http::StatusCode;
 use axum::routing::get;
 
-use crate::core::Core;
+use crate::service::Core;
 
 /// The health routes.
 pub fn routes(core: Core) -> Router {

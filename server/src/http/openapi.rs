@@ -1,33 +1,26 @@
-//! The OpenAPI 3 document of the REST API, generated from the handlers' annotations and
-//! served at `/api/v1/openapi.json`.
+//! The OpenAPI 3 document of the REST API, served at `/api/v1/openapi.json`: this frame
+//! (description, schemas, bearer authentication) and the paths of the router that serves
+//! them ([`super::router`] builds both from the handlers' annotations).
 
 use utoipa::OpenApi;
 
 use super::error::{ErrorBody, ErrorInfo};
-use super::{gateway, rest};
-use crate::core::gateway::{
+use super::rest;
+use crate::service::gateway::{
     GatewayFailuresView, GatewayStatsView, GatewayView, LatencyBucketView, LatencyView,
 };
-use crate::core::{
+use crate::service::{
     EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
 };
 
-/// The document.
+/// The document's frame; the paths come from the router.
 #[derive(OpenApi)]
 #[openapi(
     info(title = "ecatd REST API", description = "EtherCAT master management: slaves, states, CoE, SoE, FoE, VoE, EoE, registers, SII and the ETG.8200 mailbox gateway. Slaves are named `3` (position), `#1004` (station, `%231004` in a path) or `@0x777` (alias)."),
-    paths(
-        rest::list_slaves, rest::get_slave, rest::request_state, rest::rescan, rest::events,
-        rest::read_register, rest::write_register, rest::read_sii, rest::write_sii, rest::set_alias,
-        rest::coe_upload, rest::coe_download, rest::coe_object_list, rest::coe_object, rest::coe_entry,
-        rest::soe_read, rest::soe_write, rest::foe_read, rest::foe_write, rest::voe,
-        rest::eoe_get_ip, rest::eoe_set_ip,
-        gateway::get_gateway, gateway::start_gateway, gateway::stop_gateway,
-    ),
     components(schemas(
         SlaveView, IdentityView, EventView, EmergencyView, IpView, ObjectView, EntryView, VoeView,
-        ErrorBody, ErrorInfo, rest::Data, rest::Upload, rest::SdoWrite, rest::StateBody, rest::AliasBody,
-        rest::RescanBody, rest::ObjectList, rest::VoeBody, rest::Done,
+        ErrorBody, ErrorInfo, rest::Data, rest::coe::Upload, rest::coe::SdoWrite, rest::slaves::StateBody,
+        rest::sii::AliasBody, rest::slaves::RescanBody, rest::coe::ObjectList, rest::voe::VoeBody, rest::Done,
         GatewayView, GatewayStatsView, GatewayFailuresView, LatencyView, LatencyBucketView,
     )),
     modifiers(&BearerAuth),
@@ -49,8 +42,6 @@ impl utoipa::Modify for BearerAuth {
 }
 
 /// The document as JSON.
-pub fn json() -> String {
-    ApiDoc::openapi()
-        .to_pretty_json()
-        .unwrap_or_else(|_| "{}".into())
+pub fn json(document: &utoipa::openapi::OpenApi) -> String {
+    document.to_pretty_json().unwrap_or_else(|_| "{}".into())
 }

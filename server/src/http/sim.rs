@@ -9,7 +9,15 @@ use axum::{Json, Router};
 use serde::Deserialize;
 
 use super::rest::Done;
-use crate::core::{ApiError, Core, parse_slave};
+use crate::service::{ApiError, Core};
+use crate::sim_hooks::SimHooks;
+
+/// What the route needs: the core (to name slaves) and the simulator's hooks.
+#[derive(Clone)]
+struct SimState {
+    core: Core,
+    hooks: SimHooks,
+}
 
 /// The emergency to raise.
 #[derive(Debug, Deserialize)]
@@ -23,28 +31,26 @@ pub struct EmergencyBody {
     pub data: String,
 }
 
-/// The route, when `core` runs the simulator; otherwise none.
-pub fn routes(core: &Core) -> Router<Core> {
-    let router = Router::new();
-    if core.sim().is_none() {
-        return router;
-    }
-    router.route("/slaves/{slave}/sim/emergency", post(raise_emergency))
+/// The route, when ecatd runs the simulator (`hooks` given); otherwise none.
+pub fn routes<S: Clone + Send + Sync + 'static>(core: Core, hooks: Option<SimHooks>) -> Router<S> {
+    let Some(hooks) = hooks else {
+        return Router::new();
+    };
+    Router::new()
+        .route("/slaves/{slave}/sim/emergency", post(raise_emergency))
+        .with_state(SimState { core, hooks })
 }
 
 async fn raise_emergency(
-    State(core): State<Core>,
+    State(SimState { core, hooks }): State<SimState>,
     Path(slave): Path<String>,
     Json(body): Json<EmergencyBody>,
 ) -> Result<Json<Done>, ApiError> {
-    let hooks = core
-        .sim()
-        .ok_or_else(|| ApiError::unavailable("not running the simulator"))?;
     let data: [u8; 5] = hex::decode(body.data.trim())
         .ok()
         .and_then(|bytes| bytes.try_into().ok())
         .ok_or_else(|| ApiError::invalid("data must be 5 bytes, hex"))?;
-    let position = core.master().slave(parse_slave(&slave)?)?.position;
+    let position = core.get_slave(&slave)?.position;
     hooks.raise_emergency(position, body.error_code, body.error_register, data)?;
     Ok(Json(Done { ok: true }))
 }

@@ -5,7 +5,7 @@ use std::time::Duration;
 use prometheus::proto::{MetricFamily, MetricType};
 
 use super::family::Family;
-use crate::core::Core;
+use crate::service::Core;
 
 /// Upper bounds of the round-trip histogram, in seconds.
 const RTT_BOUNDS: [f64; 12] = [
@@ -20,7 +20,7 @@ fn counter(name: &str, help: &str, value: u64) -> Option<MetricFamily> {
 
 /// The bus families.
 pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
-    let s = core.master().bus().stats();
+    let s = core.master().bus_stats();
     let cycle = core.master().cycle_stats();
     let mut out = vec![
         counter(

@@ -10,9 +10,7 @@ use std::sync::{Arc, Mutex, MutexGuard, PoisonError, Weak};
 use std::time::Duration;
 
 use master_core::master::{Master, SlaveAddress};
-use master_core::wire::register::address::ERROR_COUNTERS;
-use master_core::wire::register::error_counters::ERROR_COUNTERS_LEN;
-use master_core::wire::register::{ErrorCounters, ErrorCountersRepr};
+use master_core::wire::register::ErrorCountersRepr;
 use prometheus::proto::{MetricFamily, MetricType};
 use tokio::task::JoinHandle;
 
@@ -78,20 +76,11 @@ impl EscCounters {
             let Some(m) = master.upgrade() else {
                 return false;
             };
-            let read = m
-                .read_register(
-                    SlaveAddress::Station(slave.station),
-                    ERROR_COUNTERS,
-                    ERROR_COUNTERS_LEN,
-                )
-                .await;
+            let read = m.error_counters(SlaveAddress::Station(slave.station)).await;
             drop(m);
-            let parsed = read.ok().and_then(|bytes| {
-                ErrorCountersRepr::parse(&ErrorCounters::new_checked(bytes).ok()?).ok()
-            });
             let mut inner = self.lock();
-            match parsed {
-                Some(counters) => {
+            match read {
+                Ok(counters) => {
                     inner.last.insert(
                         slave.station,
                         Read {
@@ -101,7 +90,7 @@ impl EscCounters {
                         },
                     );
                 }
-                None => inner.failed_reads += 1,
+                Err(_) => inner.failed_reads += 1,
             }
         }
         // Slaves gone since the last scan drop out.

@@ -7,7 +7,7 @@ use master_core::gateway::FailureReason;
 
 use super::bus::histogram;
 use super::family::Family;
-use crate::core::Core;
+use crate::service::Core;
 
 /// Failure reasons with their label values, in the gateway's own terms.
 const REASONS: [(FailureReason, &str); 8] = [

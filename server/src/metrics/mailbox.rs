@@ -4,7 +4,7 @@ use master_core::mailbox::MailboxStats;
 use prometheus::proto::{MetricFamily, MetricType};
 
 use super::family::Family;
-use crate::core::Core;
+use crate::service::Core;
 
 type Field = fn(&MailboxStats) -> u64;
 

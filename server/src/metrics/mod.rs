@@ -19,18 +19,19 @@ use std::sync::Arc;
 use prometheus::proto::MetricFamily;
 use prometheus::{Encoder, TextEncoder};
 
-use crate::core::Core;
+use crate::service::Core;
 use family::Family;
 
-/// Every family, in a stable order.
-pub fn gather(core: &Core) -> Vec<MetricFamily> {
+/// Every family, in a stable order: read from the master through `core`, and from what
+/// `store` recorded.
+pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     let mut families: Vec<Option<MetricFamily>> = vec![build_info()];
     families.extend(bus::collect(core));
     families.extend(slaves::collect(core));
     families.extend(mailbox::collect(core));
-    families.extend(core.metrics().calls.collect());
-    families.extend(core.metrics().esc.collect());
-    families.extend(core.metrics().watch.collect());
+    families.extend(store.calls.collect());
+    families.extend(store.esc.collect());
+    families.extend(store.watch.collect());
     families.extend(gateway::collect(core));
     families.into_iter().flatten().collect()
 }
@@ -39,8 +40,8 @@ pub fn gather(core: &Core) -> Vec<MetricFamily> {
 /// time).
 #[derive(Debug, Default)]
 pub struct Store {
-    /// Mailbox requests per slave and protocol.
-    pub calls: calls::MailboxCalls,
+    /// Mailbox requests per slave and protocol (the core records them: hand it this).
+    pub calls: Arc<calls::MailboxCalls>,
     /// The ESC error counters last read.
     pub esc: Arc<esc::EscCounters>,
     /// The watched values (`[[watch]]`).
@@ -60,18 +61,19 @@ impl Drop for Background {
     }
 }
 
-/// Starts the background readers: the ESC error counters and the watched values.
-pub fn start(core: &Core, watches: &[crate::watch::WatchSpec]) -> Background {
-    let mut tasks = vec![core.metrics().esc.start(core.master())];
-    tasks.extend(crate::watch::start(core, watches, &core.metrics().watch));
+/// Starts the background readers into `store`: the ESC error counters and the watched
+/// values.
+pub fn start(core: &Core, store: &Store, watches: &[crate::watch::WatchSpec]) -> Background {
+    let mut tasks = vec![store.esc.start(core.master())];
+    tasks.extend(crate::watch::start(core, watches, &store.watch));
     Background { tasks }
 }
 
 /// The text exposition format.
-pub fn render(core: &Core) -> Result<String, String> {
+pub fn render(core: &Core, store: &Store) -> Result<String, String> {
     let mut out = Vec::new();
     TextEncoder::new()
-        .encode(&gather(core), &mut out)
+        .encode(&gather(core, store), &mut out)
         .map_err(|err| err.to_string())?;
     String::from_utf8(out).map_err(|err| err.to_string())
 }

@@ -4,8 +4,8 @@ use master_core::wire::register::AlState;
 use prometheus::proto::{MetricFamily, MetricType};
 
 use super::family::Family;
-use crate::core::Core;
-use crate::core::view::state_name;
+use crate::service::Core;
+use crate::service::view::state_name;
 
 /// The slave families.
 pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {

@@ -18,8 +18,8 @@ use std::time::Duration;
 
 use tokio::task::JoinHandle;
 
-use crate::core::value::{self, ValueType};
-use crate::core::{ApiError, Core};
+use crate::service::value::{self, ValueType};
+use crate::service::{ApiError, Core};
 pub use spec::{Target, WatchSpec};
 pub use values::{WatchLabels, WatchValues};
 

@@ -3,8 +3,8 @@
 use master_core::wire::soe::Idn;
 use serde::{Deserialize, Serialize};
 
-use crate::core::parse_slave;
-use crate::core::value::ValueType;
+use crate::service::parse_slave;
+use crate::service::value::ValueType;
 
 /// The most watches one configuration may list (one task each).
 pub const MAX_WATCHES: usize = 256;

@@ -11,7 +11,7 @@
 use master_core::wire::register::address as reg;
 use master_core::wire::register::al::{AlControl, AlState, AlStatus};
 use master_core::wire::register::al_status_code::AlStatusCode;
-use master_core::wire::register::sync_manager::SmActivate;
+use master_core::wire::register::sync_manager::{SmActivate, SmControl, SmPdiControl};
 use master_core::wire::sii::fixed::MailboxArea;
 
 use crate::device::{Device, ProcessDataSizes};
@@ -20,18 +20,6 @@ use super::Esc;
 use super::mailbox::{MAILBOX_IN_SM, MAILBOX_OUT_SM};
 use super::memory::SM_AREA_START;
 use super::sync_manager::{self, SmConfig};
-
-/// Control byte bits 0-3 (mode and direction) of each SyncManager kind.
-mod kind {
-    /// Mailbox, master → slave.
-    pub const MAILBOX_OUT: u8 = 0x06;
-    /// Mailbox, slave → master.
-    pub const MAILBOX_IN: u8 = 0x02;
-    /// Buffered, master → slave.
-    pub const OUTPUTS: u8 = 0x04;
-    /// Buffered, slave → master.
-    pub const INPUTS: u8 = 0x00;
-}
 
 impl Esc {
     /// AL control was written: process the request.
@@ -185,36 +173,39 @@ impl Esc {
             if n >= self.layout.sm_count {
                 continue;
             }
-            let addr = sync_manager::pdi_control_addr(n);
-            let pdi = self.mem.u8(addr);
-            self.mem
-                .set_u8(addr, if enabled { pdi & !0x01 } else { pdi | 0x01 });
+            sync_manager::update_registers(&mut self.mem, n, |sm| {
+                let mut pdi = SmPdiControl::decode(sm.pdi_control_raw());
+                pdi.deactivate = !enabled;
+                sm.set_pdi_control_raw(pdi.encode());
+            });
             self.sm_registers_written(n);
         }
     }
 
     /// The master's SM `n` settings, independent of the PDI's deactivate bit.
     fn master_sm(&self, n: u8) -> (SmConfig, bool) {
-        let base = sync_manager::base(n);
+        let sm = sync_manager::registers(&self.mem, n);
         let config = SmConfig {
-            start: self.mem.u16(base),
-            length: self.mem.u16(base + 2),
-            control: self.mem.u8(base + 4),
+            start: sm.start(),
+            length: sm.length(),
+            control: sm.control_raw(),
             active: false,
         };
-        let enabled = n < self.layout.sm_count
-            && SmActivate::decode(self.mem.u8(sync_manager::activate_addr(n))).enable;
+        let enabled = n < self.layout.sm_count && SmActivate::decode(sm.activate_raw()).enable;
         (config, enabled)
     }
 
-    /// Whether SM `n` is enabled by the master with exactly `start`/`length`, the given
-    /// mode/direction and a range the ESC can serve (digital I/O registers or RAM).
-    fn sm_matches(&self, n: u8, start: u16, length: u16, kind: u8) -> bool {
+    /// Whether SM `n` is enabled by the master with exactly `start`/`length`, the mode and
+    /// direction of `kind` (its interrupt and watchdog bits are the master's choice) and a
+    /// range the ESC can serve (digital I/O registers or RAM).
+    fn sm_matches(&self, n: u8, start: u16, length: u16, kind: SmControl) -> bool {
         let (c, enabled) = self.master_sm(n);
+        let control = c.control();
         enabled
             && c.start == start
             && c.length == length
-            && c.control & 0x0F == kind
+            && control.mode == kind.mode
+            && control.direction == kind.direction
             && u32::from(c.start) >= SM_AREA_START
             && c.end() <= self.mem.end()
     }
@@ -225,8 +216,8 @@ impl Esc {
         if !rx.is_present() && !tx.is_present() {
             return Ok(());
         }
-        let ok = self.sm_matches(MAILBOX_OUT_SM, rx.offset, rx.size, kind::MAILBOX_OUT)
-            && self.sm_matches(MAILBOX_IN_SM, tx.offset, tx.size, kind::MAILBOX_IN);
+        let ok = self.sm_matches(MAILBOX_OUT_SM, rx.offset, rx.size, SmControl::MAILBOX_OUT)
+            && self.sm_matches(MAILBOX_IN_SM, tx.offset, tx.size, SmControl::MAILBOX_IN);
         if ok { Ok(()) } else { Err(()) }
     }
 
@@ -235,7 +226,7 @@ impl Esc {
     /// outputs (inputs) accepts its SM only disabled or empty.
     fn check_process_data(&self, sizes: ProcessDataSizes) -> Result<(), AlStatusCode> {
         let info = self.eeprom.info();
-        let check = |sm: Option<u8>, size: u16, kind: u8| -> bool {
+        let check = |sm: Option<u8>, size: u16, kind: SmControl| -> bool {
             match sm {
                 Some(n) if size > 0 => {
                     let (c, _) = self.master_sm(n);
@@ -248,10 +239,10 @@ impl Esc {
                 None => size == 0,
             }
         };
-        if !check(info.outputs_sm, sizes.outputs, kind::OUTPUTS) {
+        if !check(info.outputs_sm, sizes.outputs, SmControl::OUTPUTS) {
             return Err(AlStatusCode::InvalidOutputConfig);
         }
-        if !check(info.inputs_sm, sizes.inputs, kind::INPUTS) {
+        if !check(info.inputs_sm, sizes.inputs, SmControl::INPUTS) {
             return Err(AlStatusCode::InvalidInputConfig);
         }
         Ok(())

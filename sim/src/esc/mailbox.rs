@@ -169,10 +169,9 @@ impl Esc {
     /// message the master read is posted again, and the repeat acknowledge (0x080F bit 1)
     /// is set equal to the request.
     fn check_repeat_request(&mut self) {
-        let activate_addr = sync_manager::activate_addr(MAILBOX_IN_SM);
-        let pdi_addr = sync_manager::pdi_control_addr(MAILBOX_IN_SM);
-        let request = SmActivate::decode(self.mem.u8(activate_addr)).repeat_request;
-        let mut pdi = SmPdiControl::decode(self.mem.u8(pdi_addr));
+        let sm = sync_manager::registers(&self.mem, MAILBOX_IN_SM);
+        let request = SmActivate::decode(sm.activate_raw()).repeat_request;
+        let mut pdi = SmPdiControl::decode(sm.pdi_control_raw());
         if request == pdi.repeat_ack {
             return;
         }
@@ -200,7 +199,9 @@ impl Esc {
             }
         }
         pdi.repeat_ack = request;
-        self.mem.set_u8(pdi_addr, pdi.encode());
+        sync_manager::update_registers(&mut self.mem, MAILBOX_IN_SM, |sm| {
+            sm.set_pdi_control_raw(pdi.encode())
+        });
     }
 }
 

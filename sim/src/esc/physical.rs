@@ -14,6 +14,7 @@
 
 use master_core::wire::register::address as reg;
 use master_core::wire::register::dl::DlControl;
+use master_core::wire::register::sync_manager::SM_LEN;
 
 use crate::device::Device;
 
@@ -196,7 +197,7 @@ impl Esc {
             self.update_dl_status();
         }
         for n in 0..self.layout.sm_count {
-            if overlaps(addr, len, sync_manager::base(n), 8) {
+            if overlaps(addr, len, sync_manager::base(n), SM_LEN) {
                 self.sm_registers_written(n);
             }
         }

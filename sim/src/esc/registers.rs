@@ -6,13 +6,19 @@
 //! command, DC latch and system time, AL control) are handled by hooks in
 //! [`super::physical`]; their mask here only says what is stored.
 
+use std::sync::LazyLock;
+
 use master_core::wire::register::address as reg;
+use master_core::wire::register::al::{AlControl, AlState, AlStatus};
 use master_core::wire::register::dc::SPEED_COUNTER_START_DEFAULT;
 use master_core::wire::register::info::{EscInfo, EscInfoRepr};
-use master_core::wire::register::sync_manager::SM_LEN;
+use master_core::wire::register::sync_manager::{
+    SM_LEN, SmActivate, SmControl, SmDirection, SmMode, SmPdiControl, SyncManager,
+};
 
 use super::config::EscConfig;
 use super::memory::Memory;
+use super::sync_manager::update_registers;
 
 /// The parts of the configuration that decide which registers exist.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -36,8 +42,6 @@ impl Layout {
     }
 }
 
-/// Reset value of AL status and AL control: INIT.
-pub const AL_INIT: u16 = 0x0001;
 /// Watchdog divider reset value: (2498 + 2) × 40 ns = 100 µs per tick (digest §2.8).
 pub const WATCHDOG_DIVIDER_DEFAULT: u16 = 0x09C2;
 /// Watchdog times reset value: 1000 ticks = 100 ms.
@@ -46,8 +50,6 @@ pub const WATCHDOG_TIME_DEFAULT: u16 = 1000;
 pub const TIME_FILTER_DEPTH_DEFAULT: u8 = 4;
 /// DC speed counter filter depth after reset (KickCAT).
 pub const SPEED_FILTER_DEPTH_DEFAULT: u8 = 12;
-/// SM PDI control bit 0: the PDI has not enabled the SyncManager.
-pub const SM_PDI_DEACTIVATED: u8 = 0x01;
 /// Watchdog status process data: bit 0 = 1 means active or disabled (not expired).
 pub const WATCHDOG_STATUS_OK: u16 = 0x0001;
 
@@ -96,6 +98,32 @@ pub(crate) fn ecat_write_mask(addr: u32, layout: Layout) -> u8 {
     }
 }
 
+/// The bits of one SM register set an ECAT write stores, laid out by wire's view: start,
+/// length, control (all but reserved bit 7) and activate (enable, repeat request, latch
+/// events). Status and PDI control are written by the ESC and the PDI only.
+static SM_WRITE_MASK: LazyLock<[u8; SM_LEN]> = LazyLock::new(|| {
+    let mut sm = SyncManager::new_unchecked([0; SM_LEN]);
+    sm.set_start(u16::MAX);
+    sm.set_length(u16::MAX);
+    let control = SmControl {
+        mode: SmMode::from(0x03),
+        direction: SmDirection::from(0x03),
+        ecat_irq: true,
+        pdi_irq: true,
+        watchdog: true,
+    };
+    // Mode and direction are 2-bit values: encoding cannot fail.
+    sm.set_control_raw(control.encode().unwrap_or(0));
+    let activate = SmActivate {
+        enable: true,
+        repeat_request: true,
+        latch_ecat: true,
+        latch_pdi: true,
+    };
+    sm.set_activate_raw(activate.encode());
+    sm.into_inner()
+});
+
 /// Write mask inside the FMMU and SM register blocks, `None` outside them.
 fn channel_mask(addr: u16, layout: Layout) -> Option<u8> {
     let fmmus = reg::FMMU_BASE..reg::FMMU_BASE + reg::FMMU_STRIDE * u16::from(reg::FMMU_MAX);
@@ -119,16 +147,10 @@ fn channel_mask(addr: u16, layout: Layout) -> Option<u8> {
     if sms.contains(&addr) {
         let n = (addr - reg::SM_BASE) / reg::SM_STRIDE;
         let offset = (addr - reg::SM_BASE) % reg::SM_STRIDE;
-        let mask = match offset {
-            _ if n >= u16::from(layout.sm_count) => 0,
-            // Start and length.
-            0..=3 => 0xFF,
-            // Control: bit 7 reserved.
-            4 => 0x7F,
-            // Activate: enable, repeat request, latch events.
-            6 => 0xC3,
-            // Status and PDI control are written by the ESC / PDI only.
-            _ => 0,
+        let mask = if n < u16::from(layout.sm_count) {
+            SM_WRITE_MASK.get(usize::from(offset)).copied().unwrap_or(0)
+        } else {
+            0
         };
         return Some(mask);
     }
@@ -153,13 +175,22 @@ pub(crate) fn load_reset_values(mem: &mut Memory, config: &EscConfig) {
         // The block has exactly buffer_len() bytes, so emit cannot fail.
         let _ = info.emit(&mut EscInfo::new_unchecked(block));
     }
-    mem.set_u16(reg::AL_CONTROL.into(), AL_INIT);
-    mem.set_u16(reg::AL_STATUS.into(), AL_INIT);
+    // AL control and status reset to INIT, without error or acknowledge flags.
+    if let Some(control) = mem.get_mut(reg::AL_CONTROL.into(), AlControl::LEN) {
+        // Two bytes and a state that fits its 4 bits: emit cannot fail.
+        let _ = AlControl::request(AlState::Init).emit(control);
+    }
+    if let Some(status) = mem.get_mut(reg::AL_STATUS.into(), AlStatus::LEN) {
+        let _ = AlStatus::new(AlState::Init).emit(status);
+    }
+    let deactivated = SmPdiControl {
+        deactivate: true,
+        repeat_ack: false,
+    };
     for n in 0..config.effective_sm_count() {
         // SyncManagers start disabled by the PDI: the slave application enables them on the
         // state transitions that need them (§3.2).
-        let pdi_control = u32::from(reg::SM_BASE) + u32::from(n) * SM_LEN as u32 + 7;
-        mem.set_u8(pdi_control, SM_PDI_DEACTIVATED);
+        update_registers(mem, n, |sm| sm.set_pdi_control_raw(deactivated.encode()));
     }
     mem.set_u16(reg::WATCHDOG_DIVIDER.into(), WATCHDOG_DIVIDER_DEFAULT);
     mem.set_u16(reg::WATCHDOG_TIME_PDI.into(), WATCHDOG_TIME_DEFAULT);
@@ -217,6 +248,16 @@ mod tests {
     }
 
     #[test]
+    fn sm_register_bits_the_master_may_write() {
+        // SM1: start and length whole, control without reserved bit 7, status none,
+        // activate enable/repeat/latch bits, PDI control none.
+        let masks: Vec<u8> = (0x0808..0x0810)
+            .map(|addr| ecat_write_mask(addr, layout()))
+            .collect();
+        assert_eq!(masks, [0xFF, 0xFF, 0xFF, 0xFF, 0x7F, 0x00, 0xC3, 0x00]);
+    }
+
+    #[test]
     fn reset_values() {
         let config = EscConfig::default();
         let mut mem = Memory::new(config.effective_ram_size());
@@ -227,6 +268,7 @@ mod tests {
         assert_eq!(mem.u8(0x0006), 8);
         assert_eq!(mem.u8(0x0007), 0x0F);
         assert_eq!(mem.u16(0x0008), 0x01CC);
+        assert_eq!(mem.u16(0x0120), 0x0001);
         assert_eq!(mem.u16(0x0130), 0x0001);
         assert_eq!(mem.u16(0x0930), 0x1000);
         assert_eq!(mem.u8(0x0934), 4);
@@ -234,5 +276,6 @@ mod tests {
         assert_eq!(mem.u16(0x0400), 0x09C2);
         assert_eq!(mem.u16(0x0420), 1000);
         assert_eq!(mem.u8(0x0807), 0x01);
+        assert_eq!(mem.u8(0x080F), 0x01);
     }
 }

@@ -14,36 +14,34 @@
 
 use master_core::wire::register::address as reg;
 use master_core::wire::register::sync_manager::{
-    SM_LEN, SmActivate, SmControl, SmDirection, SmMode, SmPdiControl, SmStatus,
+    SM_LEN, SmActivate, SmControl, SmDirection, SmMode, SmPdiControl, SmStatus, SyncManager,
 };
 
 use crate::device::Device;
 
 use super::memory::{Memory, SM_AREA_START};
 
-/// Register offsets inside one SM register set.
-mod offset {
-    pub const START: u32 = 0;
-    pub const LENGTH: u32 = 2;
-    pub const CONTROL: u32 = 4;
-    pub const STATUS: u32 = 5;
-    pub const ACTIVATE: u32 = 6;
-    pub const PDI_CONTROL: u32 = 7;
-}
-
 /// Base register address of SM `n`.
 pub(crate) fn base(n: u8) -> u32 {
     u32::from(reg::SM_BASE) + u32::from(n) * SM_LEN as u32
 }
 
-/// Address of SM `n`'s activate byte.
-pub(crate) fn activate_addr(n: u8) -> u32 {
-    base(n) + offset::ACTIVATE
+/// A copy of SM `n`'s register set, read through wire's view of it.
+pub(crate) fn registers(mem: &Memory, n: u8) -> SyncManager<[u8; SM_LEN]> {
+    let mut raw = [0; SM_LEN];
+    mem.read_into(base(n), &mut raw);
+    SyncManager::new_unchecked(raw)
 }
 
-/// Address of SM `n`'s PDI control byte.
-pub(crate) fn pdi_control_addr(n: u8) -> u32 {
-    base(n) + offset::PDI_CONTROL
+/// Changes SM `n`'s register set in place through wire's view of it.
+pub(crate) fn update_registers(
+    mem: &mut Memory,
+    n: u8,
+    change: impl FnOnce(&mut SyncManager<&mut [u8]>),
+) {
+    if let Some(raw) = mem.get_mut(base(n), SM_LEN) {
+        change(&mut SyncManager::new_unchecked(raw));
+    }
 }
 
 /// What the master configured in one SM register set, as the ESC applies it.
@@ -63,17 +61,16 @@ pub(crate) struct SmConfig {
 impl SmConfig {
     /// Reads SM `n`'s registers. `ram_end` is one past the last RAM address.
     pub fn from_registers(mem: &Memory, n: u8, ram_end: u32) -> Self {
-        let b = base(n);
-        let start = mem.u16(b + offset::START);
-        let length = mem.u16(b + offset::LENGTH);
-        let enabled = SmActivate::decode(mem.u8(b + offset::ACTIVATE)).enable;
-        let pdi_off = SmPdiControl::decode(mem.u8(b + offset::PDI_CONTROL)).deactivate;
+        let sm = registers(mem, n);
+        let (start, length) = (sm.start(), sm.length());
+        let enabled = SmActivate::decode(sm.activate_raw()).enable;
+        let pdi_off = SmPdiControl::decode(sm.pdi_control_raw()).deactivate;
         let end = u32::from(start) + u32::from(length);
         let in_ram = u32::from(start) >= SM_AREA_START && end <= ram_end;
         SmConfig {
             start,
             length,
-            control: mem.u8(b + offset::CONTROL),
+            control: sm.control_raw(),
             active: enabled && !pdi_off && length > 0 && in_ram,
         }
     }
@@ -249,7 +246,8 @@ impl SmChannel {
     }
 
     fn publish_status(&self, mem: &mut Memory) {
-        mem.set_u8(base(self.index) + offset::STATUS, self.status());
+        let status = self.status();
+        update_registers(mem, self.index, |sm| sm.set_status_raw(status));
     }
 
     /// Offset of `addr` in the SM and the number of bytes of a `len`-byte access that fall

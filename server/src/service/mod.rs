@@ -24,7 +24,7 @@ use master_core::wire::register::AlState;
 use master_core::wire::soe::{ElementFlags, Idn};
 use tokio::sync::broadcast;
 
-use crate::metrics::calls::{Outcome, Protocol};
+use crate::metrics::calls::{MailboxCalls, Outcome, Protocol};
 pub use address::parse_slave;
 pub use error::{ApiError, ErrorKind};
 pub use gateway::GatewayView;
@@ -45,10 +45,8 @@ pub struct Core {
     gateway: Arc<std::sync::Mutex<Option<MailboxGateway>>>,
     /// The merged event stream, started with its first subscriber.
     events: Arc<std::sync::OnceLock<events::EventHub>>,
-    /// Simulator hooks (`--simulate` only).
-    sim: Arc<std::sync::OnceLock<crate::sim_hooks::SimHooks>>,
-    /// What the metrics record (mailbox requests, ESC error counters).
-    metrics: Arc<crate::metrics::Store>,
+    /// Where the mailbox requests are recorded (shared with the metrics, which own it).
+    calls: Arc<MailboxCalls>,
 }
 
 /// What the gRPC and REST layers give the core for each request: the slave name and the
@@ -56,15 +54,15 @@ pub struct Core {
 pub type Result<T> = std::result::Result<T, ApiError>;
 
 impl Core {
-    /// A core over `master`, not ready until [`Core::set_ready`].
-    pub fn new(master: Arc<Master>) -> Core {
+    /// A core over `master` that records its mailbox requests in `calls`, not ready until
+    /// [`Core::set_ready`].
+    pub fn new(master: Arc<Master>, calls: Arc<MailboxCalls>) -> Core {
         Core {
             master,
             ready: Arc::new(AtomicBool::new(false)),
             gateway: Arc::default(),
             events: Arc::default(),
-            sim: Arc::default(),
-            metrics: Arc::default(),
+            calls,
         }
     }
 
@@ -130,8 +128,7 @@ impl Core {
             Err(MailboxError::Timeout { .. }) => Outcome::Timeout,
             Err(_) => Outcome::Error,
         };
-        self.metrics
-            .calls
+        self.calls
             .record(station, protocol, outcome, started.elapsed());
         Ok(result?)
     }
@@ -168,21 +165,6 @@ impl Core {
         self.events
             .get_or_init(|| events::EventHub::start(&self.master))
             .subscribe()
-    }
-
-    /// Hands the simulator's hooks to the core (ecatd `--simulate`).
-    pub fn set_sim(&self, hooks: crate::sim_hooks::SimHooks) {
-        let _ = self.sim.set(hooks);
-    }
-
-    /// What the metrics record.
-    pub fn metrics(&self) -> &crate::metrics::Store {
-        &self.metrics
-    }
-
-    /// The simulator's hooks, when ecatd runs the simulator.
-    pub fn sim(&self) -> Option<&crate::sim_hooks::SimHooks> {
-        self.sim.get()
     }
 
     /// Reads `len` bytes of ESC registers from `address`.

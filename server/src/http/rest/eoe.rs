@@ -1,0 +1,35 @@
+//! EoE: the IP parameters of a slave's EoE port.
+
+use axum::Json;
+use axum::extract::{Path, State};
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use super::{DONE, Done, Result};
+use crate::service::{Core, IpView};
+
+/// The routes, each declared once (method and path come from the handler's annotation).
+pub(super) fn routes() -> OpenApiRouter<Core> {
+    OpenApiRouter::new().routes(routes!(eoe_get_ip, eoe_set_ip))
+}
+
+#[utoipa::path(get, path = "/slaves/{slave}/eoe/ip", tag = "eoe",
+    params(("slave" = String, Path)), responses((status = 200, body = IpView)))]
+/// Reads the EoE IP parameters.
+pub async fn eoe_get_ip(
+    State(core): State<Core>,
+    Path(slave): Path<String>,
+) -> Result<Json<IpView>> {
+    core.eoe_get_ip(&slave).await.map(Json)
+}
+
+#[utoipa::path(put, path = "/slaves/{slave}/eoe/ip", tag = "eoe", request_body = IpView,
+    params(("slave" = String, Path)), responses((status = 200, body = Done)))]
+/// Sets the EoE IP parameters.
+pub async fn eoe_set_ip(
+    State(core): State<Core>,
+    Path(slave): Path<String>,
+    Json(body): Json<IpView>,
+) -> Result<Json<Done>> {
+    core.eoe_set_ip(&slave, &body).await.map(|()| DONE)
+}

@@ -1,0 +1,53 @@
+//! FoE: reading and writing files (raw bodies).
+
+use axum::Json;
+use axum::body::Bytes;
+use axum::extract::{Path, Query, State};
+use serde::Deserialize;
+use utoipa::IntoParams;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use super::{DONE, Done, Result};
+use crate::service::Core;
+
+/// The routes, each declared once (method and path come from the handler's annotation).
+pub(super) fn routes() -> OpenApiRouter<Core> {
+    OpenApiRouter::new().routes(routes!(foe_read, foe_write))
+}
+
+/// FoE password.
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct PasswordQuery {
+    /// Password (default 0).
+    pub password: Option<u32>,
+}
+
+#[utoipa::path(get, path = "/slaves/{slave}/foe/{name}", tag = "foe",
+    params(("slave" = String, Path), ("name" = String, Path), PasswordQuery),
+    responses((status = 200, description = "The file", content_type = "application/octet-stream", body = Vec<u8>)))]
+/// Reads a file.
+pub async fn foe_read(
+    State(core): State<Core>,
+    Path((slave, name)): Path<(String, String)>,
+    Query(q): Query<PasswordQuery>,
+) -> Result<Vec<u8>> {
+    core.foe_read(&slave, &name, q.password.unwrap_or(0), None)
+        .await
+}
+
+#[utoipa::path(put, path = "/slaves/{slave}/foe/{name}", tag = "foe",
+    request_body(content = Vec<u8>, content_type = "application/octet-stream"),
+    params(("slave" = String, Path), ("name" = String, Path), PasswordQuery),
+    responses((status = 200, body = Done)))]
+/// Writes a file (the raw request body).
+pub async fn foe_write(
+    State(core): State<Core>,
+    Path((slave, name)): Path<(String, String)>,
+    Query(q): Query<PasswordQuery>,
+    body: Bytes,
+) -> Result<Json<Done>> {
+    core.foe_write(&slave, &name, q.password.unwrap_or(0), &body)
+        .await
+        .map(|()| DONE)
+}

@@ -1,0 +1,75 @@
+//! REST handlers under `/api/v1`: the same operations as gRPC, one core call each, one file
+//! per resource as in `grpc/` (`slaves`, `registers`, `sii`, `coe`, `soe`, `foe`, `voe`,
+//! `eoe`). Binary values are hex strings; numbers in paths are decimal or `0x` hex; slave
+//! names use the common syntax (`3`, `%231004` for `#1004`, `@0x777`).
+//!
+//! Each route is declared once, in its handler's `#[utoipa::path]` (method and path
+//! relative to `/api/v1`): the router is built from those annotations, so the OpenAPI
+//! document lists exactly the routes served.
+
+pub mod coe;
+pub mod eoe;
+pub mod foe;
+pub mod registers;
+pub mod sii;
+pub mod slaves;
+pub mod soe;
+pub mod voe;
+
+use axum::Json;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+use utoipa_axum::router::OpenApiRouter;
+
+use crate::service::value::parse_number;
+use crate::service::{ApiError, Core};
+
+type Result<T> = std::result::Result<T, ApiError>;
+
+fn num<T: TryFrom<u64>>(text: &str, field: &str) -> Result<T> {
+    parse_number(text, field)
+}
+
+fn unhex(text: &str) -> Result<Vec<u8>> {
+    hex::decode(text.trim()).map_err(|_| ApiError::invalid("data must be hex"))
+}
+
+/// Bytes as hex.
+#[derive(Debug, Serialize, Deserialize, ToSchema)]
+pub struct Data {
+    /// The bytes, hex (`"0100e0"`).
+    pub data: String,
+}
+
+fn data(bytes: Vec<u8>) -> Json<Data> {
+    Json(Data {
+        data: hex::encode(bytes),
+    })
+}
+
+/// A done write.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct Done {
+    /// Always true.
+    pub ok: bool,
+}
+
+const DONE: Json<Done> = Json(Done { ok: true });
+
+/// The routes that run under the request time limit: every resource's.
+pub fn routes() -> OpenApiRouter<Core> {
+    OpenApiRouter::new()
+        .merge(slaves::routes())
+        .merge(registers::routes())
+        .merge(sii::routes())
+        .merge(coe::routes())
+        .merge(soe::routes())
+        .merge(foe::routes())
+        .merge(voe::routes())
+        .merge(eoe::routes())
+}
+
+/// The routes that stream for as long as the client listens (no time limit).
+pub fn stream_routes() -> OpenApiRouter<Core> {
+    slaves::stream_routes()
+}

@@ -1,0 +1,50 @@
+//! ESC register access.
+
+use axum::Json;
+use axum::extract::{Path, Query, State};
+use serde::Deserialize;
+use utoipa::IntoParams;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use super::{DONE, Data, Done, Result, data, num, unhex};
+use crate::service::Core;
+
+/// The routes, each declared once (method and path come from the handler's annotation).
+pub(super) fn routes() -> OpenApiRouter<Core> {
+    OpenApiRouter::new().routes(routes!(read_register, write_register))
+}
+
+/// Register read length.
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct LengthQuery {
+    /// Bytes to read (default 1).
+    pub length: Option<usize>,
+}
+
+#[utoipa::path(get, path = "/slaves/{slave}/registers/{address}", tag = "registers",
+    params(("slave" = String, Path), ("address" = String, Path, description = "register address"), LengthQuery),
+    responses((status = 200, body = Data)))]
+/// Reads ESC registers.
+pub async fn read_register(
+    State(core): State<Core>,
+    Path((slave, address)): Path<(String, String)>,
+    Query(q): Query<LengthQuery>,
+) -> Result<Json<Data>> {
+    core.read_register(&slave, num(&address, "address")?, q.length.unwrap_or(1))
+        .await
+        .map(data)
+}
+
+#[utoipa::path(put, path = "/slaves/{slave}/registers/{address}", tag = "registers", request_body = Data,
+    params(("slave" = String, Path), ("address" = String, Path)), responses((status = 200, body = Done)))]
+/// Writes ESC registers.
+pub async fn write_register(
+    State(core): State<Core>,
+    Path((slave, address)): Path<(String, String)>,
+    Json(body): Json<Data>,
+) -> Result<Json<Done>> {
+    core.write_register(&slave, num(&address, "address")?, &unhex(&body.data)?)
+        .await
+        .map(|()| DONE)
+}

@@ -1,0 +1,60 @@
+//! The SII (EEPROM) image and the station alias.
+
+use axum::Json;
+use axum::extract::{Path, State};
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use super::{DONE, Data, Done, Result, data, num, unhex};
+use crate::service::Core;
+
+/// The routes, each declared once (method and path come from the handler's annotation).
+pub(super) fn routes() -> OpenApiRouter<Core> {
+    OpenApiRouter::new()
+        .routes(routes!(read_sii))
+        .routes(routes!(write_sii))
+        .routes(routes!(set_alias))
+}
+
+/// A station alias.
+#[derive(Debug, Serialize, Deserialize, ToSchema)]
+pub struct AliasBody {
+    /// The alias (the answer: the alias register read back).
+    pub alias: u16,
+}
+
+#[utoipa::path(get, path = "/slaves/{slave}/sii", tag = "sii",
+    params(("slave" = String, Path)), responses((status = 200, body = Data)))]
+/// Reads the whole SII image.
+pub async fn read_sii(State(core): State<Core>, Path(slave): Path<String>) -> Result<Json<Data>> {
+    core.read_sii(&slave).await.map(data)
+}
+
+#[utoipa::path(put, path = "/slaves/{slave}/sii/{word}", tag = "sii", request_body = Data,
+    params(("slave" = String, Path), ("word" = String, Path, description = "first word address")),
+    responses((status = 200, body = Done)))]
+/// Writes SII words (little-endian bytes).
+pub async fn write_sii(
+    State(core): State<Core>,
+    Path((slave, word)): Path<(String, String)>,
+    Json(body): Json<Data>,
+) -> Result<Json<Done>> {
+    core.write_sii(&slave, num(&word, "word")?, &unhex(&body.data)?)
+        .await
+        .map(|()| DONE)
+}
+
+#[utoipa::path(put, path = "/slaves/{slave}/alias", tag = "sii", request_body = AliasBody,
+    params(("slave" = String, Path)), responses((status = 200, body = AliasBody)))]
+/// Sets the station alias.
+pub async fn set_alias(
+    State(core): State<Core>,
+    Path(slave): Path<String>,
+    Json(body): Json<AliasBody>,
+) -> Result<Json<AliasBody>> {
+    core.set_alias(&slave, body.alias)
+        .await
+        .map(|alias| Json(AliasBody { alias }))
+}

@@ -1,0 +1,101 @@
+//! The slaves and the segment: list, one slave, AL state, rescan, and the event stream.
+
+use axum::Json;
+use axum::extract::{Path, State};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use futures_util::Stream;
+use serde::{Deserialize, Serialize};
+use tokio_stream::StreamExt;
+use tokio_stream::wrappers::BroadcastStream;
+use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
+use utoipa::ToSchema;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use super::Result;
+use crate::service::{Core, EventView, SlaveView};
+
+/// The routes, each declared once (method and path come from the handler's annotation).
+pub(super) fn routes() -> OpenApiRouter<Core> {
+    OpenApiRouter::new()
+        .routes(routes!(list_slaves))
+        .routes(routes!(get_slave))
+        .routes(routes!(request_state))
+        .routes(routes!(rescan))
+}
+
+/// The event stream: open for as long as the client listens, so outside the request time
+/// limit.
+pub(super) fn stream_routes() -> OpenApiRouter<Core> {
+    OpenApiRouter::new().routes(routes!(events))
+}
+
+/// A requested AL state.
+#[derive(Debug, Deserialize, ToSchema)]
+pub struct StateBody {
+    /// `INIT`, `PREOP`, `BOOT`, `SAFEOP` or `OP`.
+    pub state: String,
+}
+
+/// The result of a rescan.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct RescanBody {
+    /// Every slave.
+    pub slaves: Vec<SlaveView>,
+    /// One message per slave that refused a state.
+    pub failures: Vec<String>,
+}
+
+#[utoipa::path(get, path = "/slaves", tag = "bus", responses((status = 200, body = [SlaveView])))]
+/// Every slave of the last scan.
+pub async fn list_slaves(State(core): State<Core>) -> Json<Vec<SlaveView>> {
+    Json(core.list_slaves())
+}
+
+#[utoipa::path(get, path = "/slaves/{slave}", tag = "bus",
+    params(("slave" = String, Path, description = "3, %231004, @0x777")),
+    responses((status = 200, body = SlaveView), (status = 404, body = crate::http::error::ErrorBody)))]
+/// One slave.
+pub async fn get_slave(
+    State(core): State<Core>,
+    Path(slave): Path<String>,
+) -> Result<Json<SlaveView>> {
+    core.get_slave(&slave).map(Json)
+}
+
+#[utoipa::path(put, path = "/slaves/{slave}/state", tag = "bus", request_body = StateBody,
+    params(("slave" = String, Path)), responses((status = 200, body = SlaveView)))]
+/// Moves a slave to a state.
+pub async fn request_state(
+    State(core): State<Core>,
+    Path(slave): Path<String>,
+    Json(body): Json<StateBody>,
+) -> Result<Json<SlaveView>> {
+    core.request_state(&slave, &body.state).await.map(Json)
+}
+
+#[utoipa::path(post, path = "/rescan", tag = "bus", responses((status = 200, body = RescanBody)))]
+/// Scans the segment again.
+pub async fn rescan(State(core): State<Core>) -> Result<Json<RescanBody>> {
+    let (slaves, failures) = core.rescan().await?;
+    Ok(Json(RescanBody { slaves, failures }))
+}
+
+#[utoipa::path(get, path = "/events", tag = "bus",
+    responses((status = 200, description = "Server-sent events, one EventView as JSON each", content_type = "text/event-stream", body = EventView)))]
+/// Topology and state events and CoE emergencies as server-sent events.
+pub async fn events(
+    State(core): State<Core>,
+) -> Sse<impl Stream<Item = std::result::Result<Event, std::convert::Infallible>>> {
+    let stream = BroadcastStream::new(core.events()).map(|item| {
+        let view = match item {
+            Ok(view) => view,
+            Err(BroadcastStreamRecvError::Lagged(missed)) => EventView::lagged(missed),
+        };
+        let event = Event::default().event(view.kind.clone());
+        Ok(event
+            .json_data(&view)
+            .unwrap_or_else(|_| Event::default().comment("unencodable")))
+    });
+    Sse::new(stream).keep_alive(KeepAlive::default())
+}

@@ -1,0 +1,63 @@
+//! SoE: reading and writing IDNs.
+
+use axum::Json;
+use axum::extract::{Path, Query, State};
+use serde::Deserialize;
+use utoipa::IntoParams;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use super::{DONE, Data, Done, Result, data, num, unhex};
+use crate::service::Core;
+
+/// The routes, each declared once (method and path come from the handler's annotation).
+pub(super) fn routes() -> OpenApiRouter<Core> {
+    OpenApiRouter::new().routes(routes!(soe_read, soe_write))
+}
+
+/// SoE elements.
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct ElementsQuery {
+    /// Element flags (default 0x40, the value).
+    pub elements: Option<u8>,
+}
+
+#[utoipa::path(get, path = "/slaves/{slave}/soe/{drive}/{idn}", tag = "soe",
+    params(("slave" = String, Path), ("drive" = String, Path), ("idn" = String, Path, description = "IDN number, e.g. 0x8064 for P-0-0100"), ElementsQuery),
+    responses((status = 200, body = Data)))]
+/// Reads an IDN.
+pub async fn soe_read(
+    State(core): State<Core>,
+    Path((slave, drive, idn)): Path<(String, String, String)>,
+    Query(q): Query<ElementsQuery>,
+) -> Result<Json<Data>> {
+    core.soe_read(
+        &slave,
+        num(&drive, "drive")?,
+        num(&idn, "idn")?,
+        q.elements.unwrap_or(0),
+    )
+    .await
+    .map(data)
+}
+
+#[utoipa::path(put, path = "/slaves/{slave}/soe/{drive}/{idn}", tag = "soe", request_body = Data,
+    params(("slave" = String, Path), ("drive" = String, Path), ("idn" = String, Path), ElementsQuery),
+    responses((status = 200, body = Done)))]
+/// Writes an IDN.
+pub async fn soe_write(
+    State(core): State<Core>,
+    Path((slave, drive, idn)): Path<(String, String, String)>,
+    Query(q): Query<ElementsQuery>,
+    Json(body): Json<Data>,
+) -> Result<Json<Done>> {
+    core.soe_write(
+        &slave,
+        num(&drive, "drive")?,
+        num(&idn, "idn")?,
+        q.elements.unwrap_or(0),
+        &unhex(&body.data)?,
+    )
+    .await
+    .map(|()| DONE)
+}
