@@ -2,7 +2,8 @@
 //! fragments when a value does not fit one mailbox message.
 
 use crate::mailbox::engine::exchange::Exchange;
-use crate::mailbox::engine::job::{BoxFuture, call};
+use crate::mailbox::engine::job::{BoxFuture, call_for};
+use crate::mailbox::engine::report::Subject;
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
 use crate::wire::mailbox::MailboxType;
@@ -46,7 +47,7 @@ async fn read(x: &mut Exchange, drive: u8, idn: Idn, elements: ElementFlags) -> 
                 answer
             }
             _ => {
-                x.count_unexpected();
+                x.count_unexpected(MailboxType::Soe);
                 continue;
             }
         };
@@ -67,7 +68,7 @@ async fn read(x: &mut Exchange, drive: u8, idn: Idn, elements: ElementFlags) -> 
                 value.extend_from_slice(answer.data);
                 return Ok(value);
             }
-            IdnOrFragments::Idn(_) => x.count_unexpected(),
+            IdnOrFragments::Idn(_) => x.count_unexpected(MailboxType::Soe),
         }
     }
 }
@@ -113,7 +114,7 @@ async fn write(
                     None => Ok(()),
                 };
             }
-            _ => x.count_unexpected(),
+            _ => x.count_unexpected(MailboxType::Soe),
         }
     }
 }
@@ -123,9 +124,13 @@ impl SlaveMailbox {
     /// them, put together from every fragment. Usually [`ElementFlags::VALUE`].
     pub async fn soe_read(&self, drive: u8, idn: Idn, elements: ElementFlags) -> Result<Vec<u8>> {
         check_drive(drive)?;
-        call(self, Some(MailboxType::Soe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(read(x, drive, idn, elements))
-        })
+        let subject = Subject::Idn { drive, idn };
+        call_for(
+            self,
+            Some(MailboxType::Soe),
+            subject,
+            move |x| -> BoxFuture<'_, _> { Box::pin(read(x, drive, idn, elements)) },
+        )
         .await
     }
 
@@ -140,9 +145,15 @@ impl SlaveMailbox {
     ) -> Result<()> {
         check_drive(drive)?;
         let data = data.to_vec();
-        call(self, Some(MailboxType::Soe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move { write(x, drive, idn, elements, &data).await })
-        })
+        let subject = Subject::Idn { drive, idn };
+        call_for(
+            self,
+            Some(MailboxType::Soe),
+            subject,
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move { write(x, drive, idn, elements, &data).await })
+            },
+        )
         .await
     }
 }

@@ -35,6 +35,7 @@ use super::counter::Counters;
 use super::demux::{Route, Want, route};
 use super::events::{EoeFrame, SoeNotification};
 use super::repeat::request_repeat;
+use super::report;
 use super::slave::SlaveShared;
 use super::stats::inc;
 
@@ -202,8 +203,32 @@ impl Exchange {
 
     /// An answer of the right type that belongs to no request (a late answer to one that
     /// timed out): dropped and counted.
-    pub(crate) fn count_unexpected(&self) {
+    pub(crate) fn count_unexpected(&self, protocol: MailboxType) {
         inc(&self.shared.stats.unexpected);
+        let shared = &*self.shared;
+        report::unexpected(
+            &shared.log_limit,
+            shared.config.station,
+            protocol,
+            "it does not answer the request",
+        );
+    }
+
+    /// Leaves the log line of a failed request.
+    pub(crate) fn report_failure(
+        &self,
+        protocol: Option<MailboxType>,
+        subject: &report::Subject,
+        err: &MailboxError,
+    ) {
+        let shared = &*self.shared;
+        report::failure(
+            &shared.log_limit,
+            shared.config.station,
+            protocol,
+            subject,
+            err,
+        );
     }
 
     pub(crate) fn count_failed(&self) {
@@ -445,7 +470,11 @@ impl Exchange {
                 },
                 &shared.stats,
             ),
-            Route::Unexpected => inc(&shared.stats.unexpected),
+            Route::Unexpected => {
+                inc(&shared.stats.unexpected);
+                let why = "nobody waits for it";
+                report::unexpected(&shared.log_limit, station, header.mailbox_type, why);
+            }
             Route::Malformed => inc(&shared.stats.malformed),
         }
         Ok(Read::Routed)
