@@ -6,7 +6,8 @@
 //! - abort command bytes with the request's low bits left set (0x8b, 0x8f, 0x91 instead of
 //!   0x80), only the command specifier (bits 5-7 = 4) marking the abort;
 //! - SDO Information error replies whose mailbox length is 6, the abort code left outside;
-//! - complete access refused with abort 0x08000000 (a stack built without it).
+//! - complete access refused with abort 0x08000000 (a stack built without it);
+//! - every wrong-length download aborted with 0x06070010 (SOES), not 0x06070012/0x06070013.
 
 use master_core::wire::coe::AbortCode;
 use master_core::wire::coe::sdo::SdoFrame;
@@ -36,6 +37,9 @@ pub struct CoeQuirks {
     pub short_info_errors: bool,
     /// Complete access is refused with abort 0x08000000.
     pub refuse_complete_access: bool,
+    /// A download of the wrong length is aborted with 0x06070010 ("length does not
+    /// match"), whether too long or too short.
+    pub length_mismatch_only: bool,
 }
 
 impl CoeQuirks {
@@ -59,7 +63,9 @@ impl CoeQuirks {
             code: AbortCode::GeneralError,
         };
         let mut out = vec![0u8; abort.buffer_len()];
-        abort.emit(&mut SdoFrame::new_unchecked(&mut out[..])).ok()?;
+        abort
+            .emit(&mut SdoFrame::new_unchecked(&mut out[..]))
+            .ok()?;
         Some(out)
     }
 
@@ -87,6 +93,13 @@ impl CoeQuirks {
             .is_ok_and(|f| f.specifier() == ABORT_SPECIFIER && f.any_abort().is_some());
         if !is_abort {
             return;
+        }
+        if self.length_mismatch_only {
+            let code = u32::from_le_bytes([reply[6], reply[7], reply[8], reply[9]]);
+            let code = AbortCode::from(code);
+            if matches!(code, AbortCode::LengthTooHigh | AbortCode::LengthTooLow) {
+                reply[6..10].copy_from_slice(&u32::from(AbortCode::LengthMismatch).to_le_bytes());
+            }
         }
         if self.abort_in_request_service {
             // CoE header byte 1: service in bits 4-7 (number bits 8 and up are 0).
@@ -117,7 +130,10 @@ mod tests {
         };
         let mut reply = ABORT.to_vec();
         quirks.apply(&CA_UPLOAD, &mut reply);
-        assert_eq!(reply, [0x00, 0x20, 0x90, 0x00, 0x20, 0x01, 0x00, 0x00, 0x02, 0x06]);
+        assert_eq!(
+            reply,
+            [0x00, 0x20, 0x90, 0x00, 0x20, 0x01, 0x00, 0x00, 0x02, 0x06]
+        );
         // Without switches nothing changes; other replies are never touched.
         let mut plain = ABORT.to_vec();
         CoeQuirks::default().apply(&CA_UPLOAD, &mut plain);
@@ -125,6 +141,20 @@ mod tests {
         let mut upload = vec![0x00, 0x30, 0x4f, 0x00, 0x20, 0x01, 7, 0, 0, 0];
         quirks.apply(&CA_UPLOAD, &mut upload);
         assert_eq!(upload, [0x00, 0x30, 0x4f, 0x00, 0x20, 0x01, 7, 0, 0, 0]);
+    }
+
+    #[test]
+    fn wrong_lengths_are_one_mismatch() {
+        let quirks = CoeQuirks {
+            length_mismatch_only: true,
+            ..CoeQuirks::default()
+        };
+        let mut too_short = vec![0x00, 0x30, 0x80, 0x00, 0x20, 0x01, 0x13, 0x00, 0x07, 0x06];
+        quirks.apply(&[], &mut too_short);
+        assert_eq!(too_short[6..], [0x10, 0x00, 0x07, 0x06]);
+        let mut missing = ABORT.to_vec();
+        quirks.apply(&[], &mut missing);
+        assert_eq!(missing, ABORT);
     }
 
     #[test]
@@ -145,7 +175,10 @@ mod tests {
             ..CoeQuirks::default()
         };
         let refusal = quirks.refusal(&CA_UPLOAD).unwrap();
-        assert_eq!(refusal, [0x00, 0x30, 0x80, 0x00, 0x20, 0x01, 0x00, 0x00, 0x00, 0x08]);
+        assert_eq!(
+            refusal,
+            [0x00, 0x30, 0x80, 0x00, 0x20, 0x01, 0x00, 0x00, 0x00, 0x08]
+        );
         let plain = [0x00, 0x20, 0x40, 0x00, 0x20, 0x01, 0, 0, 0, 0];
         assert_eq!(quirks.refusal(&plain), None);
         assert_eq!(CoeQuirks::default().refusal(&CA_UPLOAD), None);

@@ -239,6 +239,7 @@ fn coe_quirks(esc: &EscSpec) -> CoeQuirks {
         abort_keeps_command_bits: esc.sdo_abort_keeps_command_bits,
         short_info_errors: esc.sdo_info_short_errors,
         refuse_complete_access: esc.refuse_complete_access,
+        length_mismatch_only: esc.sdo_abort_length_mismatch,
     }
 }
 

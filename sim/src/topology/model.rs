@@ -149,6 +149,7 @@ impl MailboxSpec {
 /// sdo_abort_keeps_command_bits = true # abort command 0x80 | the request's low 5 bits
 /// sdo_info_short_errors = true        # SDO Info errors of mailbox length 6, code outside
 /// refuse_complete_access = true       # complete access aborted with 0x08000000
+/// sdo_abort_length_mismatch = true    # wrong-length downloads aborted with 0x06070010
 /// response_delay_us = 2000            # every reply reaches SM1 2 ms after the request
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -175,6 +176,10 @@ pub struct EscSpec {
     /// Complete access (upload and download) is refused with SDO abort 0x08000000.
     #[serde(default, skip_serializing_if = "is_false")]
     pub refuse_complete_access: bool,
+    /// Every wrong-length download is aborted with 0x06070010 (as SOES does), not with
+    /// 0x06070012 (too long) or 0x06070013 (too short).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub sdo_abort_length_mismatch: bool,
     /// Every mailbox message the slave sends reaches its send mailbox (SM1) only this many
     /// microseconds after it was made (a slow firmware); other slaves and frames are not
     /// held up meanwhile. 0: at once.
@@ -203,6 +208,7 @@ impl Default for EscSpec {
             sdo_abort_keeps_command_bits: false,
             sdo_info_short_errors: false,
             refuse_complete_access: false,
+            sdo_abort_length_mismatch: false,
             response_delay_us: 0,
         }
     }
