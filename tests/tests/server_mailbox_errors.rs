@@ -45,32 +45,44 @@ fn object(index: u16, access: &str, name: &str) -> CoeObject {
     }
 }
 
-/// The default segment with a SOES-like CoE store, written to a file for `--simulate`.
-fn topology_file() -> PathBuf {
-    let mut topology = Topology::default_segment();
-    let store = &mut topology.slaves[STORE];
-    store.esc = EscSpec {
+/// A SOES-like CoE store answering after `delay_us`.
+fn soes_like(delay_us: u32) -> EscSpec {
+    EscSpec {
         sdo_abort_in_request: true,
         sdo_abort_keeps_command_bits: true,
         sdo_abort_length_mismatch: true,
         refuse_complete_access: true,
         sdo_info_short_errors: true,
-        response_delay_us: 2_000,
+        response_delay_us: delay_us,
         ..EscSpec::default()
-    };
+    }
+}
+
+/// The default segment with the CoE store's firmware as `esc` says, written to a file for
+/// `--simulate` (`name` keeps the files of the tests apart).
+fn topology_file(name: &str, esc: EscSpec) -> PathBuf {
+    let mut topology = Topology::default_segment();
+    let store = &mut topology.slaves[STORE];
+    store.esc = esc;
     store.objects.push(object(WRITE_ONLY, "wo", "Write only"));
     store.objects.push(object(READ_ONLY, "ro", "Read only"));
-    let path =
-        std::env::temp_dir().join(format!("ecatd-mailbox-errors-{}.toml", std::process::id()));
+    let path = std::env::temp_dir().join(format!(
+        "ecatd-mailbox-errors-{name}-{}.toml",
+        std::process::id()
+    ));
     std::fs::write(&path, topology.to_toml().expect("the topology serialises"))
         .expect("the topology file is written");
     path
 }
 
-fn start() -> Ecatd {
-    let file = topology_file();
+fn start_with(name: &str, esc: EscSpec) -> Ecatd {
+    let file = topology_file(name, esc);
     let file = file.to_str().expect("a UTF-8 temp path");
     Ecatd::start_with(&["--simulate", file], &["--log", "info,master_core=debug"])
+}
+
+fn start(name: &str) -> Ecatd {
+    start_with(name, soes_like(2_000))
 }
 
 fn rest(ecatd: &Ecatd, method: &str, path: &str, body: &str) -> (u16, Value) {
@@ -102,7 +114,7 @@ fn ecat(ecatd: &Ecatd, args: &[&str]) -> (bool, String) {
 
 #[test]
 fn every_refusal_reaches_rest_ecat_and_the_gateway_as_the_slave_abort() {
-    let ecatd = start();
+    let ecatd = start("refusals");
     let base = format!("/api/v1/slaves/{STORE}/coe/sdo");
 
     // REST.
@@ -253,7 +265,7 @@ fn every_refusal_reaches_rest_ecat_and_the_gateway_as_the_slave_abort() {
 
 #[test]
 fn an_auto_typed_upload_of_a_missing_object_prints_the_slave_abort_not_internal() {
-    let ecatd = start();
+    let ecatd = start("auto");
     let store = STORE.to_string();
     let (ok, text) = ecat(&ecatd, &["upload", "-p", &store, "0x5555", "0"]);
     assert!(!ok, "{text}");
@@ -291,6 +303,69 @@ fn an_auto_typed_upload_of_a_missing_object_prints_the_slave_abort_not_internal(
                 .contains("abort code missing")),
         "{lines:#?}"
     );
+}
+
+#[test]
+fn a_timeout_leaves_a_warn_line_and_its_late_reply_a_debug_line() {
+    // The store answers 4 s after each request; the engine waits 3 s.
+    let ecatd = start_with("slow", soes_like(4_000_000));
+    let (status, answer) = rest(
+        &ecatd,
+        "GET",
+        &format!("/api/v1/slaves/{STORE}/coe/sdo/{PARAMETER:#x}/0"),
+        "",
+    );
+    assert_eq!(status, 504, "{answer}");
+    assert_eq!(answer["error"]["kind"], "timeout");
+    let (at, warned) = wait_for_line(&ecatd, 0, |v| {
+        v["level"] == "WARN"
+            && v["fields"]["message"] == "mailbox request failed"
+            && v["fields"]["object"] == "0x2001:00"
+    });
+    assert_eq!(warned["fields"]["station"], "0x03ec");
+    assert_eq!(warned["fields"]["protocol"], "CoE");
+    assert!(
+        warned["fields"]["error"]
+            .as_str()
+            .unwrap_or_default()
+            .contains("no answer in time"),
+        "{warned}"
+    );
+    // The answer comes a second later, to nobody: dropped, with its line (after the
+    // warning: the scan's upload of 0x1000 timed out as well, and its answer came late too).
+    let (_, dropped) = wait_for_line(&ecatd, at + 1, |v| {
+        v["level"] == "DEBUG"
+            && v["fields"]["station"] == "0x03ec"
+            && v["fields"]["message"]
+                .as_str()
+                .is_some_and(|m| m.starts_with("unexpected mailbox reply dropped"))
+    });
+    assert_eq!(dropped["fields"]["protocol"], "CoE");
+}
+
+/// The first line of ecatd's JSON log from line `from` on that `matches`, and its line
+/// number, polled with a deadline.
+fn wait_for_line(ecatd: &Ecatd, from: usize, matches: impl Fn(&Value) -> bool) -> (usize, Value) {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    loop {
+        let found = ecatd
+            .log()
+            .lines()
+            .enumerate()
+            .skip(from)
+            .filter_map(|(n, line)| Some((n, serde_json::from_str::<Value>(line).ok()?)))
+            .find(|(_, v)| matches(v));
+        if let Some(line) = found {
+            return line;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no such line in ecatd's log:\n{}",
+            ecatd.log()
+        );
+        // Poll interval of the log check; the loop ends on the condition or the deadline.
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
 }
 
 /// The fields of every "mailbox request failed" line in ecatd's JSON log, polled with a
