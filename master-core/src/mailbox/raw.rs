@@ -2,7 +2,8 @@
 //! slave's answer out, with the engine's counter and all the guards of any other request.
 
 use crate::mailbox::engine::exchange::Exchange;
-use crate::mailbox::engine::job::{BoxFuture, call};
+use crate::mailbox::engine::job::{BoxFuture, call_for};
+use crate::mailbox::engine::report::Subject;
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
 use crate::mailbox::matching::answers;
@@ -64,13 +65,18 @@ impl SlaveMailbox {
     /// or a mailbox error reply.
     pub async fn raw(&self, message: &[u8]) -> Result<Vec<u8>> {
         let (mailbox_type, data) = split(message)?;
-        call(self, None, move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move {
-                write(x, mailbox_type, &data).await?;
-                let reply = answer(x, mailbox_type, &data).await?;
-                Ok(reply)
-            })
-        })
+        call_for(
+            self,
+            None,
+            Subject::Raw(mailbox_type),
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move {
+                    write(x, mailbox_type, &data).await?;
+                    let reply = answer(x, mailbox_type, &data).await?;
+                    Ok(reply)
+                })
+            },
+        )
         .await
     }
 
@@ -85,22 +91,27 @@ impl SlaveMailbox {
         limit: usize,
     ) -> Result<Vec<Vec<u8>>> {
         let (mailbox_type, data) = split(message)?;
-        call(self, None, move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move {
-                write(x, mailbox_type, &data).await?;
-                let first = answer(x, mailbox_type, &data).await?;
-                let mut more = follows_in(&first, mailbox_type, follows);
-                let mut replies = vec![first];
-                loop {
-                    if !more || replies.len() >= limit.max(1) {
-                        return Ok(replies);
+        call_for(
+            self,
+            None,
+            Subject::Raw(mailbox_type),
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move {
+                    write(x, mailbox_type, &data).await?;
+                    let first = answer(x, mailbox_type, &data).await?;
+                    let mut more = follows_in(&first, mailbox_type, follows);
+                    let mut replies = vec![first];
+                    loop {
+                        if !more || replies.len() >= limit.max(1) {
+                            return Ok(replies);
+                        }
+                        let reply = x.receive(mailbox_type).await?;
+                        more = reply.header.mailbox_type == mailbox_type && follows(reply.data);
+                        replies.push(reply.message.to_vec());
                     }
-                    let reply = x.receive(mailbox_type).await?;
-                    more = reply.header.mailbox_type == mailbox_type && follows(reply.data);
-                    replies.push(reply.message.to_vec());
-                }
-            })
-        })
+                })
+            },
+        )
         .await
     }
 
@@ -108,9 +119,14 @@ impl SlaveMailbox {
     /// abort).
     pub async fn raw_send(&self, message: &[u8]) -> Result<()> {
         let (mailbox_type, data) = split(message)?;
-        call(self, None, move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move { write(x, mailbox_type, &data).await })
-        })
+        call_for(
+            self,
+            None,
+            Subject::Raw(mailbox_type),
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move { write(x, mailbox_type, &data).await })
+            },
+        )
         .await
     }
 }

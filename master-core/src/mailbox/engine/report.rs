@@ -43,6 +43,8 @@ pub(crate) enum Subject {
     },
     /// A file (FoE).
     File(String),
+    /// A raw message of this type (the gateway's), whatever it addresses.
+    Raw(MailboxType),
 }
 
 impl fmt::Display for Subject {
@@ -52,6 +54,7 @@ impl fmt::Display for Subject {
             Subject::Object { index, subindex } => write!(f, "{index:#06x}:{subindex:02x}"),
             Subject::Idn { drive, idn } => write!(f, "drive {drive} {idn}"),
             Subject::File(name) => write!(f, "file {name:?}"),
+            Subject::Raw(_) => f.write_str("raw message"),
         }
     }
 }
@@ -98,8 +101,11 @@ impl LogLimit {
     }
 }
 
-fn protocol_name(protocol: Option<MailboxType>) -> &'static str {
-    protocol.map_or("raw", MailboxType::name)
+fn protocol_name(protocol: Option<MailboxType>, subject: &Subject) -> &'static str {
+    match (protocol, subject) {
+        (Some(protocol), _) | (None, &Subject::Raw(protocol)) => protocol.name(),
+        (None, _) => "-",
+    }
 }
 
 /// The slave's own code in an error, if it carries one.
@@ -122,7 +128,7 @@ pub(crate) fn failure(
     subject: &Subject,
     err: &MailboxError,
 ) {
-    let protocol = protocol_name(protocol);
+    let protocol = protocol_name(protocol, subject);
     let code = code_of(err).map(|c| format!("{c:#010x}"));
     let code = code.as_deref().unwrap_or("-");
     let station = format_args!("{station:#06x}");
