@@ -144,6 +144,25 @@ async fn every_refusal(store: &SlaveMailbox) {
         store.sdo_upload_complete(0x1018, 0),
     )
     .await;
+    // The same refusals of a normal (not expedited) download and a complete-access one.
+    expect_abort(
+        store,
+        "normal download to a read-only object",
+        READ_ONLY,
+        0,
+        AbortCode::ReadOnly,
+        store.sdo_download(READ_ONLY, 0, &[1, 2, 3, 4, 5, 6, 7, 8]),
+    )
+    .await;
+    expect_abort(
+        store,
+        "complete-access download",
+        0x1018,
+        1,
+        AbortCode::GeneralError,
+        store.sdo_download_complete(0x1018, 1, &[0; 16]),
+    )
+    .await;
     // The slave's SDO server is idle again: a plain request still works.
     assert_eq!(store.sdo_upload(READ_ONLY, 0).await.unwrap(), [0; 4]);
 }
@@ -193,6 +212,24 @@ async fn the_sim_sends_the_abort_bytes_the_switches_ask_for() {
     let answer = store.raw(&coe_message(&download)).await.unwrap();
     assert_eq!(answer[HEADER_LEN..][..3], [0x00, 0x20, 0x8b]);
     assert_eq!(answer[HEADER_LEN + 6..], 0x0607_0010u32.to_le_bytes());
+}
+
+#[tokio::test]
+async fn an_abort_of_a_segment_reaches_the_raw_path() {
+    let rig = rig(soes_like(true, true, 0));
+    let store = rig.slave(COE_STORE);
+    // 0x2000 is long: a normal upload, then segments; the first segment with the wrong
+    // toggle bit (set: 0x70) is refused with 0x05030000, in service 2, 0x80 | 0x10.
+    let first = store
+        .raw(&coe_message(&upload_request(0x2000, 0)))
+        .await
+        .unwrap();
+    assert_eq!(first[HEADER_LEN + 2], 0x41, "a normal upload response");
+    let wrong_toggle = [0x00, 0x20, 0x70, 0, 0, 0, 0, 0, 0, 0];
+    let answer = store.raw(&coe_message(&wrong_toggle)).await.unwrap();
+    let frame = SdoFrame::new_checked(&answer[HEADER_LEN..]).unwrap();
+    assert_eq!(answer[HEADER_LEN..][..3], [0x00, 0x20, 0x90]);
+    assert_eq!(frame.any_abort().map(|a| a.2), Some(AbortCode::ToggleBit));
 }
 
 #[tokio::test]
