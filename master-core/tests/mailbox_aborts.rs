@@ -9,12 +9,13 @@ mod mailbox_support;
 
 use std::time::Duration;
 
-use mailbox_support::{COE_STORE, Rig, bus_config};
+use mailbox_support::{COE_STORE, DRIVE, Rig, bus_config};
 use master_core::link::FaultConfig;
 use master_core::mailbox::{MailboxConfig, MailboxError, SlaveMailbox};
 use master_core::wire::coe::sdo::SdoFrame;
 use master_core::wire::coe::{AbortCode, SdoRequest, SdoResponse};
 use master_core::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
+use master_core::wire::soe::{ElementFlags, Idn};
 use sim::topology::{CoeObject, EscSpec, Topology};
 
 /// An object the store has that only takes writes.
@@ -305,12 +306,14 @@ fn slow_rig() -> Rig {
         response_delay_us: 150_000,
         ..EscSpec::default()
     };
+    let mut topology = topology(esc);
+    topology.slaves[DRIVE].esc = esc;
     let mailbox = MailboxConfig {
         timeout: Duration::from_secs(3),
         ..MailboxConfig::default()
     };
     Rig::start_with(
-        &topology(esc),
+        &topology,
         FaultConfig::default(),
         1,
         bus_config(),
@@ -381,6 +384,30 @@ async fn a_late_entry_description_of_another_object_is_not_the_answer() {
     assert_eq!((entry.index, entry.subindex), (PARAMETER, 0));
     assert_eq!(
         store.stats().unexpected - before,
+        1,
+        "the late answer counted"
+    );
+}
+
+#[tokio::test]
+async fn a_late_soe_answer_of_another_idn_is_not_the_answer() {
+    let rig = slow_rig();
+    let drive = rig.slave(DRIVE);
+    let value = ElementFlags::VALUE;
+    // S-0-0024 (configuration list of MDT) as the drive answers it in time.
+    let mdt = Idn::from_raw(24);
+    let expected = drive.soe_read(0, mdt, value).await.unwrap();
+    let hasty = drive.with_timeout(Duration::from_millis(20));
+    // S-0-0016 (configuration list of AT) gives up; its answer comes while the next waits.
+    let err = hasty
+        .soe_read(0, Idn::from_raw(16), value)
+        .await
+        .unwrap_err();
+    assert!(matches!(err, MailboxError::Timeout { .. }), "{err:?}");
+    let before = drive.stats().unexpected;
+    assert_eq!(drive.soe_read(0, mdt, value).await.unwrap(), expected);
+    assert_eq!(
+        drive.stats().unexpected - before,
         1,
         "the late answer counted"
     );

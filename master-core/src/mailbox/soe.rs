@@ -51,6 +51,17 @@ async fn read(x: &mut Exchange, drive: u8, idn: Idn, elements: ElementFlags) -> 
                 continue;
             }
         };
+        // A fragment does not name its IDN, only the elements (the response echoes the
+        // request's, ETG.1000.6 §5.7); an answer for other elements or another IDN is a late
+        // one of an earlier read.
+        let last = match answer.idn_or_fragments {
+            IdnOrFragments::FragmentsLeft(_) if answer.elements == elements => false,
+            IdnOrFragments::Idn(answered) if answered == idn => true,
+            _ => {
+                x.count_unexpected(MailboxType::Soe);
+                continue;
+            }
+        };
         if let Some(code) = answer.error {
             return Err(MailboxError::Soe { drive, idn, code });
         }
@@ -62,13 +73,9 @@ async fn read(x: &mut Exchange, drive: u8, idn: Idn, elements: ElementFlags) -> 
                 limit,
             });
         }
-        match answer.idn_or_fragments {
-            IdnOrFragments::FragmentsLeft(_) => value.extend_from_slice(answer.data),
-            IdnOrFragments::Idn(answered) if answered == idn => {
-                value.extend_from_slice(answer.data);
-                return Ok(value);
-            }
-            IdnOrFragments::Idn(_) => x.count_unexpected(MailboxType::Soe),
+        value.extend_from_slice(answer.data);
+        if last {
+            return Ok(value);
         }
     }
 }
