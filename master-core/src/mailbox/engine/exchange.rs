@@ -160,12 +160,25 @@ impl Exchange {
     /// again by the next read); answers nobody took are counted as unexpected.
     pub async fn end(&mut self) {
         if let Ok(Read::Answer) = self.settle().await {
-            inc(&self.shared.stats.unexpected);
+            let message = std::mem::take(&mut self.rx);
+            self.drop_unclaimed(&message);
+            self.rx = message;
         }
         self.cancelled = None;
-        for _ in self.stash.drain(..) {
-            inc(&self.shared.stats.unexpected);
+        while let Some(message) = self.stash.pop_front() {
+            self.drop_unclaimed(&message);
         }
+    }
+
+    /// Counts and logs a whole message read for a request that did not take it.
+    fn drop_unclaimed(&self, message: &[u8]) {
+        inc(&self.shared.stats.unexpected);
+        let mailbox_type = Mailbox::new_checked(message)
+            .and_then(|m| MailboxHeader::parse(&m))
+            .map_or(MailboxType::Error, |h| h.mailbox_type);
+        let shared = &*self.shared;
+        let why = "the request it came during did not take it";
+        report::unexpected(&shared.log_limit, shared.config.station, mailbox_type, why);
     }
 
     /// Whether the caller went away.
@@ -383,7 +396,9 @@ impl Exchange {
             inc(&self.shared.stats.eoe_reassembly_errors);
         }
         if self.settle().await? == Read::Answer {
-            inc(&self.shared.stats.unexpected);
+            let message = std::mem::take(&mut self.rx);
+            self.drop_unclaimed(&message);
+            self.rx = message;
         }
         for _ in 0..IDLE_DRAIN {
             if self.read_one(None).await? == Read::Nothing {
