@@ -62,6 +62,14 @@ pub enum MailboxError {
     /// The slave answered an SDO Information request with an error.
     #[error("SDO Information error: {0}")]
     SdoInfo(AbortCode),
+    /// The slave answered an SDO Information request with an error reply too short to
+    /// hold its abort code (some stacks declare a mailbox length of 6 and leave the code
+    /// outside it).
+    #[error("slave {station:#06x}: SDO Information error (abort code missing)")]
+    SdoInfoAbortMissing {
+        /// Station address.
+        station: u16,
+    },
     /// The slave answered an SoE request with an error.
     #[error("SoE error on drive {drive} {idn}: {:#06x} {}", u16::from(*code), code.description())]
     Soe {

@@ -9,7 +9,8 @@
 use std::sync::Arc;
 
 use crate::mailbox::engine::exchange::Exchange;
-use crate::mailbox::engine::job::{BoxFuture, call};
+use crate::mailbox::engine::job::{BoxFuture, call_for};
+use crate::mailbox::engine::report::Subject;
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
 use crate::wire::foe::{self, FoeError, FoePacket, FoeRepr};
@@ -98,7 +99,7 @@ async fn receive_foe(x: &mut Exchange) -> Result<Answer> {
                     text: text(t),
                 });
             }
-            _ => x.count_unexpected(),
+            _ => x.count_unexpected(MailboxType::Foe),
         }
     }
 }
@@ -250,20 +251,32 @@ impl SlaveMailbox {
     /// Writes `data` to the slave's file `name` (ASCII, no NUL). Give the handle a deadline
     /// long enough for the file ([`SlaveMailbox::with_timeout`]).
     pub async fn foe_write(&self, name: &str, data: &[u8], options: FoeOptions) -> Result<()> {
+        let subject = Subject::File(name.to_string());
         let name = name.as_bytes().to_vec();
         let data = data.to_vec();
-        call(self, Some(MailboxType::Foe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move { write(x, &name, &data, &options).await })
-        })
+        call_for(
+            self,
+            Some(MailboxType::Foe),
+            subject,
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move { write(x, &name, &data, &options).await })
+            },
+        )
         .await
     }
 
     /// Reads the slave's file `name`, up to [`MailboxConfig::max_file_len`](crate::mailbox::MailboxConfig::max_file_len) bytes.
     pub async fn foe_read(&self, name: &str, options: FoeOptions) -> Result<Vec<u8>> {
+        let subject = Subject::File(name.to_string());
         let name = name.as_bytes().to_vec();
-        call(self, Some(MailboxType::Foe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move { read(x, &name, &options).await })
-        })
+        call_for(
+            self,
+            Some(MailboxType::Foe),
+            subject,
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move { read(x, &name, &options).await })
+            },
+        )
         .await
     }
 }

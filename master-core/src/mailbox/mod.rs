@@ -49,6 +49,7 @@ mod engine;
 mod eoe;
 mod error;
 mod foe;
+mod matching;
 mod raw;
 mod soe;
 mod voe;

@@ -1,10 +1,12 @@
-//! Raw mailbox transactions for the ETG.8200 gateway (digest §11): one message in, the
+//! Raw mailbox transactions for the ETG.8200 gateway: one message in, the
 //! slave's answer out, with the engine's counter and all the guards of any other request.
 
 use crate::mailbox::engine::exchange::Exchange;
-use crate::mailbox::engine::job::{BoxFuture, call};
+use crate::mailbox::engine::job::{BoxFuture, call_for};
+use crate::mailbox::engine::report::Subject;
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
+use crate::mailbox::matching::answers;
 use crate::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
 
 /// The type and data of a complete mailbox message.
@@ -32,20 +34,49 @@ async fn write(x: &mut Exchange, mailbox_type: MailboxType, data: &[u8]) -> Resu
     .await
 }
 
+/// Waits for the slave's answer to the request `data` (of `mailbox_type`) just written:
+/// the first message that [`answers`] it. Others (a late answer to an earlier request
+/// that timed out, an answer for another object) are dropped and counted as unexpected.
+async fn answer(x: &mut Exchange, mailbox_type: MailboxType, data: &[u8]) -> Result<Vec<u8>> {
+    loop {
+        let reply = x.receive(mailbox_type).await?;
+        if answers(mailbox_type, data, reply.header.mailbox_type, reply.data) {
+            return Ok(reply.message.to_vec());
+        }
+        x.count_unexpected(mailbox_type);
+    }
+}
+
+/// Whether another message follows the whole message `message`, by `follows`.
+fn follows_in(message: &[u8], mailbox_type: MailboxType, follows: fn(&[u8]) -> bool) -> bool {
+    match split(message) {
+        Ok((ty, data)) => ty == mailbox_type && follows(&data),
+        Err(_) => false,
+    }
+}
+
 impl SlaveMailbox {
     /// Writes one complete mailbox message (header and data; the header's counter is
     /// replaced by the engine's, its address and priority by the master's) and returns
     /// the slave's answer: the next message of the same type that is not unsolicited
-    /// (emergencies and EoE frames still go to their own queues), or a mailbox error reply.
+    /// (emergencies and EoE frames still go to their own queues) and answers this request
+    /// (the same object, segment or IDN: a late answer to an earlier request is dropped and
+    /// counted in [`MailboxStats::unexpected`](crate::mailbox::MailboxStats::unexpected)),
+    /// or a mailbox error reply.
     pub async fn raw(&self, message: &[u8]) -> Result<Vec<u8>> {
         let (mailbox_type, data) = split(message)?;
-        call(self, None, move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move {
-                write(x, mailbox_type, &data).await?;
-                let reply = x.receive(mailbox_type).await?;
-                Ok(reply.message.to_vec())
-            })
-        })
+        call_for(
+            self,
+            None,
+            Subject::Raw(mailbox_type),
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move {
+                    write(x, mailbox_type, &data).await?;
+                    let reply = answer(x, mailbox_type, &data).await?;
+                    Ok(reply)
+                })
+            },
+        )
         .await
     }
 
@@ -60,20 +91,27 @@ impl SlaveMailbox {
         limit: usize,
     ) -> Result<Vec<Vec<u8>>> {
         let (mailbox_type, data) = split(message)?;
-        call(self, None, move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move {
-                write(x, mailbox_type, &data).await?;
-                let mut replies = Vec::new();
-                loop {
-                    let reply = x.receive(mailbox_type).await?;
-                    let more = reply.header.mailbox_type == mailbox_type && follows(reply.data);
-                    replies.push(reply.message.to_vec());
-                    if !more || replies.len() >= limit.max(1) {
-                        return Ok(replies);
+        call_for(
+            self,
+            None,
+            Subject::Raw(mailbox_type),
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move {
+                    write(x, mailbox_type, &data).await?;
+                    let first = answer(x, mailbox_type, &data).await?;
+                    let mut more = follows_in(&first, mailbox_type, follows);
+                    let mut replies = vec![first];
+                    loop {
+                        if !more || replies.len() >= limit.max(1) {
+                            return Ok(replies);
+                        }
+                        let reply = x.receive(mailbox_type).await?;
+                        more = reply.header.mailbox_type == mailbox_type && follows(reply.data);
+                        replies.push(reply.message.to_vec());
                     }
-                }
-            })
-        })
+                })
+            },
+        )
         .await
     }
 
@@ -81,9 +119,14 @@ impl SlaveMailbox {
     /// abort).
     pub async fn raw_send(&self, message: &[u8]) -> Result<()> {
         let (mailbox_type, data) = split(message)?;
-        call(self, None, move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move { write(x, mailbox_type, &data).await })
-        })
+        call_for(
+            self,
+            None,
+            Subject::Raw(mailbox_type),
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move { write(x, mailbox_type, &data).await })
+            },
+        )
         .await
     }
 }

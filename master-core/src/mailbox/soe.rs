@@ -2,7 +2,8 @@
 //! fragments when a value does not fit one mailbox message.
 
 use crate::mailbox::engine::exchange::Exchange;
-use crate::mailbox::engine::job::{BoxFuture, call};
+use crate::mailbox::engine::job::{BoxFuture, call_for};
+use crate::mailbox::engine::report::Subject;
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
 use crate::wire::mailbox::MailboxType;
@@ -46,7 +47,18 @@ async fn read(x: &mut Exchange, drive: u8, idn: Idn, elements: ElementFlags) -> 
                 answer
             }
             _ => {
-                x.count_unexpected();
+                x.count_unexpected(MailboxType::Soe);
+                continue;
+            }
+        };
+        // A fragment does not name its IDN, only the elements (the response echoes the
+        // request's, ETG.1000.6 §5.7); an answer for other elements or another IDN is a late
+        // one of an earlier read.
+        let last = match answer.idn_or_fragments {
+            IdnOrFragments::FragmentsLeft(_) if answer.elements == elements => false,
+            IdnOrFragments::Idn(answered) if answered == idn => true,
+            _ => {
+                x.count_unexpected(MailboxType::Soe);
                 continue;
             }
         };
@@ -61,13 +73,9 @@ async fn read(x: &mut Exchange, drive: u8, idn: Idn, elements: ElementFlags) -> 
                 limit,
             });
         }
-        match answer.idn_or_fragments {
-            IdnOrFragments::FragmentsLeft(_) => value.extend_from_slice(answer.data),
-            IdnOrFragments::Idn(answered) if answered == idn => {
-                value.extend_from_slice(answer.data);
-                return Ok(value);
-            }
-            IdnOrFragments::Idn(_) => x.count_unexpected(),
+        value.extend_from_slice(answer.data);
+        if last {
+            return Ok(value);
         }
     }
 }
@@ -113,7 +121,7 @@ async fn write(
                     None => Ok(()),
                 };
             }
-            _ => x.count_unexpected(),
+            _ => x.count_unexpected(MailboxType::Soe),
         }
     }
 }
@@ -123,9 +131,13 @@ impl SlaveMailbox {
     /// them, put together from every fragment. Usually [`ElementFlags::VALUE`].
     pub async fn soe_read(&self, drive: u8, idn: Idn, elements: ElementFlags) -> Result<Vec<u8>> {
         check_drive(drive)?;
-        call(self, Some(MailboxType::Soe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(read(x, drive, idn, elements))
-        })
+        let subject = Subject::Idn { drive, idn };
+        call_for(
+            self,
+            Some(MailboxType::Soe),
+            subject,
+            move |x| -> BoxFuture<'_, _> { Box::pin(read(x, drive, idn, elements)) },
+        )
         .await
     }
 
@@ -140,9 +152,15 @@ impl SlaveMailbox {
     ) -> Result<()> {
         check_drive(drive)?;
         let data = data.to_vec();
-        call(self, Some(MailboxType::Soe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move { write(x, drive, idn, elements, &data).await })
-        })
+        let subject = Subject::Idn { drive, idn };
+        call_for(
+            self,
+            Some(MailboxType::Soe),
+            subject,
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move { write(x, drive, idn, elements, &data).await })
+            },
+        )
         .await
     }
 }

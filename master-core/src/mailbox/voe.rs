@@ -46,7 +46,7 @@ impl SlaveMailbox {
                                 data: answer.data.to_vec(),
                             });
                         }
-                        Err(_) => x.count_unexpected(),
+                        Err(_) => x.count_unexpected(MailboxType::Voe),
                     }
                 }
             })

@@ -179,6 +179,9 @@ impl From<MailboxError> for ApiError {
                 ApiError::new(ErrorKind::Aborted, "sdo_abort", message)
                     .with_code(u32::from(code), code.description())
             }
+            MailboxError::SdoInfoAbortMissing { .. } => {
+                ApiError::new(ErrorKind::Aborted, "sdo_info_error", message)
+            }
             MailboxError::Soe { code, .. } => {
                 ApiError::new(ErrorKind::Aborted, "soe_error", message)
                     .with_code(u32::from(u16::from(code)), code.description())

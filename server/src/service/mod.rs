@@ -287,7 +287,18 @@ impl Core {
         complete: bool,
         type_name: &str,
     ) -> Result<(Vec<u8>, String)> {
-        let ty = self.value_type(slave, index, subindex, type_name).await?;
+        let ty = match self.value_type(slave, index, subindex, type_name).await {
+            Ok(ty) => ty,
+            // The slave would not describe the entry (an SDO Information error, with or
+            // without its code): a plain upload gets the slave's own SDO abort to the user,
+            // or the value, shown as hex.
+            Err(err) if matches!(err.tag, "sdo_abort" | "sdo_info_error") => {
+                let data = self.coe_upload(slave, index, subindex, complete).await?;
+                let text = value::decode(ValueType::Hex, &data)?;
+                return Ok((data, text));
+            }
+            Err(err) => return Err(err),
+        };
         let data = self.coe_upload(slave, index, subindex, complete).await?;
         let text = value::decode(ty, &data)?;
         Ok((data, text))

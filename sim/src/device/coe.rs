@@ -20,6 +20,7 @@ use master_core::od::{Outcome, SdoServer, ServerContext, StaticDictionary};
 use master_core::wire::coe::emergency::EMERGENCY_LEN;
 use master_core::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
 
+use crate::device::coe_quirks::CoeQuirks;
 use crate::device::{DeviceContext, MailboxService, ReplySink};
 
 /// A dictionary shared between the CoE service and the device that owns it.
@@ -86,6 +87,7 @@ pub struct CoeService {
     server: SdoServer,
     emergencies: EmergencyTrigger,
     refused: u64,
+    quirks: CoeQuirks,
 }
 
 impl CoeService {
@@ -101,7 +103,15 @@ impl CoeService {
             server: SdoServer::new(),
             emergencies: EmergencyTrigger::default(),
             refused: 0,
+            quirks: CoeQuirks::default(),
         }
+    }
+
+    /// Answers as a stack with `quirks` would (aborts in service 2, short SDO
+    /// Information errors, ...).
+    pub fn with_quirks(mut self, quirks: CoeQuirks) -> Self {
+        self.quirks = quirks;
+        self
     }
 
     /// The shared dictionary handle.
@@ -165,7 +175,10 @@ impl MailboxService for CoeService {
             state: ctx.al_state,
         };
         let mut answers: Vec<Vec<u8>> = Vec::new();
-        let outcome = {
+        let outcome = if let Some(refusal) = self.quirks.refusal(data) {
+            answers.push(refusal);
+            Outcome::Replied(1)
+        } else {
             let mut dict = lock_dictionary(&self.dict);
             self.server
                 .handle(&mut *dict, data, server_ctx, &mut |reply: &[u8]| {
@@ -189,7 +202,8 @@ impl MailboxService for CoeService {
             let _ = replies.mailbox_error(MailboxErrorCode::NoMoreMemory);
             return;
         }
-        for answer in answers {
+        for mut answer in answers {
+            self.quirks.apply(data, &mut answer);
             let _ = replies.send(answer);
         }
     }

@@ -130,6 +130,7 @@ pub trait Device: Send {
 }
 
 pub mod coe;
+pub mod coe_quirks;
 pub mod composite;
 pub mod dio;
 pub mod drive;

@@ -8,6 +8,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use master_core::od::access::presets::{RO_TX, RW_PREOP, RW_RX, WO};
 use master_core::od::{DictionaryBuilder, Entry, Object, PdoEntry, SmType, StaticDictionary};
@@ -23,6 +24,7 @@ use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 use thiserror::Error;
 
 use crate::device::coe::{CoeService, EmergencyTrigger, SharedDictionary};
+use crate::device::coe_quirks::CoeQuirks;
 use crate::device::dio::{DigitalInputs, DigitalOutputs, InputDriver, OutputProbe};
 use crate::device::eoe::{EoeService, IpConfig};
 use crate::device::foe::{BusyPhase, FileStore, FoeFile, FoeService};
@@ -31,7 +33,9 @@ use crate::device::{Drive, MailboxStack, SlaveDevice};
 use crate::esc::{DcConfig, Esc, EscConfig, ManualTime};
 use crate::segment::Segment;
 
-use super::model::{Application, CoeObject, PdoSpec, Protocol, SlaveSpec, Topology, pattern};
+use super::model::{
+    Application, CoeObject, EscSpec, PdoSpec, Protocol, SlaveSpec, Topology, pattern,
+};
 use super::soe::soe_service;
 
 /// Why a topology cannot be built.
@@ -142,9 +146,10 @@ fn build_slave(position: usize, spec: &SlaveSpec) -> Result<SlaveParts, BuildErr
 
     let mut device = SlaveDevice::new();
     if spec.mailbox.is_some() {
-        let mut stack = MailboxStack::new();
+        let delay = Duration::from_micros(u64::from(spec.esc.response_delay_us));
+        let mut stack = MailboxStack::new().with_response_delay(delay);
         if let Some(dict) = &dictionary {
-            let coe = CoeService::shared(Arc::clone(dict));
+            let coe = CoeService::shared(Arc::clone(dict)).with_quirks(coe_quirks(&spec.esc));
             handles.emergencies = Some(coe.emergency_trigger());
             stack = stack.with(coe);
         }
@@ -225,6 +230,17 @@ fn build_slave(position: usize, spec: &SlaveSpec) -> Result<SlaveParts, BuildErr
         ..EscConfig::default()
     };
     Ok((Esc::new(config, sii), device, handles))
+}
+
+/// The CoE behaviours of other stacks the slave's firmware switches ask for.
+fn coe_quirks(esc: &EscSpec) -> CoeQuirks {
+    CoeQuirks {
+        abort_in_request_service: esc.sdo_abort_in_request,
+        abort_keeps_command_bits: esc.sdo_abort_keeps_command_bits,
+        short_info_errors: esc.sdo_info_short_errors,
+        refuse_complete_access: esc.refuse_complete_access,
+        length_mismatch_only: esc.sdo_abort_length_mismatch,
+    }
 }
 
 /// A data type by its CoE name (`UNSIGNED16`, ...).

@@ -138,7 +138,20 @@ impl MailboxSpec {
     }
 }
 
-/// ESC options.
+/// ESC options, and how the slave's firmware behind it answers its mailbox.
+///
+/// The firmware switches make the slave behave like other slave stacks than ours, so that
+/// tests keep a master honest about them; all are off by default:
+///
+/// ```toml
+/// [slave.esc]
+/// sdo_abort_in_request = true         # SDO aborts in CoE service 2, as SOES sends them
+/// sdo_abort_keeps_command_bits = true # abort command 0x80 | the request's low 5 bits
+/// sdo_info_short_errors = true        # SDO Info errors of mailbox length 6, code outside
+/// refuse_complete_access = true       # complete access aborted with 0x08000000
+/// sdo_abort_length_mismatch = true    # wrong-length downloads aborted with 0x06070010
+/// response_delay_us = 2000            # every reply reaches SM1 2 ms after the request
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EscSpec {
@@ -148,6 +161,34 @@ pub struct EscSpec {
     /// DC propagation delay from the previous device to this slave, in ns.
     #[serde(default = "default_hop_delay")]
     pub hop_delay_ns: u32,
+    /// SDO aborts go out in CoE service 2 (SDO request) instead of 3: ETG.1000.6 §5.6.2.7
+    /// names the abort "Abort SDO Transfer Request", and SOES sends every abort that way.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub sdo_abort_in_request: bool,
+    /// An SDO abort's command byte keeps the request's low 5 bits (0x8b, 0x8f, 0x91, ...),
+    /// only the command specifier (bits 5-7 = 4) marking it, as some stacks send it.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub sdo_abort_keeps_command_bits: bool,
+    /// SDO Information error replies declare a mailbox length of 6 and leave the abort
+    /// code outside it.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub sdo_info_short_errors: bool,
+    /// Complete access (upload and download) is refused with SDO abort 0x08000000.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub refuse_complete_access: bool,
+    /// Every wrong-length download is aborted with 0x06070010 (as SOES does), not with
+    /// 0x06070012 (too long) or 0x06070013 (too short).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub sdo_abort_length_mismatch: bool,
+    /// Every mailbox message the slave sends reaches its send mailbox (SM1) only this many
+    /// microseconds after it was made (a slow firmware); other slaves and frames are not
+    /// held up meanwhile. 0: at once.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub response_delay_us: u32,
+}
+
+fn is_zero(v: &u32) -> bool {
+    *v == 0
 }
 
 fn default_ram_kib() -> u16 {
@@ -163,6 +204,12 @@ impl Default for EscSpec {
         EscSpec {
             ram_kib: default_ram_kib(),
             hop_delay_ns: default_hop_delay(),
+            sdo_abort_in_request: false,
+            sdo_abort_keeps_command_bits: false,
+            sdo_info_short_errors: false,
+            refuse_complete_access: false,
+            sdo_abort_length_mismatch: false,
+            response_delay_us: 0,
         }
     }
 }

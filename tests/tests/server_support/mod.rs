@@ -145,7 +145,13 @@ impl Ecatd {
                 "--http-listen",
                 "127.0.0.1:0",
             ])
-            .args(["--log-format", "json", "--log", "info"])
+            .args(["--log-format", "json"])
+            // A test that reads debug lines gives its own filter.
+            .args(if extra.contains(&"--log") {
+                &[][..]
+            } else {
+                &["--log", "info"][..]
+            })
             .args(extra)
             .stdin(Stdio::null())
             .stdout(Stdio::null())

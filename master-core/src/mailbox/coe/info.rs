@@ -1,18 +1,20 @@
-//! SDO Information (digest §6.8): the slave's object dictionary as it describes itself.
+//! SDO Information (ETG.1000.6 §5.6.3): the slave's object dictionary as it describes itself.
 //!
 //! A long answer comes in fragments (Incomplete set, fragments left counting down); the
 //! client keeps reading the send mailbox and concatenates their service data — for an OD
 //! list only the first fragment carries the list type.
 
 use crate::mailbox::engine::exchange::Exchange;
-use crate::mailbox::engine::job::{BoxFuture, call};
+use crate::mailbox::engine::job::{BoxFuture, call_for};
+use crate::mailbox::engine::report::Subject;
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
+use crate::mailbox::matching::describes;
 use crate::wire::coe::info::entry::{EntryDescription, ValueInfo};
 use crate::wire::coe::info::object::ObjectDescription;
 use crate::wire::coe::info::od_list::{OdList, OdListType};
 use crate::wire::coe::info::{SdoInfoFrame, SdoInfoOpcode, SdoInfoRepr, SdoInfoService};
-use crate::wire::coe::{AbortCode, CoeRepr, CoeService, DataType, ObjectAccess, ObjectCode};
+use crate::wire::coe::{CoeRepr, CoeService, DataType, ObjectAccess, ObjectCode};
 use crate::wire::mailbox::MailboxType;
 
 use super::send_coe;
@@ -63,11 +65,14 @@ fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
 
-/// Sends `request` and returns the concatenated service data of the answer `expect`.
+/// Sends `request` and returns the concatenated service data of the answer `expect`; a
+/// first fragment that describes another object than `about` is a late answer to an
+/// earlier request, dropped and counted.
 async fn info_request(
     x: &mut Exchange,
     request: SdoInfoService<'_>,
     expect: SdoInfoOpcode,
+    about: Option<(u16, Option<u8>)>,
 ) -> Result<Vec<u8>> {
     let repr = CoeRepr::SdoInfo(SdoInfoRepr {
         incomplete: false,
@@ -82,27 +87,24 @@ async fn info_request(
         let reply = x.receive(MailboxType::Coe).await?;
         let data = reply.data()?;
         let Ok(frame) = SdoInfoFrame::new_checked(data) else {
-            x.count_unexpected();
+            x.count_unexpected(MailboxType::Coe);
             continue;
         };
         if frame.service() != CoeService::SdoInfo {
-            x.count_unexpected();
+            x.count_unexpected(MailboxType::Coe);
             continue;
         }
         let opcode = frame.opcode();
         if opcode == SdoInfoOpcode::Error {
-            let info = SdoInfoRepr::parse(&frame).map_err(|_| MailboxError::Protocol {
-                station,
-                reason: "a short SDO Info error",
-            })?;
-            let code = match info.service {
-                SdoInfoService::Error { code } => code,
-                _ => AbortCode::GeneralError,
-            };
-            return Err(MailboxError::SdoInfo(code));
+            // Some stacks declare a mailbox length of 6 and leave the abort code outside
+            // it: still the slave's refusal, only without its reason.
+            return Err(match SdoInfoRepr::parse(&frame).map(|info| info.service) {
+                Ok(SdoInfoService::Error { code }) => MailboxError::SdoInfo(code),
+                _ => MailboxError::SdoInfoAbortMissing { station },
+            });
         }
-        if opcode != expect {
-            x.count_unexpected();
+        if opcode != expect || (collected.is_empty() && !describes(frame.data(), about)) {
+            x.count_unexpected(MailboxType::Coe);
             continue;
         }
         let size = collected.len() + frame.data().len();
@@ -124,40 +126,54 @@ impl SlaveMailbox {
     /// Get OD List: the object indices of `list` (for [`OdListType::Lengths`], the five
     /// list lengths: all, RxPDO-mappable, TxPDO-mappable, backup, settings).
     pub async fn sdo_info_od_list(&self, list: OdListType) -> Result<Vec<u16>> {
-        call(self, Some(MailboxType::Coe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move {
-                let request = SdoInfoService::OdListRequest { list_type: list };
-                let data = info_request(x, request, SdoInfoOpcode::OdListResponse).await?;
-                let Some((answered, rest)) = OdList(&data).first_fragment() else {
-                    return Err(x.violation("an OD list without its list type"));
-                };
-                if answered != list {
-                    return Err(x.violation("an OD list of another list type"));
-                }
-                Ok(rest.words().collect())
-            })
-        })
+        call_for(
+            self,
+            Some(MailboxType::Coe),
+            Subject::None,
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move {
+                    let request = SdoInfoService::OdListRequest { list_type: list };
+                    let data =
+                        info_request(x, request, SdoInfoOpcode::OdListResponse, None).await?;
+                    let Some((answered, rest)) = OdList(&data).first_fragment() else {
+                        return Err(x.violation("an OD list without its list type"));
+                    };
+                    if answered != list {
+                        return Err(x.violation("an OD list of another list type"));
+                    }
+                    Ok(rest.words().collect())
+                })
+            },
+        )
         .await
     }
 
     /// Get Object Description of `index`.
     pub async fn sdo_info_object(&self, index: u16) -> Result<ObjectInfo> {
-        call(self, Some(MailboxType::Coe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move {
-                let request = SdoInfoService::ObjectDescriptionRequest { index };
-                let data =
-                    info_request(x, request, SdoInfoOpcode::ObjectDescriptionResponse).await?;
-                let object = ObjectDescription::parse(&data)
-                    .map_err(|_| x.violation("a short object description"))?;
-                Ok(ObjectInfo {
-                    index: object.index,
-                    data_type: object.data_type,
-                    max_subindex: object.max_subindex,
-                    object_code: object.object_code,
-                    name: text(object.name),
+        let subject = Subject::Object { index, subindex: 0 };
+        call_for(
+            self,
+            Some(MailboxType::Coe),
+            subject,
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move {
+                    let request = SdoInfoService::ObjectDescriptionRequest { index };
+                    let about = Some((index, None));
+                    let data =
+                        info_request(x, request, SdoInfoOpcode::ObjectDescriptionResponse, about)
+                            .await?;
+                    let object = ObjectDescription::parse(&data)
+                        .map_err(|_| x.violation("a short object description"))?;
+                    Ok(ObjectInfo {
+                        index: object.index,
+                        data_type: object.data_type,
+                        max_subindex: object.max_subindex,
+                        object_code: object.object_code,
+                        name: text(object.name),
+                    })
                 })
-            })
-        })
+            },
+        )
         .await
     }
 
@@ -169,32 +185,40 @@ impl SlaveMailbox {
         subindex: u8,
         value_info: u8,
     ) -> Result<EntryInfo> {
-        call(self, Some(MailboxType::Coe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move {
-                let request = SdoInfoService::EntryDescriptionRequest {
-                    index,
-                    subindex,
-                    value_info: ValueInfo(value_info),
-                };
-                let data =
-                    info_request(x, request, SdoInfoOpcode::EntryDescriptionResponse).await?;
-                let entry = EntryDescription::parse(&data)
-                    .map_err(|_| x.violation("an entry description shorter than announced"))?;
-                Ok(EntryInfo {
-                    index: entry.index,
-                    subindex: entry.subindex,
-                    value_info: entry.value_info.0,
-                    data_type: entry.data_type,
-                    bit_length: entry.bit_length,
-                    access: entry.access,
-                    unit_type: entry.unit_type,
-                    default: entry.default.map(<[u8]>::to_vec),
-                    minimum: entry.minimum.map(<[u8]>::to_vec),
-                    maximum: entry.maximum.map(<[u8]>::to_vec),
-                    description: text(entry.description),
+        let subject = Subject::Object { index, subindex };
+        call_for(
+            self,
+            Some(MailboxType::Coe),
+            subject,
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move {
+                    let request = SdoInfoService::EntryDescriptionRequest {
+                        index,
+                        subindex,
+                        value_info: ValueInfo(value_info),
+                    };
+                    let about = Some((index, Some(subindex)));
+                    let data =
+                        info_request(x, request, SdoInfoOpcode::EntryDescriptionResponse, about)
+                            .await?;
+                    let entry = EntryDescription::parse(&data)
+                        .map_err(|_| x.violation("an entry description shorter than announced"))?;
+                    Ok(EntryInfo {
+                        index: entry.index,
+                        subindex: entry.subindex,
+                        value_info: entry.value_info.0,
+                        data_type: entry.data_type,
+                        bit_length: entry.bit_length,
+                        access: entry.access,
+                        unit_type: entry.unit_type,
+                        default: entry.default.map(<[u8]>::to_vec),
+                        minimum: entry.minimum.map(<[u8]>::to_vec),
+                        maximum: entry.maximum.map(<[u8]>::to_vec),
+                        description: text(entry.description),
+                    })
                 })
-            })
-        })
+            },
+        )
         .await
     }
 }

@@ -1,14 +1,15 @@
-//! SDO upload and download (digest §6.2-§6.5), run by the slave's owner task.
+//! SDO upload and download (ETG.1000.6 §5.6.2), run by the slave's owner task.
 //!
-//! Answers are matched to the transfer (index for initiate responses, the toggle bit for
-//! segments); a CoE answer that does not fit is a late one of an earlier request and is
+//! Answers are matched to the transfer (index and subindex for initiate responses and
+//! aborts, the toggle bit for segments); a CoE answer that does not fit is a late one of an earlier request and is
 //! skipped (counted as unexpected), never taken for this transfer's. A transfer given up
 //! half-way — the caller went away, the deadline passed, the slave broke the protocol — is
 //! aborted towards the slave with an SDO abort, so the slave's SDO server is idle again
 //! for the next request.
 
 use crate::mailbox::engine::exchange::Exchange;
-use crate::mailbox::engine::job::{BoxFuture, call};
+use crate::mailbox::engine::job::{BoxFuture, call_for};
+use crate::mailbox::engine::report::Subject;
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
 use crate::wire::coe::sdo::{SdoFrame, max_initiate_data, max_segment_data};
@@ -26,6 +27,26 @@ struct Target {
 }
 
 impl Target {
+    /// Whether an initiate response for `index:subindex` answers this transfer. Complete
+    /// access names the object; stacks differ in the subindex they echo then.
+    fn answered_by(&self, index: u16, subindex: u8) -> bool {
+        index == self.index && (self.complete_access || subindex == self.subindex)
+    }
+
+    /// Whether an abort for `index:subindex` ends this transfer: one for its object, or
+    /// one that names no object at all (index 0, which no transfer addresses; some stacks
+    /// send that during segments).
+    fn owns_abort(&self, index: u16, subindex: u8) -> bool {
+        self.answered_by(index, subindex) || (index == 0 && subindex == 0)
+    }
+
+    fn subject(&self) -> Subject {
+        Subject::Object {
+            index: self.index,
+            subindex: self.subindex,
+        }
+    }
+
     fn abort_error(&self, code: AbortCode) -> MailboxError {
         MailboxError::SdoAbort {
             index: self.index,
@@ -40,7 +61,8 @@ async fn send_request(x: &mut Exchange, request: SdoRequest<'_>) -> Result<()> {
 }
 
 /// Waits for the next SDO response and hands it to `accept`; answers `accept` declines
-/// (`None`) are skipped as stale.
+/// (`None`) are skipped as stale. An abort is taken in either CoE service and with any
+/// low command bits (ETG.1000.6 §5.6.2.7), if it names this transfer's object.
 async fn await_response<T>(
     x: &mut Exchange,
     target: &Target,
@@ -49,17 +71,24 @@ async fn await_response<T>(
     loop {
         let reply = x.receive(MailboxType::Coe).await?;
         let data = reply.data()?;
-        let response = SdoFrame::new_checked(data).and_then(|f| SdoResponse::parse(&f));
-        match response {
-            Ok(SdoResponse::Abort { index, code, .. }) if index == target.index => {
+        let Ok(frame) = SdoFrame::new_checked(data) else {
+            x.count_unexpected(MailboxType::Coe);
+            continue;
+        };
+        if let Some((index, subindex, code)) = frame.any_abort() {
+            if target.owns_abort(index, subindex) {
                 return Err(target.abort_error(code));
             }
+            x.count_unexpected(MailboxType::Coe);
+            continue;
+        }
+        match SdoResponse::parse(&frame) {
             Ok(response) => match accept(&response) {
                 Some(result) => return result,
-                None => x.count_unexpected(),
+                None => x.count_unexpected(MailboxType::Coe),
             },
             // Not an SDO response (an SDO Information answer, a PDO): not ours.
-            Err(_) => x.count_unexpected(),
+            Err(_) => x.count_unexpected(MailboxType::Coe),
         }
     }
 }
@@ -106,16 +135,19 @@ async fn upload(x: &mut Exchange, target: Target) -> Result<Vec<u8>> {
     )
     .await?;
     let first = await_response(x, &target, |response| match *response {
-        SdoResponse::InitiateUpload { index, payload, .. } if index == target.index => {
-            Some(Ok(match payload {
-                SdoPayload::Expedited(value) => (value.to_vec(), None, true),
-                SdoPayload::Normal {
-                    complete_size,
-                    data,
-                } => (data.to_vec(), Some(complete_size as usize), false),
-                SdoPayload::SizeUnspecified { data } => (data.to_vec(), None, false),
-            }))
-        }
+        SdoResponse::InitiateUpload {
+            index,
+            subindex,
+            payload,
+            ..
+        } if target.answered_by(index, subindex) => Some(Ok(match payload {
+            SdoPayload::Expedited(value) => (value.to_vec(), None, true),
+            SdoPayload::Normal {
+                complete_size,
+                data,
+            } => (data.to_vec(), Some(complete_size as usize), false),
+            SdoPayload::SizeUnspecified { data } => (data.to_vec(), None, false),
+        })),
         _ => None,
     })
     .await?;
@@ -218,7 +250,9 @@ async fn download(x: &mut Exchange, target: Target, data: &[u8]) -> Result<()> {
     )
     .await?;
     await_response(x, &target, |response| match *response {
-        SdoResponse::InitiateDownload { index, .. } if index == target.index => Some(Ok(())),
+        SdoResponse::InitiateDownload {
+            index, subindex, ..
+        } if target.answered_by(index, subindex) => Some(Ok(())),
         _ => None,
     })
     .await?;
@@ -276,9 +310,12 @@ impl SlaveMailbox {
             subindex,
             complete_access: ca,
         };
-        call(self, Some(MailboxType::Coe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(upload(x, target))
-        })
+        call_for(
+            self,
+            Some(MailboxType::Coe),
+            target.subject(),
+            move |x| -> BoxFuture<'_, _> { Box::pin(upload(x, target)) },
+        )
         .await
     }
 
@@ -300,9 +337,14 @@ impl SlaveMailbox {
             complete_access: ca,
         };
         let data = data.to_vec();
-        call(self, Some(MailboxType::Coe), move |x| -> BoxFuture<'_, _> {
-            Box::pin(async move { download(x, target, &data).await })
-        })
+        call_for(
+            self,
+            Some(MailboxType::Coe),
+            target.subject(),
+            move |x| -> BoxFuture<'_, _> {
+                Box::pin(async move { download(x, target, &data).await })
+            },
+        )
         .await
     }
 }

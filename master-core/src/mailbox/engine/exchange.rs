@@ -35,6 +35,7 @@ use super::counter::Counters;
 use super::demux::{Route, Want, route};
 use super::events::{EoeFrame, SoeNotification};
 use super::repeat::request_repeat;
+use super::report;
 use super::slave::SlaveShared;
 use super::stats::inc;
 
@@ -159,12 +160,25 @@ impl Exchange {
     /// again by the next read); answers nobody took are counted as unexpected.
     pub async fn end(&mut self) {
         if let Ok(Read::Answer) = self.settle().await {
-            inc(&self.shared.stats.unexpected);
+            let message = std::mem::take(&mut self.rx);
+            self.drop_unclaimed(&message);
+            self.rx = message;
         }
         self.cancelled = None;
-        for _ in self.stash.drain(..) {
-            inc(&self.shared.stats.unexpected);
+        while let Some(message) = self.stash.pop_front() {
+            self.drop_unclaimed(&message);
         }
+    }
+
+    /// Counts and logs a whole message read for a request that did not take it.
+    fn drop_unclaimed(&self, message: &[u8]) {
+        inc(&self.shared.stats.unexpected);
+        let mailbox_type = Mailbox::new_checked(message)
+            .and_then(|m| MailboxHeader::parse(&m))
+            .map_or(MailboxType::Error, |h| h.mailbox_type);
+        let shared = &*self.shared;
+        let why = "the request it came during did not take it";
+        report::unexpected(&shared.log_limit, shared.config.station, mailbox_type, why);
     }
 
     /// Whether the caller went away.
@@ -202,8 +216,32 @@ impl Exchange {
 
     /// An answer of the right type that belongs to no request (a late answer to one that
     /// timed out): dropped and counted.
-    pub(crate) fn count_unexpected(&self) {
+    pub(crate) fn count_unexpected(&self, protocol: MailboxType) {
         inc(&self.shared.stats.unexpected);
+        let shared = &*self.shared;
+        report::unexpected(
+            &shared.log_limit,
+            shared.config.station,
+            protocol,
+            "it does not answer the request",
+        );
+    }
+
+    /// Leaves the log line of a failed request.
+    pub(crate) fn report_failure(
+        &self,
+        protocol: Option<MailboxType>,
+        subject: &report::Subject,
+        err: &MailboxError,
+    ) {
+        let shared = &*self.shared;
+        report::failure(
+            &shared.log_limit,
+            shared.config.station,
+            protocol,
+            subject,
+            err,
+        );
     }
 
     pub(crate) fn count_failed(&self) {
@@ -358,7 +396,9 @@ impl Exchange {
             inc(&self.shared.stats.eoe_reassembly_errors);
         }
         if self.settle().await? == Read::Answer {
-            inc(&self.shared.stats.unexpected);
+            let message = std::mem::take(&mut self.rx);
+            self.drop_unclaimed(&message);
+            self.rx = message;
         }
         for _ in 0..IDLE_DRAIN {
             if self.read_one(None).await? == Read::Nothing {
@@ -445,7 +485,11 @@ impl Exchange {
                 },
                 &shared.stats,
             ),
-            Route::Unexpected => inc(&shared.stats.unexpected),
+            Route::Unexpected => {
+                inc(&shared.stats.unexpected);
+                let why = "nobody waits for it";
+                report::unexpected(&shared.log_limit, station, header.mailbox_type, why);
+            }
             Route::Malformed => inc(&shared.stats.malformed),
         }
         Ok(Read::Routed)

@@ -22,6 +22,7 @@ use crate::mailbox::error::{MailboxError, Result};
 use crate::wire::mailbox::MailboxType;
 
 use super::exchange::Exchange;
+use super::report::Subject;
 use super::slave::SlaveMailbox;
 
 /// A boxed future borrowing the exchange.
@@ -67,6 +68,21 @@ where
     T: Send + 'static,
     F: for<'a> FnOnce(&'a mut Exchange) -> BoxFuture<'a, Result<T>> + Send + 'static,
 {
+    call_for(slave, protocol, Subject::None, work).await
+}
+
+/// [`call`] for a request that addresses `subject` (an object, an IDN, a file), named in
+/// the log line a failure leaves.
+pub(crate) async fn call_for<T, F>(
+    slave: &SlaveMailbox,
+    protocol: Option<MailboxType>,
+    subject: Subject,
+    work: F,
+) -> Result<T>
+where
+    T: Send + 'static,
+    F: for<'a> FnOnce(&'a mut Exchange) -> BoxFuture<'a, Result<T>> + Send + 'static,
+{
     let shared = slave.shared();
     if let Some(protocol) = protocol
         && !shared.config.protocols.supports(protocol)
@@ -90,8 +106,11 @@ where
                 } else {
                     work(&mut *exchange).await
                 };
-                if matches!(&result, Err(err) if *err != MailboxError::Cancelled) {
+                if let Err(err) = &result
+                    && *err != MailboxError::Cancelled
+                {
                     exchange.count_failed();
+                    exchange.report_failure(protocol, &subject, err);
                 }
                 let _ = reply.send(result);
             })

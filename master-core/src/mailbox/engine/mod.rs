@@ -7,7 +7,8 @@
 //! - [`exchange`]: writing SM0, reading SM1, routing what was read;
 //! - [`counter`], [`repeat`]: the guards against retried writes and lost reads;
 //! - [`demux`]: where each message from a slave goes;
-//! - [`events`], [`stats`]: unsolicited messages and counters.
+//! - [`events`], [`stats`]: unsolicited messages and counters;
+//! - [`report`]: log lines for failures, rate-limited per slave.
 
 pub(crate) mod counter;
 pub(crate) mod demux;
@@ -16,6 +17,7 @@ pub(crate) mod exchange;
 pub(crate) mod job;
 pub(crate) mod owner;
 pub(crate) mod repeat;
+pub(crate) mod report;
 pub(crate) mod slave;
 pub(crate) mod stats;
 
@@ -141,6 +143,7 @@ impl MailboxEngine {
             mail: Notify::new(),
             stop,
             last_tx: AtomicU8::new(last_tx),
+            log_limit: report::LogLimit::default(),
         });
         let inputs = owner::Inputs {
             requests: requests_rx,

@@ -10,6 +10,7 @@ use crate::mailbox::config::{MailboxConfig, SlaveMailboxConfig};
 
 use super::events::{Emergency, EoeFrame, Events, SoeNotification};
 use super::job::Job;
+use super::report::LogLimit;
 use super::stats::{MailboxStats, Stats};
 use crate::mailbox::eoe::EoeSend;
 
@@ -28,6 +29,8 @@ pub(crate) struct SlaveShared {
     /// Counter of the last request written (0 before the first): an owner that replaces
     /// this one on a live mailbox continues the sequence from it.
     pub last_tx: AtomicU8,
+    /// Keeps a broken slave from flooding the log with its failures.
+    pub log_limit: LogLimit,
 }
 
 /// A handle on one slave's mailbox: the entry point of every protocol client

@@ -86,7 +86,7 @@ async fn eoe_request<T>(
         let parsed = EoePacket::new_checked(data).and_then(|p| EoeRepr::parse(&p));
         match parsed.as_ref().ok().and_then(&mut accept) {
             Some(result) => return result,
-            None => x.count_unexpected(),
+            None => x.count_unexpected(MailboxType::Eoe),
         }
     }
 }

@@ -49,6 +49,9 @@ pub const SEGMENT_MIN_DATA: usize = SDO_INITIATE_LEN - fields::SEGMENT.start;
 /// Bytes in front of the segment data (CoE header + command byte).
 pub const SEGMENT_HEADER_LEN: usize = fields::SEGMENT.start;
 
+/// Command specifier of an abort in either direction (bits 5-7 of the command byte).
+const ABORT_SPECIFIER: u8 = 4;
+
 /// Command byte bits (digest §6.3).
 pub(crate) mod cmd {
     /// Bits 5-7: client/server command specifier.
@@ -165,6 +168,20 @@ impl<T: AsRef<[u8]>> SdoFrame<T> {
         need("SDO abort", self.buffer.as_ref(), SDO_INITIATE_LEN)?;
         let code = AbortCode::from(self.data_field_u32().unwrap_or(0));
         Ok((self.index(), self.subindex(), code))
+    }
+
+    /// Index, subindex and abort code if this frame is an SDO abort as any server may send
+    /// it: CoE service 2 (ETG.1000.6 §5.6.2.7 names it "Abort SDO Transfer Request", and
+    /// SOES sends every abort that way) or 3, recognised by the command specifier alone
+    /// (bits 5-7 = 4), whatever the low bits (some stacks leave the request's there: 0x8b,
+    /// 0x8f, 0x91). `None` for anything else, and for an abort too short to carry its code.
+    pub fn any_abort(&self) -> Option<(u16, u8, AbortCode)> {
+        let service = self.service();
+        let sdo = matches!(service, CoeService::SdoRequest | CoeService::SdoResponse);
+        if !sdo || self.specifier() != ABORT_SPECIFIER {
+            return None;
+        }
+        self.abort_fields().ok()
     }
 
     /// The bytes after the 8-byte SDO header (data of a normal initiate frame).
@@ -307,6 +324,32 @@ mod tests {
     use super::*;
     use crate::wire::coe::sdo_payload::SdoPayload;
     use proptest::prelude::*;
+
+    #[test]
+    fn an_abort_in_either_service_with_any_low_bits() {
+        // Service 3 with 0x80, service 2 (SOES) with 0x80 and with the request's low bits.
+        for (service, command) in [(0x30, 0x80), (0x20, 0x80), (0x20, 0x8b), (0x30, 0x91)] {
+            let f = [
+                0x00, service, command, 0x00, 0x20, 0x01, 0x00, 0x00, 0x02, 0x06,
+            ];
+            let frame = SdoFrame::new_checked(&f[..]).unwrap();
+            assert_eq!(
+                frame.any_abort(),
+                Some((0x2000, 1, AbortCode::ObjectDoesNotExist)),
+                "service {service:#x} command {command:#x}"
+            );
+        }
+        // Not an abort: another specifier, another service, or the code cut off.
+        let upload = [0x00, 0x30, 0x4f, 0x00, 0x20, 0x01, 1, 0, 0, 0];
+        assert_eq!(
+            SdoFrame::new_checked(&upload[..]).unwrap().any_abort(),
+            None
+        );
+        let info = [0x00, 0x80, 0x80, 0x00, 0x20, 0x01, 0, 0, 2, 6];
+        assert_eq!(SdoFrame::new_checked(&info[..]).unwrap().any_abort(), None);
+        let short = [0x00, 0x20, 0x80, 0x00, 0x20, 0x01, 0, 0];
+        assert_eq!(SdoFrame::new_checked(&short[..]).unwrap().any_abort(), None);
+    }
 
     #[test]
     fn size_helpers_match_c9() {

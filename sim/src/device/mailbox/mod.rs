@@ -21,7 +21,10 @@
 //!
 //! Replies wait in a bounded backlog until the ESC's [`Outbox`] takes them, so a service may
 //! post several messages for one request (SoE fragments, EoE fragments) even when the outbox
-//! holds only one.
+//! holds only one. With a response delay ([`MailboxStack::with_response_delay`]) a message
+//! becomes ready for the outbox only that long after it was posted, as with a slave whose
+//! firmware answers slowly; nothing waits for it, so frames keep passing (the ESC looks
+//! again at every frame's end).
 //!
 //! Every reply a master can cause is built with the `master_core::wire` codecs; nothing a
 //! master sends can make the layer panic (checked by a property test).
@@ -40,6 +43,7 @@ mod stats;
 
 use std::collections::VecDeque;
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use master_core::wire::mailbox::{
     HEADER_LEN, Mailbox, MailboxErrorCode, MailboxHeader, MailboxType,
@@ -75,8 +79,10 @@ pub struct MailboxStack {
     last_counter: u8,
     /// Counter of the last posted message; 0 before the first, then 1..7.
     slave_counter: u8,
-    backlog: VecDeque<Vec<u8>>,
+    /// Messages with the time they may go to the outbox.
+    backlog: VecDeque<(Vec<u8>, Instant)>,
     backlog_capacity: usize,
+    response_delay: Duration,
     stats: Arc<MailboxStats>,
 }
 
@@ -126,8 +132,15 @@ impl MailboxStack {
             slave_counter: 0,
             backlog: VecDeque::new(),
             backlog_capacity: capacity,
+            response_delay: Duration::ZERO,
             stats: Arc::new(MailboxStats::default()),
         }
+    }
+
+    /// Every message reaches the outbox only `delay` after it was posted (a slow firmware).
+    pub fn with_response_delay(mut self, delay: Duration) -> Self {
+        self.response_delay = delay;
+        self
     }
 
     /// Registers `service` for its mailbox type; a service registered before for the same
@@ -306,14 +319,20 @@ impl MailboxStack {
         }
         view.data_mut().copy_from_slice(&reply.data);
         self.slave_counter = counter;
-        self.backlog.push_back(message);
+        let ready = Instant::now() + self.response_delay;
+        self.backlog.push_back((message, ready));
         self.stats
             .count_posted(reply.mailbox_type == MailboxType::Error);
     }
 
-    /// Moves queued messages into the outbox, oldest first, while it takes them.
+    /// Moves queued messages whose time has come into the outbox, oldest first, while it
+    /// takes them.
     fn flush(&mut self, outbox: &mut Outbox) {
-        while let Some(front) = self.backlog.front() {
+        let now = Instant::now();
+        while let Some((front, ready)) = self.backlog.front() {
+            if *ready > now {
+                break;
+            }
             // The outbox consumes what it refuses, so it gets a copy until it accepts.
             if outbox.push(front.clone()).is_err() {
                 break;

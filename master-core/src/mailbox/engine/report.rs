@@ -1,0 +1,201 @@
+//! Log lines for mailbox failures: every failed request and every reply dropped as
+//! unexpected leaves a `tracing` line with the slave, the protocol, what was addressed and
+//! the code, so a failure is never visible only as a counter.
+//!
+//! Aborts and error replies are the slave's own answers and come at most once per request:
+//! debug. Timeouts and protocol violations point at a broken slave or link: warn. Those and
+//! the unexpected replies a broken slave can produce without limit go through a small token
+//! bucket per slave ([`LogLimit`]); what it holds back is counted and reported with the
+//! next line that passes.
+
+use std::fmt;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use crate::mailbox::error::MailboxError;
+use crate::wire::mailbox::MailboxType;
+use crate::wire::soe::Idn;
+
+/// Lines a slave may log in a burst.
+const BURST: u32 = 5;
+/// A token comes back this often.
+const REFILL: Duration = Duration::from_secs(1);
+
+/// What a request addressed, for its log line.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub(crate) enum Subject {
+    /// Nothing in particular (a raw message, VoE, EoE).
+    #[default]
+    None,
+    /// An object entry (SDO transfers, SDO Information).
+    Object {
+        /// Index.
+        index: u16,
+        /// Subindex.
+        subindex: u8,
+    },
+    /// An IDN of a drive (SoE).
+    Idn {
+        /// Drive number.
+        drive: u8,
+        /// The IDN.
+        idn: Idn,
+    },
+    /// A file (FoE).
+    File(String),
+    /// A raw message of this type (the gateway's), whatever it addresses.
+    Raw(MailboxType),
+}
+
+impl fmt::Display for Subject {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Subject::None => f.write_str("-"),
+            Subject::Object { index, subindex } => write!(f, "{index:#06x}:{subindex:02x}"),
+            Subject::Idn { drive, idn } => write!(f, "drive {drive} {idn}"),
+            Subject::File(name) => write!(f, "file {name:?}"),
+            Subject::Raw(_) => f.write_str("raw message"),
+        }
+    }
+}
+
+/// A token bucket: at most [`BURST`] lines at once, then one per [`REFILL`].
+#[derive(Debug)]
+pub(crate) struct LogLimit(Mutex<Bucket>);
+
+#[derive(Debug)]
+struct Bucket {
+    tokens: u32,
+    refilled: Instant,
+    suppressed: u64,
+}
+
+impl Default for LogLimit {
+    fn default() -> Self {
+        LogLimit(Mutex::new(Bucket {
+            tokens: BURST,
+            refilled: Instant::now(),
+            suppressed: 0,
+        }))
+    }
+}
+
+impl LogLimit {
+    /// Whether a line may be logged now, with the number of lines held back since the last
+    /// one that was; `None` counts this one as held back.
+    pub(crate) fn admit(&self, now: Instant) -> Option<u64> {
+        // Never held across an await: taken and released right here.
+        let mut bucket = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        let elapsed = now.saturating_duration_since(bucket.refilled);
+        let earned = (elapsed.as_millis() / REFILL.as_millis()).min(u128::from(BURST)) as u32;
+        if earned > 0 {
+            bucket.tokens = (bucket.tokens + earned).min(BURST);
+            bucket.refilled = now;
+        }
+        if bucket.tokens == 0 {
+            bucket.suppressed += 1;
+            return None;
+        }
+        bucket.tokens -= 1;
+        Some(std::mem::take(&mut bucket.suppressed))
+    }
+}
+
+fn protocol_name(protocol: Option<MailboxType>, subject: &Subject) -> &'static str {
+    match (protocol, subject) {
+        (Some(protocol), _) | (None, &Subject::Raw(protocol)) => protocol.name(),
+        (None, _) => "-",
+    }
+}
+
+/// The slave's own code in an error, if it carries one.
+fn code_of(err: &MailboxError) -> Option<u32> {
+    match err {
+        MailboxError::SdoAbort { code, .. } | MailboxError::SdoInfo(code) => Some(u32::from(*code)),
+        MailboxError::Soe { code, .. } => Some(u32::from(u16::from(*code))),
+        MailboxError::Foe { code, .. } => Some(u32::from(*code)),
+        MailboxError::Mailbox(code) => Some(u32::from(u16::from(*code))),
+        MailboxError::Eoe(result) => Some(u32::from(u16::from(*result))),
+        _ => None,
+    }
+}
+
+/// Logs a failed request of slave `station`.
+pub(crate) fn failure(
+    limit: &LogLimit,
+    station: u16,
+    protocol: Option<MailboxType>,
+    subject: &Subject,
+    err: &MailboxError,
+) {
+    let protocol = protocol_name(protocol, subject);
+    let code = code_of(err).map(|c| format!("{c:#010x}"));
+    let code = code.as_deref().unwrap_or("-");
+    let station = format_args!("{station:#06x}");
+    match err {
+        // The caller went away: nothing failed on the slave's side.
+        MailboxError::Cancelled | MailboxError::Shutdown => {}
+        MailboxError::Timeout { .. } | MailboxError::Protocol { .. } => {
+            if let Some(suppressed) = limit.admit(Instant::now()) {
+                tracing::warn!(
+                    %station, protocol, object = %subject, code, suppressed,
+                    error = %err, "mailbox request failed"
+                );
+            }
+        }
+        _ => tracing::debug!(
+            %station, protocol, object = %subject, code, error = %err,
+            "mailbox request failed"
+        ),
+    }
+}
+
+/// Logs a reply of slave `station` dropped because no request waits for it.
+pub(crate) fn unexpected(limit: &LogLimit, station: u16, protocol: MailboxType, why: &str) {
+    if let Some(suppressed) = limit.admit(Instant::now()) {
+        tracing::debug!(
+            station = %format_args!("{station:#06x}"),
+            protocol = protocol.name(),
+            suppressed,
+            "unexpected mailbox reply dropped: {why}"
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_burst_then_one_a_second_with_the_held_back_count() {
+        let limit = LogLimit::default();
+        let start = Instant::now();
+        for _ in 0..BURST {
+            assert_eq!(limit.admit(start), Some(0));
+        }
+        assert_eq!(limit.admit(start), None);
+        assert_eq!(limit.admit(start + Duration::from_millis(500)), None);
+        assert_eq!(limit.admit(start + REFILL), Some(2), "two were held back");
+        assert_eq!(limit.admit(start + REFILL), None);
+        // A long quiet time refills no more than the burst.
+        let later = start + REFILL * 100;
+        for _ in 0..BURST {
+            assert!(limit.admit(later).is_some());
+        }
+        assert_eq!(limit.admit(later), None);
+    }
+
+    #[test]
+    fn subjects_read_as_addresses() {
+        let object = Subject::Object {
+            index: 0x6040,
+            subindex: 1,
+        };
+        assert_eq!(object.to_string(), "0x6040:01");
+        assert_eq!(
+            Subject::File("fw.bin".into()).to_string(),
+            "file \"fw.bin\""
+        );
+        assert_eq!(Subject::None.to_string(), "-");
+    }
+}
