@@ -14,7 +14,7 @@ use master_core::link::FaultConfig;
 use master_core::mailbox::{MailboxConfig, MailboxError, SlaveMailbox};
 use master_core::wire::coe::sdo::SdoFrame;
 use master_core::wire::coe::{AbortCode, SdoRequest, SdoResponse};
-use master_core::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
+use master_core::wire::mailbox::{HEADER_LEN, MailboxType};
 use master_core::wire::soe::{ElementFlags, Idn};
 use sim::topology::{CoeObject, EscSpec, Topology};
 
@@ -198,10 +198,10 @@ async fn the_sim_sends_the_abort_bytes_the_switches_ask_for() {
     let store = rig.slave(COE_STORE);
     // Initiate upload 0x5555:00 (command 0x40) through the raw path: the answer as sent.
     let answer = store
-        .raw(&coe_message(&upload_request(MISSING, 0)))
+        .raw(MailboxType::Coe, &upload_request(MISSING, 0))
         .await
         .unwrap();
-    let data = &answer[HEADER_LEN..];
+    let data = &answer.message()[HEADER_LEN..];
     assert_eq!(
         data[..3],
         [0x00, 0x20, 0x80],
@@ -210,9 +210,9 @@ async fn the_sim_sends_the_abort_bytes_the_switches_ask_for() {
     assert_eq!(data[6..10], 0x0602_0000u32.to_le_bytes());
     // A download of 2 bytes (0x2b) keeps its low bits: 0x8b.
     let download = [0x00, 0x20, 0x2b, 0x01, 0x20, 0x00, 1, 2, 0, 0];
-    let answer = store.raw(&coe_message(&download)).await.unwrap();
-    assert_eq!(answer[HEADER_LEN..][..3], [0x00, 0x20, 0x8b]);
-    assert_eq!(answer[HEADER_LEN + 6..], 0x0607_0010u32.to_le_bytes());
+    let answer = store.raw(MailboxType::Coe, &download).await.unwrap();
+    assert_eq!(answer.message()[HEADER_LEN..][..3], [0x00, 0x20, 0x8b]);
+    assert_eq!(answer.message()[HEADER_LEN + 6..], 0x0607_0010u32.to_le_bytes());
 }
 
 #[tokio::test]
@@ -222,14 +222,14 @@ async fn an_abort_of_a_segment_reaches_the_raw_path() {
     // 0x2000 is long: a normal upload, then segments; the first segment with the wrong
     // toggle bit (set: 0x70) is refused with 0x05030000, in service 2, 0x80 | 0x10.
     let first = store
-        .raw(&coe_message(&upload_request(0x2000, 0)))
+        .raw(MailboxType::Coe, &upload_request(0x2000, 0))
         .await
         .unwrap();
-    assert_eq!(first[HEADER_LEN + 2], 0x41, "a normal upload response");
+    assert_eq!(first.message()[HEADER_LEN + 2], 0x41, "a normal upload response");
     let wrong_toggle = [0x00, 0x20, 0x70, 0, 0, 0, 0, 0, 0, 0];
-    let answer = store.raw(&coe_message(&wrong_toggle)).await.unwrap();
-    let frame = SdoFrame::new_checked(&answer[HEADER_LEN..]).unwrap();
-    assert_eq!(answer[HEADER_LEN..][..3], [0x00, 0x20, 0x90]);
+    let answer = store.raw(MailboxType::Coe, &wrong_toggle).await.unwrap();
+    let frame = SdoFrame::new_checked(&answer.message()[HEADER_LEN..]).unwrap();
+    assert_eq!(answer.message()[HEADER_LEN..][..3], [0x00, 0x20, 0x90]);
     assert_eq!(frame.any_abort().map(|a| a.2), Some(AbortCode::ToggleBit));
 }
 
@@ -281,24 +281,6 @@ fn upload_request(index: u16, subindex: u8) -> Vec<u8> {
     data
 }
 
-/// A whole CoE mailbox message carrying `data` (the engine sets counter and address).
-fn coe_message(data: &[u8]) -> Vec<u8> {
-    let header = MailboxHeader {
-        length: data.len() as u16,
-        address: 0,
-        channel: 0,
-        priority: 0,
-        mailbox_type: MailboxType::Coe,
-        counter: 0,
-    };
-    let mut message = vec![0u8; HEADER_LEN + data.len()];
-    header
-        .emit(&mut Mailbox::new_unchecked(&mut message[..]))
-        .unwrap();
-    message[HEADER_LEN..].copy_from_slice(data);
-    message
-}
-
 /// A slave that answers after 150 ms and a first request that gives up after 20 ms: its
 /// answer comes while the next request waits.
 fn slow_rig() -> Rig {
@@ -346,16 +328,16 @@ async fn a_late_reply_is_never_the_answer_on_the_raw_path() {
     let store = rig.slave(COE_STORE);
     let hasty = store.with_timeout(Duration::from_millis(20));
     let err = hasty
-        .raw(&coe_message(&upload_request(READ_ONLY, 0)))
+        .raw(MailboxType::Coe, &upload_request(READ_ONLY, 0))
         .await
         .unwrap_err();
     assert!(matches!(err, MailboxError::Timeout { .. }), "{err:?}");
     let before = store.stats().unexpected;
     let answer = store
-        .raw(&coe_message(&upload_request(PARAMETER, 0)))
+        .raw(MailboxType::Coe, &upload_request(PARAMETER, 0))
         .await
         .unwrap();
-    let frame = SdoFrame::new_checked(&answer[HEADER_LEN..]).unwrap();
+    let frame = SdoFrame::new_checked(&answer.message()[HEADER_LEN..]).unwrap();
     match SdoResponse::parse(&frame).unwrap() {
         SdoResponse::InitiateUpload {
             index, subindex, ..

@@ -242,8 +242,12 @@ async fn a_raw_transaction_returns_the_slaves_answer() {
     request
         .emit(&mut SdoFrame::new_unchecked(&mut message[HEADER_LEN..]))
         .unwrap();
-    let answer = drive.raw(&message).await.unwrap();
-    let header = MailboxHeader::parse(&Mailbox::new_checked(&answer[..]).unwrap()).unwrap();
+    let answer = drive
+        .raw(MailboxType::Coe, &message[HEADER_LEN..])
+        .await
+        .unwrap();
+    let answer = answer.message();
+    let header = MailboxHeader::parse(&Mailbox::new_checked(answer).unwrap()).unwrap();
     assert_eq!(header.mailbox_type, MailboxType::Coe);
     let response = SdoResponse::parse(&SdoFrame::new_checked(&answer[HEADER_LEN..]).unwrap());
     let expected = bytes(&dictionary(&rig, DRIVE), 0x1018, 2);
@@ -258,7 +262,11 @@ async fn a_raw_transaction_returns_the_slaves_answer() {
     }
     // A protocol the slave does not have: the mailbox error reply comes back as it is.
     let eoe_port = rig.slave(mailbox_support::EOE_PORT);
-    let answer = eoe_port.raw(&message).await.unwrap();
+    let answer = eoe_port
+        .raw(MailboxType::Coe, &message[HEADER_LEN..])
+        .await
+        .unwrap();
+    let answer = answer.message();
     assert_eq!(answer[5] & 0x0F, 0, "a mailbox error reply (type 0)");
     assert_eq!(
         &answer[6..10],

@@ -18,9 +18,9 @@
 //! of `compat::errors` instead.
 
 use crate::wire::coe::info::{SdoInfoFrame, SdoInfoRepr, SdoInfoService};
-use crate::wire::coe::{AbortCode, CoeFrame, CoeService, SdoFrame, SdoResponse};
+use crate::wire::coe::{AbortCode, CoeFrame, CoeService, SdoFrame, sdo_abort};
 use crate::wire::foe::{FoeError, FoePacket, FoeRepr};
-use crate::wire::mailbox::{ErrorReply, ErrorReplyRepr, MailboxErrorCode, MailboxType};
+use crate::wire::mailbox::{MailboxErrorCode, MailboxType, error_reply};
 use crate::wire::soe::{IdnOrFragments, SoeError, SoeOpcode, SoePacket, SoeRepr};
 
 use super::stats::FailureReason;
@@ -119,11 +119,7 @@ fn foe_code(fault: Fault) -> (FoeError, &'static [u8]) {
 
 /// A mailbox error reply (type 0).
 pub(crate) fn mailbox_error(code: MailboxErrorCode) -> (MailboxType, Vec<u8>) {
-    let repr = ErrorReplyRepr { detail: code };
-    let mut data = vec![0u8; repr.buffer_len()];
-    // The buffer has exactly the room the reply needs.
-    let _ = repr.emit(&mut ErrorReply::new_unchecked(&mut data[..]));
-    (MailboxType::Error, data)
+    (MailboxType::Error, error_reply(code))
 }
 
 /// The CoE answer with `code` to `request`: an SDO Information error for an SDO Information
@@ -139,19 +135,6 @@ pub(crate) fn coe_answer(request: &[u8], code: AbortCode) -> (MailboxType, Vec<u
         .map(|f| (f.index(), f.subindex()))
         .unwrap_or((0, 0));
     (MailboxType::Coe, sdo_abort(index, subindex, code))
-}
-
-/// An SDO abort (CoE data) for `index:subindex`.
-pub(crate) fn sdo_abort(index: u16, subindex: u8, code: AbortCode) -> Vec<u8> {
-    let response = SdoResponse::Abort {
-        index,
-        subindex,
-        code,
-    };
-    let mut data = vec![0u8; response.buffer_len()];
-    // The buffer has exactly the room an abort needs.
-    let _ = response.emit(&mut SdoFrame::new_unchecked(&mut data[..]));
-    data
 }
 
 fn sdo_info_error(code: AbortCode) -> Vec<u8> {
@@ -201,7 +184,8 @@ pub(crate) fn foe_answer((code, text): (FoeError, &[u8])) -> (MailboxType, Vec<u
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wire::coe::SdoRequest;
+    use crate::wire::coe::{SdoRequest, SdoResponse};
+    use crate::wire::mailbox::{ErrorReply, ErrorReplyRepr};
 
     fn upload(index: u16, subindex: u8) -> Vec<u8> {
         let req = SdoRequest::InitiateUpload {

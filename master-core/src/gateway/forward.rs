@@ -6,11 +6,11 @@ use std::net::SocketAddr;
 
 use tokio::time::Instant;
 
-use crate::mailbox::{MailboxError, SlaveMailbox};
-use crate::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
+use crate::mailbox::{MailboxError, RawReply, SlaveMailbox};
+use crate::wire::mailbox::MailboxType;
 
 use super::answer::Fault;
-use super::plan::{self, Expect, Sizes, data_of};
+use super::transfer::{self, Expect, Sizes};
 use super::session::Sessions;
 
 /// Most messages a slave may send for one request (SDO Information lists of large
@@ -36,44 +36,16 @@ fn fault_of(err: &MailboxError) -> Fault {
     }
 }
 
-/// A mailbox message of `mailbox_type` carrying `data` (the engine sets counter and
-/// address).
-fn message(mailbox_type: MailboxType, data: &[u8]) -> Result<Vec<u8>, Fault> {
-    let header = MailboxHeader {
-        length: u16::try_from(data.len()).map_err(|_| Fault::Oversized)?,
-        address: 0,
-        channel: 0,
-        priority: 0,
-        mailbox_type,
-        counter: 0,
-    };
-    let mut out = vec![0u8; HEADER_LEN + data.len()];
-    header
-        .emit(&mut Mailbox::new_unchecked(&mut out[..]))
-        .map_err(|_| Fault::Other)?;
-    out[HEADER_LEN..].copy_from_slice(data);
-    Ok(out)
-}
-
-/// The type of a message from the slave.
-fn type_of(message: &[u8]) -> Option<MailboxType> {
-    Mailbox::new_checked(message)
-        .and_then(|m| MailboxHeader::parse(&m))
-        .ok()
-        .map(|h| h.mailbox_type)
-}
-
 /// Sends `data` (mailbox data of `mailbox_type`) to the slave and returns its answers
-/// (whole mailbox messages; none for a message that gets no answer).
+/// (none for a message that gets no answer).
 pub(crate) async fn forward(
     f: &Forward<'_>,
     mailbox: &SlaveMailbox,
     mailbox_type: MailboxType,
     data: &[u8],
-) -> Result<Vec<Vec<u8>>, Fault> {
+) -> Result<Vec<RawReply>, Fault> {
     let station = mailbox.station();
-    let message = message(mailbox_type, data)?;
-    let transfer = match f.sessions {
+    let open = match f.sessions {
         Some(sessions) => sessions
             .enter(station, f.client, f.deadline)
             .await
@@ -89,10 +61,13 @@ pub(crate) async fn forward(
         return Err(Fault::Timeout);
     }
     let mb = mailbox.with_timeout(left);
-    let result = match plan::expect(mailbox_type, data, transfer) {
-        Expect::Reply => mb.raw(&message).await.map(|reply| vec![reply]),
-        Expect::Replies(follows) => mb.raw_replies(&message, follows, MAX_FOLLOW_UPS).await,
-        Expect::Nothing => mb.raw_send(&message).await.map(|()| Vec::new()),
+    let result = match transfer::expect(mailbox_type, data, open) {
+        Expect::Reply => mb.raw(mailbox_type, data).await.map(|reply| vec![reply]),
+        Expect::Replies(follows) => {
+            mb.raw_replies(mailbox_type, data, follows, MAX_FOLLOW_UPS)
+                .await
+        }
+        Expect::Nothing => mb.raw_send(mailbox_type, data).await.map(|()| Vec::new()),
     };
     let sizes = Sizes {
         write: usize::from(mailbox.config().write.len),
@@ -101,10 +76,8 @@ pub(crate) async fn forward(
     match result {
         Ok(replies) => {
             if let Some(sessions) = f.sessions {
-                let first = replies
-                    .first()
-                    .and_then(|m| Some((type_of(m)?, data_of(m))));
-                let next = plan::after(mailbox_type, data, first, transfer, sizes);
+                let first = replies.first().map(|m| (m.mailbox_type(), m.data()));
+                let next = transfer::after(mailbox_type, data, first, open, sizes);
                 sessions.update(station, f.client, next, f.session_timeout);
             }
             Ok(replies)

@@ -7,14 +7,15 @@
 //! on the fuzzer's bytes — the request also stands in for a slave's reply — and must never
 //! panic.
 
+use crate::mailbox::RawReply;
 use crate::wire::gateway::{GatewayMessage, GatewayRepr};
-use crate::wire::mailbox::{HEADER_LEN, MailboxType};
+use crate::wire::mailbox::MailboxType;
 
 use super::access;
 use super::answer::{Fault, answer};
 use super::compat::{self, Layout};
 use super::normalize;
-use super::plan::{self, Expect, Sizes, Transfer};
+use super::transfer::{self, Expect, Sizes, Transfer};
 use super::reply;
 
 const FAULTS: [Fault; 8] = [
@@ -71,12 +72,12 @@ pub fn request(datagram: &[u8]) -> bool {
         read: usize::from(repr.header.address),
     };
     for transfer in TRANSFERS {
-        if let Expect::Replies(follows) = plan::expect(ty, &data, transfer) {
+        if let Expect::Replies(follows) = transfer::expect(ty, &data, transfer) {
             let _ = follows(&data);
             let _ = follows(repr.data);
         }
-        let _ = plan::after(ty, &data, Some((ty, repr.data)), transfer, sizes);
-        let _ = plan::after(ty, &data, None, transfer, sizes);
+        let _ = transfer::after(ty, &data, Some((ty, repr.data)), transfer, sizes);
+        let _ = transfer::after(ty, &data, None, transfer, sizes);
     }
     for fault in FAULTS {
         let answers = [answer(ty, &data, fault), compat::answer(ty, &data, fault)];
@@ -90,21 +91,17 @@ pub fn request(datagram: &[u8]) -> bool {
             );
         }
     }
-    let _ = reply::from_slave(repr.header.address, message.mailbox_bytes(), layout);
-    // A slave's reply of any type in the compatibility layout.
-    let _ = reply::from_slave(
-        repr.header.address,
-        message.mailbox_bytes(),
-        Layout::Compat(compat::Compat {
-            soe_element: repr.header.counter,
-        }),
-    );
-    let _ = plan::data_of(
-        message
-            .mailbox_bytes()
-            .get(..HEADER_LEN)
-            .unwrap_or_default(),
-    );
+    if let Some(slave_reply) = RawReply::parse(message.mailbox_bytes()) {
+        let _ = reply::from_slave(repr.header.address, &slave_reply, layout);
+        // A slave's reply of any type in the compatibility layout.
+        let _ = reply::from_slave(
+            repr.header.address,
+            &slave_reply,
+            Layout::Compat(compat::Compat {
+                soe_element: repr.header.counter,
+            }),
+        );
+    }
     true
 }
 

@@ -19,14 +19,15 @@
 //! the bus and the master, and reaches the slaves only through the mailbox engine, whose
 //! per-slave queues it shares with every other user: the cyclic exchange is never touched.
 //!
-//! Files: `config`, `allow` (client networks), `bind` (port and fallback), `serve` (the
-//! loop and the request tasks), `route` (addresses), `forward` (one slave), `plan` (what
-//! a message makes the slave do), `session` (multi-message transfers), `normalize`
+//! Files: `config`, `allow` (client networks), `bind` (port and fallback), `service` (the
+//! transport-neutral request handling), `udp` (the datagram loop), `route` (addresses),
+//! `forward` (one slave), `transfer` (what a message makes the slave do and the
+//! multi-message transfer it leaves open), `session` (slaves held for a transfer), `normalize`
 //! (tolerated short SDO requests), `compat` (the layout of the replaced gateway's manual clients),
 //! `answer` (the gateway's own error answers), `reply` (datagrams back), `retry` (repeated
 //! requests answered once), `access` (which requests write: roles), `audit` (audit lines of
 //! writes), `admission` (in-flight caps), `stats`, `tcp` (the optional TCP transport over
-//! the same request handling), `fuzzing` (the parsing steps for the fuzz target).
+//! the same service), `fuzzing` (the parsing steps for the fuzz target).
 
 mod access;
 mod admission;
@@ -40,14 +41,15 @@ mod forward;
 #[doc(hidden)]
 pub mod fuzzing;
 mod normalize;
-mod plan;
 mod reply;
 mod retry;
 mod route;
-mod serve;
+mod service;
 mod session;
 mod stats;
 mod tcp;
+mod transfer;
+mod udp;
 
 use std::io;
 use std::net::SocketAddr;
@@ -64,10 +66,8 @@ pub use config::{DEFAULT_PORT, GatewayConfig, port_for_master};
 pub use route::{BROADCAST_ADDRESS, MASTER_ADDRESS, POSITION_BASE};
 pub use stats::{FailureCounts, FailureReason, MailboxGatewayStats};
 
-pub(crate) use answer::{mailbox_error, sdo_abort};
-
 use admission::Admission;
-use serve::Shared;
+use service::Shared;
 use session::Sessions;
 use stats::Stats;
 
@@ -208,13 +208,12 @@ impl MailboxGateway {
                 Arc::clone(&self.stats),
             )),
             retries: retry::Retries::new(self.config.retry_window, self.config.max_retry_clients),
-            socket,
         });
         let (stop, stopped) = watch::channel(false);
         let thread = std::thread::Builder::new()
             .name("ecat-gateway".into())
             .spawn(move || {
-                runtime.block_on(serve::run(shared, listener, stopped));
+                runtime.block_on(run(shared, socket, listener, stopped));
                 // Dropping the runtime drops the request tasks still running, which
                 // cancels their mailbox requests.
             })?;
@@ -237,6 +236,30 @@ impl MailboxGateway {
             self.stats.stop();
         }
     }
+}
+
+/// Serves both transports until `stop` says so (or its sender is gone); the request tasks
+/// and TCP connections go with the runtime.
+async fn run(
+    shared: Arc<Shared>,
+    socket: tokio::net::UdpSocket,
+    listener: Option<tokio::net::TcpListener>,
+    mut stop: watch::Receiver<bool>,
+) {
+    let tracker = tokio::spawn(shared.dictionary.tracker());
+    let udp = udp::run(Arc::clone(&shared), Arc::new(socket));
+    let tcp = async {
+        match listener {
+            Some(listener) => tcp::run(Arc::clone(&shared), listener).await,
+            None => std::future::pending().await,
+        }
+    };
+    tokio::select! {
+        _ = stop.changed() => {}
+        () = udp => {}
+        () = tcp => {}
+    }
+    tracker.abort();
 }
 
 impl Drop for MailboxGateway {

@@ -3,18 +3,16 @@
 //! layout the request came in (`compat`).
 
 use crate::wire::gateway::{GatewayMessage, GatewayRepr};
-use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
+use crate::mailbox::RawReply;
+use crate::wire::mailbox::{MailboxHeader, MailboxType};
 
 use super::compat::{self, Layout};
 
-/// The datagram for a message from a slave (header and data) going back to a client that
-/// used `address`; `None` if the message does not parse or is too long for ETG.8200.
-pub(crate) fn from_slave(address: u16, message: &[u8], layout: Layout) -> Option<Vec<u8>> {
-    let header = Mailbox::new_checked(message)
-        .and_then(|m| MailboxHeader::parse(&m))
-        .ok()?;
-    let end = crate::wire::mailbox::HEADER_LEN + usize::from(header.length);
-    let data = message.get(crate::wire::mailbox::HEADER_LEN..end)?;
+/// The datagram for a message from a slave going back to a client that used `address`;
+/// `None` if it is too long for ETG.8200.
+pub(crate) fn from_slave(address: u16, message: &RawReply, layout: Layout) -> Option<Vec<u8>> {
+    let header = *message.header();
+    let data = message.data();
     match layout {
         Layout::Standard => encode(MailboxHeader { address, ..header }, data),
         Layout::Compat(c) => compat::encode(address, header.mailbox_type, data, c),
@@ -62,11 +60,12 @@ mod tests {
             0x0a, 0x00, 0xe9, 0x03, 0x00, 0x13, 0x00, 0x30, 0x43, 0x80, 0xf9, 0x02, 0xea, 0x82,
             0x1e, 0x00,
         ];
-        let datagram = from_slave(0x8001, &message, Layout::Standard).unwrap();
+        let reply = RawReply::parse(&message).unwrap();
+        let datagram = from_slave(0x8001, &reply, Layout::Standard).unwrap();
         assert_eq!(datagram[..2], [0x10, 0x50]);
         assert_eq!(datagram[4..6], [0x01, 0x80]);
         assert_eq!(datagram[7], 0x13);
         assert_eq!(datagram[8..], message[6..]);
-        assert_eq!(from_slave(1, &message[..5], Layout::Standard), None);
+        assert_eq!(RawReply::parse(&message[..5]), None);
     }
 }

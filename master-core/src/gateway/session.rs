@@ -20,7 +20,7 @@ use std::time::Duration;
 use tokio::sync::Notify;
 use tokio::time::Instant;
 
-use super::plan::Transfer;
+use super::transfer::Transfer;
 
 #[derive(Debug, Clone, Copy)]
 struct Held {

@@ -1,7 +1,7 @@
 //! The optional TCP transport (ETG.8200 allows it beside UDP): a connection carries a byte
 //! stream of gateway messages, each delimited by its EtherCAT header's length (2 bytes of
-//! header, then `length` bytes). A connection is a thin layer over the UDP path: its
-//! messages go through the same [`admit`] (parsing, counting, in-flight caps, sessions and
+//! header, then `length` bytes). A connection is a thin layer over the service, as the UDP
+//! loop is: its messages go through the same [`admit`] (parsing, counting, in-flight caps, sessions and
 //! routing by client address) and [`serve`], one message at a time in the order they
 //! arrive, and the replies go back on the connection in that order.
 //!
@@ -15,7 +15,6 @@
 //! and counts as `malformed`.
 
 use std::future::Future;
-use std::io;
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Instant as StdInstant;
@@ -24,12 +23,13 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::tcp::OwnedReadHalf;
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore, mpsc};
+use tokio::task::JoinSet;
 use tokio::time::timeout;
 
 use crate::wire::frame::{self, Frame, FrameType};
 use crate::wire::mailbox;
 
-use super::serve::{Admitted, ReplyTo, Shared, admit, serve};
+use super::service::{Admitted, ReplyTo, Shared, admit, serve};
 use super::stats::FailureReason;
 
 /// The largest gateway message: the EtherCAT header and the most its 11-bit length says.
@@ -39,22 +39,32 @@ pub(crate) const MAX_MESSAGE: usize = frame::HEADER_LEN + frame::MAX_LENGTH as u
 /// SDO Information and SoE fragments can be several).
 const WRITE_QUEUE: usize = 64;
 
-/// The next connection, or never without a listener.
-pub(crate) async fn accept(listener: Option<&TcpListener>) -> io::Result<(TcpStream, SocketAddr)> {
-    match listener {
-        Some(listener) => listener.accept().await,
-        None => std::future::pending().await,
+/// Accepts and serves connections until dropped (the connections go with it).
+pub(crate) async fn run(shared: Arc<Shared>, listener: TcpListener) {
+    let connections = Connections::new(shared.config.max_tcp_connections);
+    let mut tasks = JoinSet::new();
+    loop {
+        tokio::select! {
+            Some(_) = tasks.join_next(), if !tasks.is_empty() => {}
+            accepted = listener.accept() => {
+                if let Ok((stream, peer)) = accepted
+                    && let Some(connection) = connections.open(&shared, stream, peer)
+                {
+                    tasks.spawn(connection);
+                }
+            }
+        }
     }
 }
 
 /// The cap on connections served at once.
-pub(crate) struct Connections {
+struct Connections {
     slots: Arc<Semaphore>,
 }
 
 impl Connections {
     /// At most `max` connections (at least 1).
-    pub fn new(max: usize) -> Connections {
+    fn new(max: usize) -> Connections {
         Connections {
             slots: Arc::new(Semaphore::new(max.max(1))),
         }
@@ -62,7 +72,7 @@ impl Connections {
 
     /// The task serving a new connection from `peer`, or `None` if it is refused (closed
     /// at once): a client not allowed counts as `denied`, one beyond the cap as `busy`.
-    pub fn open(
+    fn open(
         &self,
         shared: &Arc<Shared>,
         stream: TcpStream,

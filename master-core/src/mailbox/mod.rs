@@ -14,7 +14,7 @@
 //! | FoE | [`foe_read`](SlaveMailbox::foe_read), [`foe_write`](SlaveMailbox::foe_write) |
 //! | VoE | [`voe`](SlaveMailbox::voe) |
 //! | EoE | [`eoe_send`](SlaveMailbox::eoe_send), [`subscribe_eoe`](SlaveMailbox::subscribe_eoe), [`eoe_set_ip`](SlaveMailbox::eoe_set_ip), [`eoe_get_ip`](SlaveMailbox::eoe_get_ip), [`eoe_set_address_filter`](SlaveMailbox::eoe_set_address_filter) |
-//! | any | [`raw`](SlaveMailbox::raw), [`raw_send`](SlaveMailbox::raw_send) (the ETG.8200 gateway) |
+//! | any | [`raw`](SlaveMailbox::raw), [`raw_replies`](SlaveMailbox::raw_replies), [`raw_send`](SlaveMailbox::raw_send): a mailbox type and service data in, [`RawReply`]s out (the ETG.8200 gateway) |
 //!
 //! # How a slave's mailbox is run
 //!
@@ -63,4 +63,5 @@ pub use engine::stats::MailboxStats;
 pub use eoe::IpSettings;
 pub use error::{MailboxError, Result};
 pub use foe::{FoeOptions, FoeProgress};
+pub use raw::RawReply;
 pub use voe::VoeMessage;

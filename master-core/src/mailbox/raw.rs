@@ -1,7 +1,8 @@
-//! Raw mailbox transactions for the ETG.8200 gateway: one message in, the
-//! slave's answer out, with the engine's counter and all the guards of any other request.
+//! Raw mailbox transactions for the ETG.8200 gateway: the mailbox type and the service
+//! data of one request in, the slave's answers out as [`RawReply`]s (header parsed once,
+//! here), with the engine's counter and all the guards of any other request.
 
-use crate::mailbox::engine::exchange::Exchange;
+use crate::mailbox::engine::exchange::{Exchange, Reply};
 use crate::mailbox::engine::job::{BoxFuture, call_for};
 use crate::mailbox::engine::report::Subject;
 use crate::mailbox::engine::slave::SlaveMailbox;
@@ -9,13 +10,56 @@ use crate::mailbox::error::{MailboxError, Result};
 use crate::mailbox::matching::answers;
 use crate::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
 
-/// The type and data of a complete mailbox message.
-fn split(message: &[u8]) -> Result<(MailboxType, Vec<u8>)> {
-    let header = Mailbox::new_checked(message)
-        .and_then(|m| MailboxHeader::parse(&m))
-        .map_err(MailboxError::Invalid)?;
-    let end = HEADER_LEN + usize::from(header.length);
-    Ok((header.mailbox_type, message[HEADER_LEN..end].to_vec()))
+/// One message a slave sent on the raw path: its header, parsed once when it was read,
+/// and the message as it came (header and data).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RawReply {
+    header: MailboxHeader,
+    message: Vec<u8>,
+}
+
+impl RawReply {
+    fn of(reply: &Reply<'_>) -> RawReply {
+        RawReply {
+            header: reply.header,
+            message: reply.message.to_vec(),
+        }
+    }
+
+    /// A whole message (header and data; bytes beyond the header's length are left out),
+    /// or `None` if it has no valid header or is shorter than its header says. For the
+    /// gateway's tests and fuzz target, which stand in for a slave.
+    pub(crate) fn parse(message: &[u8]) -> Option<RawReply> {
+        let header = Mailbox::new_checked(message)
+            .and_then(|m| MailboxHeader::parse(&m))
+            .ok()?;
+        let message = message.get(..HEADER_LEN + usize::from(header.length))?;
+        Some(RawReply {
+            header,
+            message: message.to_vec(),
+        })
+    }
+
+    /// The header as the slave sent it (its counter, address, channel, priority, type).
+    pub fn header(&self) -> &MailboxHeader {
+        &self.header
+    }
+
+    /// The mailbox type ([`MailboxType::Error`] for a mailbox error reply).
+    pub fn mailbox_type(&self) -> MailboxType {
+        self.header.mailbox_type
+    }
+
+    /// The mailbox data (the header's `length` bytes after it).
+    pub fn data(&self) -> &[u8] {
+        // `message` ends where the header's length says (Exchange::receive cut it so).
+        self.message.get(HEADER_LEN..).unwrap_or_default()
+    }
+
+    /// The whole message as the slave sent it (header and data).
+    pub fn message(&self) -> &[u8] {
+        &self.message
+    }
 }
 
 async fn write(x: &mut Exchange, mailbox_type: MailboxType, data: &[u8]) -> Result<()> {
@@ -37,34 +81,26 @@ async fn write(x: &mut Exchange, mailbox_type: MailboxType, data: &[u8]) -> Resu
 /// Waits for the slave's answer to the request `data` (of `mailbox_type`) just written:
 /// the first message that [`answers`] it. Others (a late answer to an earlier request
 /// that timed out, an answer for another object) are dropped and counted as unexpected.
-async fn answer(x: &mut Exchange, mailbox_type: MailboxType, data: &[u8]) -> Result<Vec<u8>> {
+async fn answer(x: &mut Exchange, mailbox_type: MailboxType, data: &[u8]) -> Result<RawReply> {
     loop {
         let reply = x.receive(mailbox_type).await?;
         if answers(mailbox_type, data, reply.header.mailbox_type, reply.data) {
-            return Ok(reply.message.to_vec());
+            return Ok(RawReply::of(&reply));
         }
         x.count_unexpected(mailbox_type);
     }
 }
 
-/// Whether another message follows the whole message `message`, by `follows`.
-fn follows_in(message: &[u8], mailbox_type: MailboxType, follows: fn(&[u8]) -> bool) -> bool {
-    match split(message) {
-        Ok((ty, data)) => ty == mailbox_type && follows(&data),
-        Err(_) => false,
-    }
-}
-
 impl SlaveMailbox {
-    /// Writes one complete mailbox message (header and data; the header's counter is
-    /// replaced by the engine's, its address and priority by the master's) and returns
-    /// the slave's answer: the next message of the same type that is not unsolicited
-    /// (emergencies and EoE frames still go to their own queues) and answers this request
-    /// (the same object, segment or IDN: a late answer to an earlier request is dropped and
-    /// counted in [`MailboxStats::unexpected`](crate::mailbox::MailboxStats::unexpected)),
-    /// or a mailbox error reply.
-    pub async fn raw(&self, message: &[u8]) -> Result<Vec<u8>> {
-        let (mailbox_type, data) = split(message)?;
+    /// Writes one mailbox message of `mailbox_type` carrying `data` (the engine sets the
+    /// header: its counter, the master's address and priority) and returns the slave's
+    /// answer: the next message of the same type that is not unsolicited (emergencies and
+    /// EoE frames still go to their own queues) and answers this request (the same object,
+    /// segment or IDN: a late answer to an earlier request is dropped and counted in
+    /// [`MailboxStats::unexpected`](crate::mailbox::MailboxStats::unexpected)), or a
+    /// mailbox error reply.
+    pub async fn raw(&self, mailbox_type: MailboxType, data: &[u8]) -> Result<RawReply> {
+        let data = data.to_vec();
         call_for(
             self,
             None,
@@ -72,8 +108,7 @@ impl SlaveMailbox {
             move |x| -> BoxFuture<'_, _> {
                 Box::pin(async move {
                     write(x, mailbox_type, &data).await?;
-                    let reply = answer(x, mailbox_type, &data).await?;
-                    Ok(reply)
+                    answer(x, mailbox_type, &data).await
                 })
             },
         )
@@ -86,11 +121,12 @@ impl SlaveMailbox {
     /// data that another comes (at most `limit` messages in all).
     pub async fn raw_replies(
         &self,
-        message: &[u8],
+        mailbox_type: MailboxType,
+        data: &[u8],
         follows: fn(&[u8]) -> bool,
         limit: usize,
-    ) -> Result<Vec<Vec<u8>>> {
-        let (mailbox_type, data) = split(message)?;
+    ) -> Result<Vec<RawReply>> {
+        let data = data.to_vec();
         call_for(
             self,
             None,
@@ -99,7 +135,7 @@ impl SlaveMailbox {
                 Box::pin(async move {
                     write(x, mailbox_type, &data).await?;
                     let first = answer(x, mailbox_type, &data).await?;
-                    let mut more = follows_in(&first, mailbox_type, follows);
+                    let mut more = first.mailbox_type() == mailbox_type && follows(first.data());
                     let mut replies = vec![first];
                     loop {
                         if !more || replies.len() >= limit.max(1) {
@@ -107,7 +143,7 @@ impl SlaveMailbox {
                         }
                         let reply = x.receive(mailbox_type).await?;
                         more = reply.header.mailbox_type == mailbox_type && follows(reply.data);
-                        replies.push(reply.message.to_vec());
+                        replies.push(RawReply::of(&reply));
                     }
                 })
             },
@@ -115,10 +151,10 @@ impl SlaveMailbox {
         .await
     }
 
-    /// Writes one complete mailbox message that gets no answer (an EoE fragment, an SDO
-    /// abort).
-    pub async fn raw_send(&self, message: &[u8]) -> Result<()> {
-        let (mailbox_type, data) = split(message)?;
+    /// Writes one mailbox message of `mailbox_type` carrying `data` that gets no answer
+    /// (an EoE fragment, an SDO abort).
+    pub async fn raw_send(&self, mailbox_type: MailboxType, data: &[u8]) -> Result<()> {
+        let data = data.to_vec();
         call_for(
             self,
             None,

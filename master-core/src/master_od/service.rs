@@ -15,8 +15,8 @@ use std::time::Instant;
 
 use crate::master::{Master, SlaveAddress};
 use crate::od::{MIN_MAILBOX_SIZE, Outcome, SdoServer, ServerContext};
-use crate::wire::coe::{AbortCode, CoeFrame, CoeService, SdoFrame};
-use crate::wire::mailbox::{MailboxErrorCode, MailboxType};
+use crate::wire::coe::{AbortCode, CoeFrame, CoeService, SdoFrame, sdo_abort};
+use crate::wire::mailbox::{MailboxErrorCode, MailboxType, error_reply};
 use crate::wire::register::{AlState, ErrorCountersRepr};
 use crate::wire::sii::SiiImage;
 
@@ -140,7 +140,7 @@ impl MasterDictionary {
             let (index, subindex) = SdoFrame::new_checked(request)
                 .map(|f| (f.index(), f.subindex()))
                 .unwrap_or((0, 0));
-            let abort = crate::gateway::sdo_abort(index, subindex, AbortCode::GeneralError);
+            let abort = sdo_abort(index, subindex, AbortCode::GeneralError);
             return vec![(MailboxType::Coe, abort)];
         };
         let ctx = ServerContext {
@@ -171,13 +171,15 @@ impl MasterDictionary {
         match outcome {
             Outcome::Replied(_) => {}
             Outcome::Unsupported(_) => {
-                return vec![crate::gateway::mailbox_error(
-                    MailboxErrorCode::ServiceNotSupported,
+                return vec![(
+                    MailboxType::Error,
+                    error_reply(MailboxErrorCode::ServiceNotSupported),
                 )];
             }
             Outcome::Malformed | Outcome::MailboxTooSmall => {
-                return vec![crate::gateway::mailbox_error(
-                    MailboxErrorCode::SizeTooShort,
+                return vec![(
+                    MailboxType::Error,
+                    error_reply(MailboxErrorCode::SizeTooShort),
                 )];
             }
         }
@@ -187,7 +189,7 @@ impl MasterDictionary {
                 let (index, subindex) = SdoFrame::new_checked(request)
                     .map(|f| (f.index(), f.subindex()))
                     .unwrap_or((0, 0));
-                let abort = crate::gateway::sdo_abort(index, subindex, code);
+                let abort = sdo_abort(index, subindex, code);
                 return vec![(MailboxType::Coe, abort)];
             }
         }

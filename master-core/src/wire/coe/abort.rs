@@ -5,6 +5,7 @@
 
 use core::fmt;
 
+use crate::wire::coe::{SdoFrame, SdoResponse};
 use crate::wire::macros::enum_with_unknown;
 
 enum_with_unknown! {
@@ -190,6 +191,21 @@ impl AbortCode {
     }
 }
 
+/// The CoE data (CoE header included) of an SDO abort for `index:subindex` with `code`:
+/// the Abort SDO Transfer request of ETG.1000.6 §5.6.2.7 (command 0x80), as a server
+/// answers a request it refuses.
+pub fn sdo_abort(index: u16, subindex: u8, code: AbortCode) -> Vec<u8> {
+    let response = SdoResponse::Abort {
+        index,
+        subindex,
+        code,
+    };
+    let mut data = vec![0u8; response.buffer_len()];
+    // The buffer has exactly the room an abort needs, and an abort has no field to refuse.
+    let _ = response.emit(&mut SdoFrame::new_unchecked(&mut data[..]));
+    data
+}
+
 impl fmt::Display for AbortCode {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{:#010x} {}", u32::from(*self), self.description())
@@ -199,6 +215,15 @@ impl fmt::Display for AbortCode {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_sdo_abort_is_the_abort_request_naming_the_object() {
+        // Object 0x2000:00 does not exist: CoE header service 3, command 0x80, code LE.
+        assert_eq!(
+            sdo_abort(0x2000, 0, AbortCode::ObjectDoesNotExist),
+            [0x00, 0x30, 0x80, 0x00, 0x20, 0x00, 0x00, 0x00, 0x02, 0x06]
+        );
+    }
 
     #[test]
     fn every_code_has_a_description_and_round_trips() {

@@ -23,7 +23,7 @@ pub mod sdo_response;
 
 use core::fmt;
 
-pub use abort::AbortCode;
+pub use abort::{AbortCode, sdo_abort};
 pub use data_type::{DataType, ObjectAccess, ObjectCode};
 pub use emergency::{Emergency, EmergencyRepr};
 pub use header::{COE_HEADER_LEN, CoeFrame, CoeHeaderRepr, CoeService};

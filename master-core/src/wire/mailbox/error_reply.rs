@@ -187,6 +187,17 @@ impl ErrorReplyRepr {
     }
 }
 
+/// The mailbox data of a mailbox error reply with `code` (ETG.1000.4 §5.6, the mailbox
+/// error reply: type 0x0001, then the code; it goes in a message of type
+/// [`MailboxType::Error`](crate::wire::mailbox::MailboxType::Error)).
+pub fn error_reply(code: MailboxErrorCode) -> Vec<u8> {
+    let repr = ErrorReplyRepr { detail: code };
+    let mut data = vec![0u8; repr.buffer_len()];
+    // The buffer has exactly the room the reply needs.
+    let _ = repr.emit(&mut ErrorReply::new_unchecked(&mut data[..]));
+    data
+}
+
 impl fmt::Display for ErrorReplyRepr {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "MBX error {}", self.detail)
@@ -196,11 +207,19 @@ impl fmt::Display for ErrorReplyRepr {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
+    use crate::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
     use proptest::prelude::*;
 
     // Digest C.11 (and §5.4's example with slave counter 1): unsupported protocol.
     static C11: [u8; 10] = [0x04, 0x00, 0x00, 0x00, 0x00, 0x10, 0x01, 0x00, 0x02, 0x00];
+
+    #[test]
+    fn error_reply_is_the_mailbox_data_of_the_reply() {
+        assert_eq!(
+            error_reply(MailboxErrorCode::UnsupportedProtocol),
+            C11[HEADER_LEN..]
+        );
+    }
 
     #[test]
     fn parse_c11() {

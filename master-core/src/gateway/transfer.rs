@@ -1,6 +1,7 @@
-//! What a forwarded message makes the slave do, read from the protocol headers: how many
-//! messages it answers with, and whether the client is in the middle of a multi-message
-//! transfer afterwards (so the slave stays reserved for it, see `session`).
+//! Transfers: what a forwarded message makes the slave do, read from the protocol headers
+//! (how many messages it answers with, [`expect`]) and whether the client is in the middle
+//! of a multi-message transfer afterwards ([`after`]; the slave stays reserved for it, see
+//! `session`).
 //!
 //! The gateway forwards bytes; it looks into them only this far:
 //! - CoE SDO: segmented uploads and downloads span several requests; an abort from the
@@ -16,7 +17,7 @@ use crate::wire::coe::info::SdoInfoFrame;
 use crate::wire::coe::{CoeFrame, CoeService, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
 use crate::wire::eoe::{EoeFrameType, EoePacket};
 use crate::wire::foe::{self, FoePacket, FoeRepr};
-use crate::wire::mailbox::{HEADER_LEN, MailboxType};
+use crate::wire::mailbox::MailboxType;
 use crate::wire::soe::{SoeOpcode, SoePacket};
 
 /// How the slave answers a message.
@@ -193,11 +194,6 @@ fn sdo_info_follows(data: &[u8]) -> bool {
 
 fn soe_follows(data: &[u8]) -> bool {
     SoePacket::new_checked(data).is_ok_and(|p| p.incomplete())
-}
-
-/// The mailbox data of a whole mailbox message (empty if it is shorter than its header).
-pub(crate) fn data_of(message: &[u8]) -> &[u8] {
-    message.get(HEADER_LEN..).unwrap_or_default()
 }
 
 #[cfg(test)]

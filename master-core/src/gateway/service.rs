@@ -1,7 +1,7 @@
-//! The service loop: receive a datagram, check who sent it and what it is, admit it, and
-//! work on it in its own task so a slow slave never holds up the others. TCP connections
-//! (`tcp`) hand their messages to the same [`admit`] and [`serve`]; only where the replies
-//! go differs ([`ReplyTo`]).
+//! The transport-neutral service: a received message is parsed and admitted ([`admit`]),
+//! then worked on ([`serve`]) and answered wherever its transport wants the replies
+//! ([`ReplyTo`]). The UDP loop (`udp`) and the TCP connections (`tcp`) both hand their
+//! messages here; neither knows the other.
 //!
 //! A request is turned into its standard form first (`compat`, `normalize`); [`serve`]
 //! then answers a UDP repeat from the store (`retry`), refuses a `read` client's write
@@ -11,11 +11,12 @@ use std::net::SocketAddr;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant as StdInstant;
 
-use tokio::net::{TcpListener, UdpSocket};
-use tokio::sync::{mpsc, watch};
+use tokio::net::UdpSocket;
+use tokio::sync::mpsc;
 use tokio::task::JoinSet;
 use tokio::time::Instant;
 
+use crate::mailbox::RawReply;
 use crate::master::Master;
 use crate::master_od::MasterDictionary;
 use crate::wire::gateway::{GatewayMessage, GatewayRepr};
@@ -30,17 +31,11 @@ use super::compat::{self, Layout};
 use super::config::GatewayConfig;
 use super::forward::{Forward, forward};
 use super::normalize;
-use super::plan::data_of;
 use super::reply;
 use super::retry::{Check, Retries};
 use super::route::{self, Target};
 use super::session::Sessions;
 use super::stats::{FailureReason, Stats};
-use super::tcp;
-
-/// The largest UDP payload; a datagram is read whole, whatever its size, so that an
-/// oversized one is seen as such and not cut to something that parses.
-const RECEIVE_BUFFER: usize = 65_536;
 
 /// What every request task shares.
 pub(crate) struct Shared {
@@ -51,14 +46,13 @@ pub(crate) struct Shared {
     pub admission: Arc<Admission>,
     pub dictionary: MasterDictionary,
     pub retries: Retries,
-    pub socket: UdpSocket,
 }
 
 /// Where the replies to a request go.
 #[derive(Debug, Clone)]
 pub(crate) enum ReplyTo {
     /// A datagram from the bound socket to the client's address and port.
-    Udp,
+    Udp(Arc<UdpSocket>),
     /// The writer of the client's TCP connection, in order.
     Tcp(mpsc::Sender<Vec<u8>>),
 }
@@ -132,8 +126,8 @@ impl Shared {
     async fn send_only(&self, request: &Request, datagram: Vec<u8>) {
         match &request.reply_to {
             // A client that went away is its own problem; UDP has no one to tell.
-            ReplyTo::Udp => {
-                let _ = self.socket.send_to(&datagram, request.client).await;
+            ReplyTo::Udp(socket) => {
+                let _ = socket.send_to(&datagram, request.client).await;
             }
             // A closed connection drops its writer: nothing left to send to.
             ReplyTo::Tcp(writer) => {
@@ -180,53 +174,6 @@ impl Shared {
     }
 }
 
-/// Runs until `stop` says so; then in-flight requests and TCP connections are dropped
-/// with the runtime.
-pub(crate) async fn run(
-    shared: Arc<Shared>,
-    listener: Option<TcpListener>,
-    mut stop: watch::Receiver<bool>,
-) {
-    let mut buf = vec![0u8; RECEIVE_BUFFER];
-    let mut tasks = JoinSet::new();
-    tasks.spawn(shared.dictionary.tracker());
-    let connections = tcp::Connections::new(shared.config.max_tcp_connections);
-    loop {
-        let (len, client) = tokio::select! {
-            _ = stop.changed() => break,
-            Some(_) = tasks.join_next(), if tasks.len() > 1 => continue,
-            accepted = tcp::accept(listener.as_ref()) => {
-                if let Ok((stream, peer)) = accepted
-                    && let Some(connection) = connections.open(&shared, stream, peer)
-                {
-                    tasks.spawn(connection);
-                }
-                continue;
-            }
-            received = shared.socket.recv_from(&mut buf) => match received {
-                Ok(r) => r,
-                // ICMP port unreachable from an earlier reply, and the like: not fatal.
-                Err(_) => continue,
-            },
-        };
-        let received = StdInstant::now();
-        shared.stats.received();
-        if !shared.config.allows(client.ip()) {
-            shared.stats.failed(FailureReason::Denied);
-            continue;
-        }
-        let Some(datagram) = buf.get(..len) else {
-            shared.stats.failed(FailureReason::Malformed);
-            continue;
-        };
-        if let Admitted::Serve(request, ticket) =
-            admit(&shared, datagram, client, ReplyTo::Udp, received).await
-        {
-            tasks.spawn(serve(Arc::clone(&shared), request, ticket));
-        }
-    }
-}
-
 fn parse(
     datagram: &[u8],
     client: SocketAddr,
@@ -246,7 +193,7 @@ fn parse(
         _ => data,
     };
     // Only UDP loses replies; the layout without a counter never repeats.
-    let raw = (matches!(reply_to, ReplyTo::Udp) && header.counter != 0)
+    let raw = (matches!(reply_to, ReplyTo::Udp(_)) && header.counter != 0)
         .then(|| datagram.get(..message.total_len()).map(Box::from))
         .flatten();
     Some(Request {
@@ -319,15 +266,10 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Request, _ticket: Ticket
     }
 }
 
-/// The outcome of a request answered with `replies` (whole mailbox messages).
-fn answered_with(replies: &[Vec<u8>]) -> Outcome {
+/// The outcome of a request answered with `replies`.
+fn answered_with(replies: &[RawReply]) -> Outcome {
     match replies.first() {
-        Some(first) => {
-            let ty = crate::wire::mailbox::Mailbox::new_checked(&first[..])
-                .and_then(|m| MailboxHeader::parse(&m))
-                .map_or(MailboxType::Error, |h| h.mailbox_type);
-            Outcome::Answered(ty, data_of(first).to_vec())
-        }
+        Some(first) => Outcome::Answered(first.mailbox_type(), first.data().to_vec()),
         None => Outcome::Sent,
     }
 }
