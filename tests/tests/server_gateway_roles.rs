@@ -17,7 +17,7 @@ use master_core::wire::coe::{CoeRepr, SdoPayload, SdoRequest};
 use master_core::wire::mailbox::MailboxType;
 use serde_json::Value;
 use server_support::gateway_client::{GatewayClient, coe_bytes, datagram};
-use server_support::{Ecatd, curl, run_to_exit};
+use server_support::{Ecatd, call, curl, run_to_exit};
 
 const DRIVE: u16 = 1001;
 
@@ -175,6 +175,9 @@ fn a_repeated_download_runs_once_and_is_counted() {
     let view = gateway_view(&ecatd);
     assert_eq!(view["stats"]["retries_answered"], 1, "{view}");
     assert_eq!(view["stats"]["forwarded_requests"], 1, "{view}");
+    // The gRPC message carries the same counter (a uint64: a JSON string in grpcurl).
+    let status = call(&ecatd.grpc, &[], "ecat.v1.GatewayService/GetGateway", "{}").unwrap();
+    assert_eq!(status["stats"]["retriesAnswered"], "1", "{status}");
     let (status, metrics) = curl(&["-s", &format!("{}/metrics", ecatd.http)]);
     assert_eq!(status, 200);
     assert!(

@@ -7,7 +7,9 @@ use tonic::{Request, Response, Status};
 use super::status::status;
 use crate::security::{Caller, authorize_write};
 use crate::service::Core;
-use crate::service::gateway::{GatewayStatsView, GatewayView};
+use crate::service::gateway::{
+    GatewayFailuresView, GatewayStatsView, GatewayView, LatencyBucketView, LatencyView,
+};
 
 /// The gateway service over the core.
 pub struct Gateway {
@@ -33,44 +35,82 @@ pub fn gateway_status(view: &GatewayView) -> pb::GatewayStatus {
 }
 
 fn stats(s: &GatewayStatsView) -> pb::GatewayStats {
-    let f = &s.failures;
+    // Whole destructuring, no `..`: a counter added to the view does not compile until the
+    // message carries it too.
+    let GatewayStatsView {
+        total_requests,
+        forwarded_requests,
+        failed_requests,
+        coe_count,
+        soe_count,
+        foe_count,
+        voe_count,
+        eoe_count,
+        started_at_ms,
+        failures,
+        in_flight,
+        port,
+        latency,
+        retries_answered,
+    } = s;
+    let GatewayFailuresView {
+        malformed,
+        unknown_address,
+        unsupported_protocol,
+        timeout,
+        denied,
+        busy,
+        oversized,
+        other,
+    } = failures;
+    let LatencyView {
+        count,
+        p50_us,
+        p99_us,
+        buckets,
+    } = latency;
     pb::GatewayStats {
-        total_requests: s.total_requests,
-        forwarded_requests: s.forwarded_requests,
-        failed_requests: s.failed_requests,
-        coe_count: s.coe_count,
-        soe_count: s.soe_count,
-        foe_count: s.foe_count,
-        voe_count: s.voe_count,
-        eoe_count: s.eoe_count,
-        started_at_ms: s.started_at_ms,
+        total_requests: *total_requests,
+        forwarded_requests: *forwarded_requests,
+        failed_requests: *failed_requests,
+        coe_count: *coe_count,
+        soe_count: *soe_count,
+        foe_count: *foe_count,
+        voe_count: *voe_count,
+        eoe_count: *eoe_count,
+        started_at_ms: *started_at_ms,
         failures: Some(pb::GatewayFailures {
-            malformed: f.malformed,
-            unknown_address: f.unknown_address,
-            unsupported_protocol: f.unsupported_protocol,
-            timeout: f.timeout,
-            denied: f.denied,
-            busy: f.busy,
-            oversized: f.oversized,
-            other: f.other,
+            malformed: *malformed,
+            unknown_address: *unknown_address,
+            unsupported_protocol: *unsupported_protocol,
+            timeout: *timeout,
+            denied: *denied,
+            busy: *busy,
+            oversized: *oversized,
+            other: *other,
         }),
-        in_flight: s.in_flight,
-        port: u32::from(s.port),
+        in_flight: *in_flight,
+        port: u32::from(*port),
         latency: Some(pb::LatencySummary {
-            count: s.latency.count,
-            p50_us: s.latency.p50_us,
-            p99_us: s.latency.p99_us,
-            buckets: s
-                .latency
-                .buckets
+            count: *count,
+            p50_us: *p50_us,
+            p99_us: *p99_us,
+            buckets: buckets
                 .iter()
-                .map(|b| pb::LatencyBucket {
-                    low_us: b.low_us,
-                    high_us: b.high_us,
-                    count: b.count,
-                })
+                .map(
+                    |LatencyBucketView {
+                         low_us,
+                         high_us,
+                         count,
+                     }| pb::LatencyBucket {
+                        low_us: *low_us,
+                        high_us: *high_us,
+                        count: *count,
+                    },
+                )
                 .collect(),
         }),
+        retries_answered: *retries_answered,
     }
 }
 

@@ -3,23 +3,11 @@
 
 use prometheus::proto::{MetricFamily, MetricType};
 
-use master_core::gateway::FailureReason;
+use master_core::gateway::{FailureCounts, FailureReason, MailboxGatewayStats};
 
 use super::bus::histogram;
 use super::family::Family;
 use crate::service::Core;
-
-/// Failure reasons with their label values, in the gateway's own terms.
-const REASONS: [(FailureReason, &str); 8] = [
-    (FailureReason::Malformed, "malformed"),
-    (FailureReason::UnknownAddress, "unknown_address"),
-    (FailureReason::UnsupportedProtocol, "unsupported_protocol"),
-    (FailureReason::Timeout, "timeout"),
-    (FailureReason::Denied, "denied"),
-    (FailureReason::Busy, "busy"),
-    (FailureReason::Oversized, "oversized"),
-    (FailureReason::Other, "other"),
-];
 
 fn counter(name: &str, help: &str, value: u64) -> Option<MetricFamily> {
     Family::new(name, help, MetricType::COUNTER)
@@ -42,27 +30,64 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
             0.0,
         )];
     };
+    // Whole destructuring, no `..`: a counter added to the gateway does not compile until
+    // it is exported here too.
+    let MailboxGatewayStats {
+        total_requests,
+        forwarded_requests,
+        failed_requests,
+        coe_count,
+        soe_count,
+        foe_count,
+        voe_count,
+        eoe_count,
+        started_at_ms,
+        failures,
+        in_flight,
+        port,
+        latency,
+        retries_answered,
+    } = s;
+    let FailureCounts {
+        malformed,
+        unknown_address,
+        unsupported_protocol,
+        timeout,
+        denied,
+        busy,
+        oversized,
+        other,
+    } = failures;
     let mut protocols = Family::new(
         "ecat_mailbox_gateway_protocol_requests_total",
         "Requests by mailbox protocol.",
         MetricType::COUNTER,
     );
     for (protocol, value) in [
-        ("coe", s.coe_count),
-        ("soe", s.soe_count),
-        ("foe", s.foe_count),
-        ("voe", s.voe_count),
-        ("eoe", s.eoe_count),
+        ("coe", coe_count),
+        ("soe", soe_count),
+        ("foe", foe_count),
+        ("voe", voe_count),
+        ("eoe", eoe_count),
     ] {
         protocols = protocols.counter(&[("protocol", protocol)], value as f64);
     }
-    let mut failures = Family::new(
+    let mut reasons = Family::new(
         "ecat_mailbox_gateway_failures_total",
         "Failed requests by reason.",
         MetricType::COUNTER,
     );
-    for (reason, label) in REASONS {
-        failures = failures.counter(&[("reason", label)], s.failures.get(reason) as f64);
+    for (label, value) in [
+        (FailureReason::Malformed.name(), malformed),
+        (FailureReason::UnknownAddress.name(), unknown_address),
+        (FailureReason::UnsupportedProtocol.name(), unsupported_protocol),
+        (FailureReason::Timeout.name(), timeout),
+        (FailureReason::Denied.name(), denied),
+        (FailureReason::Busy.name(), busy),
+        (FailureReason::Oversized.name(), oversized),
+        (FailureReason::Other.name(), other),
+    ] {
+        reasons = reasons.counter(&[("reason", label)], value as f64);
     }
     vec![
         gauge(
@@ -73,44 +98,44 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
         counter(
             "ecat_mailbox_gateway_requests_total",
             "Datagrams received by the gateway (every one, good or not).",
-            s.total_requests,
+            total_requests,
         ),
         counter(
             "ecat_mailbox_gateway_forwarded_requests_total",
             "Requests forwarded to a slave or answered by the master's dictionary.",
-            s.forwarded_requests,
+            forwarded_requests,
         ),
         counter(
             "ecat_mailbox_gateway_failed_requests_total",
             "Requests that failed (see ecat_mailbox_gateway_failures_total for why).",
-            s.failed_requests,
+            failed_requests,
         ),
         counter(
             "ecat_mailbox_gateway_retries_answered_total",
             "Repeated UDP requests answered from the stored reply instead of running again.",
-            s.retries_answered,
+            retries_answered,
         ),
         protocols.done(),
-        failures.done(),
+        reasons.done(),
         gauge(
             "ecat_mailbox_gateway_in_flight_requests",
             "Requests being served now.",
-            s.in_flight as f64,
+            in_flight as f64,
         ),
         gauge(
             "ecat_mailbox_gateway_port",
             "The UDP port the gateway is bound to (after a fallback, the fallback port).",
-            f64::from(s.port),
+            f64::from(port),
         ),
         gauge(
             "ecat_mailbox_gateway_start_time_seconds",
             "When the gateway started, in seconds since the Unix epoch.",
-            s.started_at_ms as f64 / 1000.0,
+            started_at_ms as f64 / 1000.0,
         ),
         histogram(
             "ecat_mailbox_gateway_request_duration_seconds",
             "Time from a request's arrival to its answer (sum estimated from bucket midpoints).",
-            &s.latency,
+            &latency,
         ),
     ]
 }

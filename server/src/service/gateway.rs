@@ -5,7 +5,7 @@
 use std::net::SocketAddr;
 
 use master_core::bus::HistogramSnapshot;
-use master_core::gateway::{MailboxGateway, MailboxGatewayStats};
+use master_core::gateway::{FailureCounts, MailboxGateway, MailboxGatewayStats};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -139,31 +139,58 @@ impl From<&HistogramSnapshot> for LatencyView {
 
 impl From<&MailboxGatewayStats> for GatewayStatsView {
     fn from(s: &MailboxGatewayStats) -> GatewayStatsView {
-        let f = &s.failures;
+        // Whole destructuring, no `..`: a counter added to the gateway does not compile
+        // until it is shown here too.
+        let MailboxGatewayStats {
+            total_requests,
+            forwarded_requests,
+            failed_requests,
+            coe_count,
+            soe_count,
+            foe_count,
+            voe_count,
+            eoe_count,
+            started_at_ms,
+            failures,
+            in_flight,
+            port,
+            latency,
+            retries_answered,
+        } = s;
+        let FailureCounts {
+            malformed,
+            unknown_address,
+            unsupported_protocol,
+            timeout,
+            denied,
+            busy,
+            oversized,
+            other,
+        } = *failures;
         GatewayStatsView {
-            total_requests: s.total_requests,
-            forwarded_requests: s.forwarded_requests,
-            failed_requests: s.failed_requests,
-            coe_count: s.coe_count,
-            soe_count: s.soe_count,
-            foe_count: s.foe_count,
-            voe_count: s.voe_count,
-            eoe_count: s.eoe_count,
-            started_at_ms: s.started_at_ms,
+            total_requests: *total_requests,
+            forwarded_requests: *forwarded_requests,
+            failed_requests: *failed_requests,
+            coe_count: *coe_count,
+            soe_count: *soe_count,
+            foe_count: *foe_count,
+            voe_count: *voe_count,
+            eoe_count: *eoe_count,
+            started_at_ms: *started_at_ms,
             failures: GatewayFailuresView {
-                malformed: f.malformed,
-                unknown_address: f.unknown_address,
-                unsupported_protocol: f.unsupported_protocol,
-                timeout: f.timeout,
-                denied: f.denied,
-                busy: f.busy,
-                oversized: f.oversized,
-                other: f.other,
+                malformed,
+                unknown_address,
+                unsupported_protocol,
+                timeout,
+                denied,
+                busy,
+                oversized,
+                other,
             },
-            in_flight: s.in_flight,
-            port: s.port,
-            latency: LatencyView::from(&s.latency),
-            retries_answered: s.retries_answered,
+            in_flight: *in_flight,
+            port: *port,
+            latency: LatencyView::from(latency),
+            retries_answered: *retries_answered,
         }
     }
 }
