@@ -3,7 +3,7 @@
 use core::fmt;
 
 /// How a caller names a slave. Resolved against the slaves of the last scan; an address no
-/// scanned slave has gives [`MasterError::UnknownSlave`](super::MasterError::UnknownSlave).
+/// scanned slave has gives [`MasterError::UnknownSlave`](crate::master::MasterError::UnknownSlave).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum SlaveAddress {
     /// Ring position, 0 next to the master.

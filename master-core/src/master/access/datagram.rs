@@ -3,7 +3,7 @@
 
 use crate::bus::{BusHandle, DatagramData, DatagramRequest};
 
-use super::error::MasterError;
+use crate::master::error::MasterError;
 
 /// FPRD of `len` bytes at `ado` of `station`.
 pub(crate) async fn fprd(

@@ -6,11 +6,11 @@ use crate::wire::register::address as reg;
 use crate::wire::sii::checksum::CHECKSUM_OFFSET;
 use crate::wire::sii::fixed::ALIAS_WORD;
 
-use super::access::{fprd, fprd_u16, fpwr};
 use super::address::SlaveAddress;
-use super::configure::eeprom;
-use super::context::Context;
-use super::error::MasterError;
+use super::datagram::{fprd, fprd_u16, fpwr};
+use crate::master::bringup::configure::eeprom;
+use crate::master::context::Context;
+use crate::master::error::MasterError;
 
 /// Word 7: the checksum over words 0-6.
 const CHECKSUM_WORD: u16 = (CHECKSUM_OFFSET / 2) as u16;

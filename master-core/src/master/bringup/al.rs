@@ -7,9 +7,9 @@ use crate::wire::register::address as reg;
 use crate::wire::register::al::AL_STATUS_BLOCK_LEN;
 use crate::wire::register::{AlControl, AlState, AlStatusBlock, AlStatusBlockRepr};
 
-use super::access::{fprd, fpwr};
-use super::config::MasterConfig;
-use super::error::MasterError;
+use crate::master::access::datagram::{fprd, fpwr};
+use crate::master::config::MasterConfig;
+use crate::master::error::MasterError;
 
 /// The slave a state change is for, as errors name it.
 #[derive(Debug, Clone, Copy)]

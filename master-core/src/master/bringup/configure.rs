@@ -15,18 +15,19 @@ use crate::wire::register::{
 use crate::wire::sii::fmmu::FmmuUsage;
 use crate::wire::sii::{MailboxArea, SiiImage};
 
-use super::access::{apwr, fprd, fprd_u16, fpwr};
 use super::al::{self, Who};
-use super::context::{Context, SlaveRecord};
 use super::dc;
 use super::eeprom::Eeprom;
-use super::error::MasterError;
-use super::event::MasterEvent;
-use super::info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
-use super::layout::ProcessDataLayout;
-use super::mailbox_status;
 use super::mailboxes;
-use super::pdo_config;
+use crate::master::access::datagram::{apwr, fprd, fprd_u16, fpwr};
+use crate::master::context::Context;
+use crate::master::error::MasterError;
+use crate::master::event::MasterEvent;
+use crate::master::info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
+use crate::master::process_data::layout::ProcessDataLayout;
+use crate::master::process_data::mailbox_status;
+use crate::master::process_data::pdo_config;
+use crate::master::record::SlaveRecord;
 
 /// How many completed cycles the master waits for after SAFEOP, so that every output
 /// SyncManager has been written before OP is requested (a slave refuses OP without valid
@@ -389,7 +390,7 @@ mod tests {
     use crate::wire::sii::SiiBuilder;
     use crate::wire::sii::fixed::SiiFixedRepr;
 
-    use super::super::layout::PdSyncManager;
+    use crate::master::process_data::layout::PdSyncManager;
 
     fn layout() -> ProcessDataLayout {
         let sm = |index, start, length, outputs| PdSyncManager {

@@ -19,9 +19,10 @@ use crate::wire::register::dc::{
 };
 use crate::wire::sii::SiiImage;
 
-use super::access::{fprd, fpwr};
-use super::context::{Context, SlaveRecord};
-use super::error::MasterError;
+use crate::master::access::datagram::{fprd, fpwr};
+use crate::master::context::Context;
+use crate::master::error::MasterError;
+use crate::master::record::SlaveRecord;
 
 /// How the master sets distributed clocks up.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -13,8 +13,8 @@ use crate::wire::sii::CategoryType;
 use crate::wire::sii::category::CATEGORY_HEADER_LEN;
 use crate::wire::sii::fixed::{CATEGORY_START_WORD, FIXED_LEN};
 
-use super::access::{fprd, fpwr};
-use super::error::MasterError;
+use crate::master::access::datagram::{fprd, fpwr};
+use crate::master::error::MasterError;
 
 /// How often a command that reports a missing acknowledge (bit 13) is tried (SOEM: 3).
 const NACK_TRIES: u32 = 3;

@@ -10,8 +10,8 @@
 use crate::mailbox::{MailboxArea, SlaveMailboxConfig};
 use crate::wire::register::AlState;
 
-use super::context::Context;
-use super::info::{MailboxLayout, SlaveInfo};
+use crate::master::context::Context;
+use crate::master::info::{MailboxLayout, SlaveInfo};
 
 /// The engine's view of a mailbox the bring-up configured.
 pub(crate) fn engine_config(layout: &MailboxLayout) -> SlaveMailboxConfig {

@@ -8,7 +8,7 @@ use crate::wire::register::dc::{FILTER_DEPTHS_SOEM, SPEED_COUNTER_START_DEFAULT}
 use crate::wire::register::eeprom::{CONFIG_ECAT_ACCESS, CONFIG_FORCE_ECAT};
 use crate::wire::register::{AlControl, AlState};
 
-use super::error::MasterError;
+use crate::master::error::MasterError;
 
 /// Bytes of all 16 FMMUs and all 16 SyncManagers (SOEM clears 3 and 4; a slave may use
 /// more, and clearing registers an ESC does not have is harmless).

@@ -11,17 +11,18 @@ use crate::wire::register::address as reg;
 use crate::wire::sii::SiiImage;
 
 use super::configure::{bring_to, identify};
-use super::context::{Context, SlaveRecord};
 use super::dc;
-use super::error::MasterError;
-use super::event::MasterEvent;
-use super::groups;
-use super::image::{GROUP_STRIDE, GroupSlot, LOGICAL_BASE, MAX_GROUPS};
-use super::info::{ProcessDataInfo, SlaveInfo};
 use super::mailboxes;
-use super::pdo_config;
 use super::reset::reset_all;
 use crate::mailbox::SlaveMailbox;
+use crate::master::context::Context;
+use crate::master::error::MasterError;
+use crate::master::event::MasterEvent;
+use crate::master::info::{ProcessDataInfo, SlaveInfo};
+use crate::master::process_data::groups;
+use crate::master::process_data::image::{GROUP_STRIDE, GroupSlot, LOGICAL_BASE, MAX_GROUPS};
+use crate::master::process_data::pdo_config;
+use crate::master::record::SlaveRecord;
 
 /// What a scan found and did.
 #[derive(Debug, Clone, PartialEq, Eq)]

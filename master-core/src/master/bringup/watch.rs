@@ -16,14 +16,15 @@ use crate::wire::register::address as reg;
 use crate::wire::register::al::AL_STATUS_BLOCK_LEN;
 use crate::wire::register::{AlStatusBlock, AlStatusBlockRepr};
 
-use super::access::apwr;
 use super::configure::{bring_to, identify};
-use super::context::{Context, SlaveRecord};
 use super::dc;
-use super::error::MasterError;
-use super::event::MasterEvent;
 use super::mailboxes;
 use super::reset::reset_one;
+use crate::master::access::datagram::apwr;
+use crate::master::context::Context;
+use crate::master::error::MasterError;
+use crate::master::event::MasterEvent;
+use crate::master::record::SlaveRecord;
 
 /// Looks at the segment every `interval` until the master's runtime stops.
 pub(crate) async fn watch(ctx: Arc<Context>, interval: Duration) {

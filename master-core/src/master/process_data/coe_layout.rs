@@ -8,12 +8,12 @@
 use crate::mailbox::{MailboxError, SlaveMailbox};
 use crate::wire::sii::SiiImage;
 
-use super::error::MasterError;
-use super::info::SlaveInfo;
 use super::layout::{
     LayoutFuture, LayoutSource, PdSyncManager, PdoEntryInfo, PdoInfo, ProcessDataLayout, SiiLayout,
     bytes_for, process_data_syncms, sii_data_type,
 };
+use crate::master::error::MasterError;
+use crate::master::info::SlaveInfo;
 
 /// 0x1C10: the assignment object of SyncManager 0 (SM *n* at 0x1C10 + n).
 pub(crate) const ASSIGN_BASE: u16 = 0x1C10;

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use crate::bus::{Histogram, HistogramSnapshot};
 
-/// Counters of the cyclic exchange (see [`Master::cycle_timing`](super::Master::cycle_timing)
+/// Counters of the cyclic exchange (see [`Master::cycle_timing`](crate::master::Master::cycle_timing)
 /// for the distributions).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct CycleStats {

@@ -1,14 +1,14 @@
 //! Slave groups: sets of slaves whose process data goes at a period of their own.
 //!
 //! Every slave not given to a group belongs to the default group 0, exchanged every cycle
-//! (the master's cycle period). A group defined with [`Master::set_groups`](super::Master::set_groups)
+//! (the master's cycle period). A group defined with [`Master::set_groups`](crate::master::Master::set_groups)
 //! gets its own share of the image, its own logical address range (group *g* at
 //! `g × 0x1000`), its own LRW, sent every round(period / cycle period) cycles, and its own
 //! counters ([`GroupStats`]) and snapshots. Groups take effect at the next scan.
 
 use std::time::Duration;
 
-/// A group of slaves with its own period, for [`Master::set_groups`](super::Master::set_groups).
+/// A group of slaves with its own period, for [`Master::set_groups`](crate::master::Master::set_groups).
 ///
 /// Its slaves get their own share of the image, their own logical range (group *g* from
 /// `g × 0x1000`) and their own LRW, sent every round(period / cycle period) cycles; every

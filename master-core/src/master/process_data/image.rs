@@ -1,6 +1,6 @@
 //! The process image and the cyclic task that exchanges it, one frame per cycle:
 //!
-//! 1. an LRW per [group](super::SlaveGroup) of slaves whose period is due, of that
+//! 1. an LRW per [group](crate::master::SlaveGroup) of slaves whose period is due, of that
 //!    group's share of the image at its own logical address ([`LOGICAL_BASE`] +
 //!    [`GROUP_STRIDE`] × group): every slave's outputs, then its inputs, in ring order. The
 //!    default group 0 (every slave not given to another group) goes every cycle; a group

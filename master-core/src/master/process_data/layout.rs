@@ -1,7 +1,7 @@
 //! Where a slave's process data comes from: which SyncManagers carry it, how long they
 //! are, and which PDOs and entries they hold. The SII's SYNCM and PDO categories are one
 //! source ([`SiiLayout`]); CoE (0x1C1n and the mapped PDOs, read through the slave's
-//! mailbox) is the other ([`CoeLayout`](super::CoeLayout), the master's default).
+//! mailbox) is the other ([`CoeLayout`](crate::master::CoeLayout), the master's default).
 
 use std::future::Future;
 use std::pin::Pin;
@@ -12,8 +12,8 @@ use crate::wire::register::SmControl;
 use crate::wire::sii::SiiImage;
 use crate::wire::sii::syncm::SyncmType;
 
-use super::error::MasterError;
-use super::info::SlaveInfo;
+use crate::master::error::MasterError;
+use crate::master::info::SlaveInfo;
 
 /// One process-data SyncManager of a slave.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -8,11 +8,11 @@ use crate::wire::register::{Fmmu, FmmuRepr};
 use crate::wire::sii::SiiImage;
 use crate::wire::sii::fmmu::FmmuUsage;
 
-use super::access::fpwr;
-use super::context::Context;
-use super::error::MasterError;
 use super::image::STATUS_BASE;
-use super::info::SlaveInfo;
+use crate::master::access::datagram::fpwr;
+use crate::master::context::Context;
+use crate::master::error::MasterError;
+use crate::master::info::SlaveInfo;
 
 /// Bit of the SM status byte that says "mailbox full" (digest §2.12).
 const MAILBOX_FULL_BIT: u8 = 3;

@@ -5,7 +5,7 @@ use crate::wire::coe::DataType;
 use crate::wire::sii::SiiImage;
 
 use super::bits::copy_bits;
-use super::context::SlaveRecord;
+use crate::master::record::SlaveRecord;
 
 /// One mapped object in the process image.
 ///
@@ -102,7 +102,7 @@ fn sii_name(sii: &SiiImage<'_>, index: u16, subindex: u8) -> String {
 }
 
 /// The process image as one cycle left it: the inputs that cycle brought, the outputs as
-/// they stood. Reuse one with [`Master::snapshot_into`](super::Master::snapshot_into) to
+/// they stood. Reuse one with [`Master::snapshot_into`](crate::master::Master::snapshot_into) to
 /// avoid allocating every cycle.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct ImageSnapshot {

@@ -2,17 +2,17 @@
 //! capture's 0x1C12/0x1601 sequence): for each SyncManager named, clear 0x1C1n:00, rewrite
 //! the mapping of each PDO that comes with entries (clear :00, write :01.., write the count),
 //! write 0x1C1n:01.. and finally the count 0x1C1n:00. The slave then exchanges what was
-//! written, and the layout is read back from it ([`CoeLayout`](super::CoeLayout)).
+//! written, and the layout is read back from it ([`CoeLayout`](crate::master::CoeLayout)).
 
 use crate::mailbox::{MailboxError, SlaveMailbox};
 use crate::wire::mailbox::MailboxType;
 
-use super::address::SlaveAddress;
 use super::coe_layout::ASSIGN_BASE;
-use super::context::Context;
-use super::error::MasterError;
-use super::info::SlaveInfo;
 use super::layout::PdoEntryInfo;
+use crate::master::access::address::SlaveAddress;
+use crate::master::context::Context;
+use crate::master::error::MasterError;
+use crate::master::info::SlaveInfo;
 
 /// One PDO to assign; with `entries`, its mapping is rewritten too.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
