@@ -9,7 +9,12 @@
 //!
 //! The same bytes are the Ethernet payload behind EtherType 0x88A4 and the UDP payload on
 //! port 0x88A4 ([`Frame`]). [`EthercatFrame`] parses a whole Ethernet frame down to the
-//! EtherCAT payload and iterates its datagrams.
+//! EtherCAT payload and iterates its datagrams. [`FrameBuilder`] (`builder`) packs
+//! datagrams into a frame.
+
+mod builder;
+
+pub use builder::FrameBuilder;
 
 use core::fmt;
 
