@@ -1,6 +1,7 @@
 //! Helpers for the ESC's unit tests: a standard SII image, a test device, and running one
 //! datagram through an ESC.
 
+use master_core::wire::Emit;
 use master_core::wire::command::{Command, DatagramAddress};
 use master_core::wire::datagram::{Datagram, DatagramRepr};
 use master_core::wire::register::al::AlState;
@@ -160,9 +161,7 @@ fn run(
         address: raw_address,
         ..DatagramRepr::request(command, 0, DatagramAddress::Logical(0), data)
     };
-    let mut bytes = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut Datagram::new_unchecked(&mut bytes[..]))
-        .unwrap();
+    let mut bytes = repr.to_vec().unwrap();
     let mut dg = Datagram::new_checked(&mut bytes[..]).unwrap();
     esc.process_datagram(&mut dg, dev);
     Reply {

@@ -10,6 +10,7 @@ use super::image::SiiImage;
 use super::pdo::{Pdo, PdoCategoryRepr};
 use super::strings::StringsRepr;
 use super::syncm::{SyncmCategoryRepr, SyncmEntry};
+use crate::wire::Emit;
 use crate::wire::error::{Result, WireError};
 
 /// Default minimum EEPROM size: 2 KiB (size word 0x000F, like simple Beckhoff terminals).
@@ -107,29 +108,25 @@ impl SiiBuilder {
             let repr = StringsRepr {
                 strings: self.strings.iter().map(|s| &s[..]).collect(),
             };
-            let mut data = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut data)?;
+            let data = repr.to_vec()?;
             cats.push((CategoryType::Strings, data));
         }
         if let Some(general) = &self.general {
-            let mut data = vec![0u8; general.buffer_len()];
-            general.emit(&mut data)?;
+            let data = general.to_vec()?;
             cats.push((CategoryType::General, data));
         }
         if !self.fmmu.is_empty() {
             let repr = FmmuCategoryRepr {
                 usages: self.fmmu.clone(),
             };
-            let mut data = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut data)?;
+            let data = repr.to_vec()?;
             cats.push((CategoryType::Fmmu, data));
         }
         if !self.syncm.is_empty() {
             let repr = SyncmCategoryRepr {
                 entries: self.syncm.clone(),
             };
-            let mut data = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut data)?;
+            let data = repr.to_vec()?;
             cats.push((CategoryType::Syncm, data));
         }
         for (ty, pdos) in [
@@ -138,8 +135,7 @@ impl SiiBuilder {
         ] {
             if !pdos.is_empty() {
                 let repr = PdoCategoryRepr { pdos: pdos.clone() };
-                let mut data = vec![0u8; repr.buffer_len()];
-                repr.emit(&mut data)?;
+                let data = repr.to_vec()?;
                 cats.push((ty, data));
             }
         }
@@ -147,8 +143,7 @@ impl SiiBuilder {
             let repr = DcCategoryRepr {
                 entries: self.dc.clone(),
             };
-            let mut data = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut data)?;
+            let data = repr.to_vec()?;
             cats.push((CategoryType::Dc, data));
         }
         for (ty, data) in &self.extra {

@@ -276,6 +276,7 @@ impl PdoCategoryRepr {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
     // §4.8, EL2262 TXPDO: 0x1702, 1 entry, SM 2, DC sync 0, flags 0x0030, with entry
@@ -405,8 +406,7 @@ pub(crate) mod tests {
         #[test]
         fn round_trip(pdos in proptest::collection::vec(arb_pdo(), 0..4)) {
             let r = PdoCategoryRepr { pdos };
-            let mut buf = vec![0u8; r.buffer_len()];
-            r.emit(&mut buf).unwrap();
+            let buf = r.to_vec().unwrap();
             prop_assert_eq!(PdoCategoryRepr::parse(&buf).unwrap(), r);
         }
 

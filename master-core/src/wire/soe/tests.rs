@@ -1,4 +1,5 @@
 use super::*;
+use crate::wire::Emit;
 use crate::wire::error::WireError;
 use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
 use proptest::prelude::*;
@@ -285,8 +286,7 @@ proptest! {
     #[test]
     fn round_trip((template, data) in arb_soe()) {
         let repr = SoeRepr { data: &data, ..template };
-        let mut buf = vec![0u8; repr.buffer_len()];
-        repr.emit(&mut SoePacket::new_unchecked(&mut buf[..])).unwrap();
+        let buf = repr.to_vec().unwrap();
         let parsed = SoeRepr::parse(&SoePacket::new_checked(&buf[..]).unwrap()).unwrap();
         prop_assert_eq!(parsed, repr);
     }
