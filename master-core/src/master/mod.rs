@@ -53,7 +53,7 @@ use std::thread::JoinHandle;
 use tokio::sync::{broadcast, oneshot};
 
 use crate::bus::BusHandle;
-use crate::mailbox::{MailboxEngine, SlaveMailbox};
+use crate::mailbox::{MailboxEngine, SlaveMailbox, SlaveMailboxConfig};
 
 pub use access::address::SlaveAddress;
 pub use bringup::dc::{DcSettings, DcSlave};
@@ -61,7 +61,7 @@ pub use bringup::scan::ScanReport;
 pub use config::MasterConfig;
 pub use error::MasterError;
 pub use event::MasterEvent;
-pub use info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
+pub use info::{Identity, ProcessDataInfo, SlaveInfo};
 pub use process_data::coe_layout::CoeLayout;
 pub use process_data::cycle_stats::{CycleStats, CycleTiming};
 pub use process_data::groups::{GroupStats, SlaveGroup};
@@ -203,7 +203,7 @@ impl Master {
     }
 
     /// The mailboxes of every slave that has one, for the mailbox engine.
-    pub fn mailbox_layouts(&self) -> Vec<MailboxLayout> {
+    pub fn mailbox_layouts(&self) -> Vec<SlaveMailboxConfig> {
         self.ctx
             .lock()
             .list

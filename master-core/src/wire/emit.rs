@@ -9,7 +9,7 @@ use crate::wire::coe::info::{SdoInfoFrame, SdoInfoRepr};
 use crate::wire::coe::sdo::SdoFrame;
 use crate::wire::coe::sdo_request::SdoRequest;
 use crate::wire::coe::sdo_response::SdoResponse;
-use crate::wire::coe::{CoeFrame, CoeHeaderRepr, CoeRepr, Emergency, EmergencyRepr};
+use crate::wire::coe::{CoeFrame, CoeHeaderRepr, CoeRepr, EmergencyFrame, EmergencyRepr};
 use crate::wire::datagram::{Datagram, DatagramRepr};
 use crate::wire::eoe::fragment::FragmentRepr;
 use crate::wire::eoe::{EoePacket, EoeRepr};
@@ -104,7 +104,7 @@ emit_through_view! {
     SdoRequest<'_> => SdoFrame,
     SdoResponse<'_> => SdoFrame,
     SdoInfoRepr<'_> => SdoInfoFrame,
-    EmergencyRepr => Emergency,
+    EmergencyRepr => EmergencyFrame,
     SoeRepr<'_> => SoePacket,
     FoeRepr<'_> => FoePacket,
     EoeRepr<'_> => EoePacket,

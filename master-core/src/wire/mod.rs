@@ -37,6 +37,7 @@ pub mod command;
 pub mod datagram;
 pub mod ethernet;
 pub mod frame;
+pub mod identity;
 
 pub mod register;
 pub mod sii;

@@ -3,6 +3,7 @@
 
 use tokio::time::Instant;
 
+use crate::mailbox::SlaveMailboxConfig;
 use crate::wire::WireError;
 use crate::wire::register::address::{
     self as reg, fmmu as fmmu_address, sync_manager as sm_address,
@@ -13,7 +14,7 @@ use crate::wire::register::{
     SyncManagerRepr,
 };
 use crate::wire::sii::fmmu::FmmuUsage;
-use crate::wire::sii::{MailboxArea, SiiImage};
+use crate::wire::sii::{SiiImage, SiiMailboxArea};
 
 use super::al::{self, Who};
 use super::dc;
@@ -23,7 +24,7 @@ use crate::master::access::datagram::{apwr, fprd, fprd_u16, fpwr};
 use crate::master::context::Context;
 use crate::master::error::MasterError;
 use crate::master::event::MasterEvent;
-use crate::master::info::{Identity, MailboxLayout, ProcessDataInfo, SlaveInfo};
+use crate::master::info::{Identity, ProcessDataInfo, SlaveInfo};
 use crate::master::process_data::layout::ProcessDataLayout;
 use crate::master::process_data::mailbox_status;
 use crate::master::process_data::pdo_config;
@@ -54,16 +55,20 @@ pub(crate) fn eeprom(ctx: &Context, station: u16) -> Eeprom<'_> {
 
 fn mailbox_layout(
     station: u16,
-    rx: MailboxArea,
-    tx: MailboxArea,
+    rx: SiiMailboxArea,
+    tx: SiiMailboxArea,
     sii: &SiiImage<'_>,
-) -> Option<MailboxLayout> {
-    (rx.is_present() && tx.is_present()).then_some(MailboxLayout {
+) -> Option<SlaveMailboxConfig> {
+    (rx.is_present() && tx.is_present()).then_some(SlaveMailboxConfig {
         station,
-        sm0_start: rx.offset,
-        sm0_length: rx.size,
-        sm1_start: tx.offset,
-        sm1_length: tx.size,
+        write: crate::mailbox::MailboxArea {
+            start: rx.offset,
+            len: rx.size,
+        },
+        read: crate::mailbox::MailboxArea {
+            start: tx.offset,
+            len: tx.size,
+        },
         protocols: sii.fixed.mailbox_protocols,
     })
 }
@@ -155,10 +160,10 @@ async fn configure_mailbox(ctx: &Context, info: &SlaveInfo, boot: bool) -> Resul
     };
     let mut bytes = [0u8; 16];
     let (sm0, sm1) = bytes.split_at_mut(8);
-    SyncManagerRepr::mailbox_out(m.sm0_start, m.sm0_length)
+    SyncManagerRepr::mailbox_out(m.write.start, m.write.len)
         .emit(&mut SyncManager::new_unchecked(sm0))
         .and_then(|()| {
-            SyncManagerRepr::mailbox_in(m.sm1_start, m.sm1_length)
+            SyncManagerRepr::mailbox_in(m.read.start, m.read.len)
                 .emit(&mut SyncManager::new_unchecked(sm1))
         })
         .map_err(malformed(info.position, "mailbox SyncManagers"))?;

@@ -7,27 +7,10 @@
 //! at other addresses), which also gives it a fresh counter, and lets it go when the slave
 //! returns to INIT or leaves the segment.
 
-use crate::mailbox::{MailboxArea, SlaveMailboxConfig};
 use crate::wire::register::AlState;
 
 use crate::master::context::Context;
-use crate::master::info::{MailboxLayout, SlaveInfo};
-
-/// The engine's view of a mailbox the bring-up configured.
-pub(crate) fn engine_config(layout: &MailboxLayout) -> SlaveMailboxConfig {
-    SlaveMailboxConfig {
-        station: layout.station,
-        write: MailboxArea {
-            start: layout.sm0_start,
-            len: layout.sm0_length,
-        },
-        read: MailboxArea {
-            start: layout.sm1_start,
-            len: layout.sm1_length,
-        },
-        protocols: layout.protocols,
-    }
-}
+use crate::master::info::SlaveInfo;
 
 /// Called after the slave of `info` moved from `from` to `to`.
 pub(crate) fn follow(ctx: &Context, info: &SlaveInfo, from: AlState, to: AlState) {
@@ -42,7 +25,7 @@ pub(crate) fn follow(ctx: &Context, info: &SlaveInfo, from: AlState, to: AlState
     };
     match layout {
         Some(layout) => {
-            ctx.mailboxes.add_slave(engine_config(&layout));
+            ctx.mailboxes.add_slave(layout);
         }
         None => {
             ctx.mailboxes.remove_slave(info.station);

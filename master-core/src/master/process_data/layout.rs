@@ -240,7 +240,7 @@ mod tests {
     use super::*;
     use crate::wire::sii::SiiBuilder;
     use crate::wire::sii::fixed::SiiFixedRepr;
-    use crate::wire::sii::pdo::{Pdo, PdoEntry, PdoFlags};
+    use crate::wire::sii::pdo::{Pdo, PdoFlags, SiiPdoEntry};
     use crate::wire::sii::syncm::{SyncmEnable, SyncmEntry};
 
     fn sm(start: u16, length: u16, control: u8, enable: u8, sm_type: SyncmType) -> SyncmEntry {
@@ -263,7 +263,7 @@ mod tests {
             flags: PdoFlags(0),
             entries: bits
                 .iter()
-                .map(|&bit_length| PdoEntry {
+                .map(|&bit_length| SiiPdoEntry {
                     index: 0x7000,
                     subindex: 1,
                     name_idx: 0,

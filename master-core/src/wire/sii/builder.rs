@@ -205,9 +205,9 @@ fn too_many_strings() -> WireError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wire::sii::fixed::{MailboxArea, MailboxProtocols};
+    use crate::wire::sii::fixed::{MailboxProtocols, SiiMailboxArea};
     use crate::wire::sii::general::{CoeDetails, PhysicalPorts};
-    use crate::wire::sii::pdo::{PdoEntry, PdoFlags};
+    use crate::wire::sii::pdo::{PdoFlags, SiiPdoEntry};
     use crate::wire::sii::syncm::{SyncmEnable, SyncmType};
     use proptest::prelude::*;
 
@@ -265,7 +265,7 @@ mod tests {
             dc_sync: 0,
             name_idx: 0,
             flags: PdoFlags(0x0030),
-            entries: vec![PdoEntry {
+            entries: vec![SiiPdoEntry {
                 index: 0x1D09,
                 subindex: 0x98,
                 name_idx: start,
@@ -280,7 +280,7 @@ mod tests {
             dc_sync: 0,
             name_idx: out0,
             flags: PdoFlags(0),
-            entries: vec![PdoEntry {
+            entries: vec![SiiPdoEntry {
                 index: 0x7000,
                 subindex: 1,
                 name_idx: out0,
@@ -399,19 +399,19 @@ mod tests {
                 product_code: id[1],
                 revision: id[2],
                 serial: id[3],
-                std_rx_mailbox: MailboxArea {
+                std_rx_mailbox: SiiMailboxArea {
                     offset: mb[0],
                     size: mb[1],
                 },
-                std_tx_mailbox: MailboxArea {
+                std_tx_mailbox: SiiMailboxArea {
                     offset: mb[2],
                     size: mb[3],
                 },
-                boot_rx_mailbox: MailboxArea {
+                boot_rx_mailbox: SiiMailboxArea {
                     offset: mb[4],
                     size: mb[5],
                 },
-                boot_tx_mailbox: MailboxArea {
+                boot_tx_mailbox: SiiMailboxArea {
                     offset: mb[6],
                     size: mb[7],
                 },

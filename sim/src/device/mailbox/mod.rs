@@ -50,7 +50,7 @@ use master_core::wire::register::al_status_code::AlStatusCode;
 use crate::device::{Device, DeviceContext, Outbox};
 
 pub use service::{MailboxService, ReplySink};
-pub use stats::{MailboxCounters, MailboxStats};
+pub use stats::{MailboxCounters, MailboxStackStats};
 
 use service::{MIN_TX_MAILBOX, PendingReply, error_reply_data};
 
@@ -77,7 +77,7 @@ pub struct MailboxStack {
     slave_counter: u8,
     backlog: VecDeque<Vec<u8>>,
     backlog_capacity: usize,
-    stats: Arc<MailboxStats>,
+    stats: Arc<MailboxStackStats>,
 }
 
 impl Default for MailboxStack {
@@ -126,7 +126,7 @@ impl MailboxStack {
             slave_counter: 0,
             backlog: VecDeque::new(),
             backlog_capacity: capacity,
-            stats: Arc::new(MailboxStats::default()),
+            stats: Arc::new(MailboxStackStats::default()),
         }
     }
 
@@ -174,7 +174,7 @@ impl MailboxStack {
     }
 
     /// The live counters (a shared handle that stays valid while the stack is boxed away).
-    pub fn stats(&self) -> Arc<MailboxStats> {
+    pub fn stats(&self) -> Arc<MailboxStackStats> {
         Arc::clone(&self.stats)
     }
 
