@@ -27,8 +27,8 @@ pub const RX_PDO_ASSIGN: u16 = 0x1C12;
 /// 0x1C13 SM3 (inputs) PDO assignment.
 pub const TX_PDO_ASSIGN: u16 = 0x1C13;
 
-/// The four identity values of 0x1018 (also SII words 8-15); the same type as
-/// [`master::Identity`](crate::master::Identity).
+/// The four identity values of 0x1018 (also SII words 8-15); one type with the master's
+/// slave snapshot.
 pub use crate::wire::identity::Identity;
 
 /// One PDO mapping entry: `(index << 16) | (subindex << 8) | bit_length`; index 0 is a
