@@ -47,7 +47,7 @@ impl Master {
             .is_some_and(|task| !task.is_finished())
     }
 
-    /// Scans the segment and brings every slave to [`MasterConfig::target_state`]
+    /// Scans the segment and brings every slave to [`MasterConfig::target_state`](crate::master::MasterConfig::target_state)
     /// (everything the scan knew before is forgotten). Fails only if the segment cannot be
     /// counted, reset or identified; slaves that refuse a state are listed in
     /// [`ScanReport::failures`] while the others carry on.
