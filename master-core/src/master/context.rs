@@ -8,14 +8,14 @@ use crate::bus::BusHandle;
 use crate::mailbox::MailboxEngine;
 
 use crate::master::access::address::{self, SlaveAddress};
-use crate::master::bringup::dc::DcSlave;
+use crate::master::bringup::dc_settings::DcSlave;
 use crate::master::config::MasterConfig;
 use crate::master::error::MasterError;
 use crate::master::event::MasterEvent;
 use crate::master::info::SlaveInfo;
 use crate::master::process_data::image::Image;
 use crate::master::process_data::layout::LayoutSource;
-use crate::master::process_data::pdo_config::{PdoAssignment, SlavePdoConfig};
+use crate::master::process_data::pdo_assignment::{PdoAssignment, SlavePdoConfig};
 
 use crate::master::record::{SlaveRecord, Slaves};
 

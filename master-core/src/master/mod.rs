@@ -24,9 +24,10 @@
 //!   register/SII/alias access for tools (`tools`, `api`);
 //! - `bringup/`: the scan of all slaves (`scan`), one slave's configuration (`configure`),
 //!   register reset (`reset`), the SII interface (`eeprom`), AL state changes (`al`),
-//!   distributed clocks (`dc`), the mailbox engine kept in step (`mailboxes`), the topology
+//!   distributed clocks (`dc`, `dc_settings`), the mailbox engine kept in step (`mailboxes`), the topology
 //!   watch (`watch`), and their [`Master`] methods (`api`);
-//! - `process_data/`: layouts (`layout`, `coe_layout`), PDO assignments (`pdo_config`), the
+//! - `process_data/`: layouts (`layout`, `coe_layout`), PDO assignments (`pdo_assignment`,
+//!   written by `pdo_config`), the
 //!   image and cyclic task (`image`), groups (`groups`), named entries and snapshots
 //!   (`pd_entry`), bit copying (`bits`), counters (`cycle_stats`), working-counter blame
 //!   (`wkc_blame`), mailbox-full bits in the cyclic frame (`mailbox_status`), and their
@@ -56,7 +57,7 @@ use crate::bus::BusHandle;
 use crate::mailbox::{MailboxEngine, SlaveMailbox, SlaveMailboxConfig};
 
 pub use access::address::SlaveAddress;
-pub use bringup::dc::{DcSettings, DcSlave};
+pub use bringup::dc_settings::{DcSettings, DcSlave};
 pub use bringup::scan::ScanReport;
 pub use config::MasterConfig;
 pub use error::MasterError;
@@ -69,7 +70,7 @@ pub use process_data::layout::{
     LayoutFuture, LayoutSource, PdSyncManager, PdoEntryInfo, PdoInfo, ProcessDataLayout, SiiLayout,
 };
 pub use process_data::pd_entry::{ImageSnapshot, PdEntry};
-pub use process_data::pdo_config::{PdoAssignment, PdoMapping};
+pub use process_data::pdo_assignment::{PdoAssignment, PdoMapping};
 
 use context::Context;
 use process_data::image::{Image, ProcessCycle};

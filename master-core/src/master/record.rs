@@ -1,6 +1,5 @@
 //! What the master keeps of one slave. A leaf: it depends on the public slave types only,
-//! so bring-up, process data and the shared [`Context`](super::context::Context) can all
-//! use it without importing each other.
+//! so bring-up, process data and the shared context can all use it without importing each other.
 
 use crate::master::info::{Identity, ProcessDataInfo, SlaveInfo};
 use crate::master::process_data::layout::ProcessDataLayout;

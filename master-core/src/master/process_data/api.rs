@@ -12,7 +12,7 @@ use crate::master::{
 
 use super::cycle_stats::CycleCounters;
 use super::image::ProcessCycle;
-use super::{pd_entry, pdo_config};
+use super::{pd_entry, pdo_assignment};
 
 impl Master {
     /// The process-data SyncManagers of the slave at `address` (empty until a scan brought it
@@ -39,7 +39,7 @@ impl Master {
             .unwrap_or_else(PoisonError::into_inner);
         configs.retain(|c| c.address != address);
         if !assignments.is_empty() {
-            configs.push(pdo_config::SlavePdoConfig {
+            configs.push(pdo_assignment::SlavePdoConfig {
                 address,
                 assignments,
             });
