@@ -60,7 +60,7 @@ fn a_configured_assignment_is_written_in_preop_and_takes_effect() {
 
     // On the wire, in order: the seed's sequence for SM2, then for SM3.
     let info = rig.master().slave(drive).unwrap();
-    let sm0 = info.mailbox.unwrap().sm0_start;
+    let sm0 = info.mailbox.unwrap().write.start;
     let writes = sdo_downloads(&returned.frames(), info.station, sm0);
     let sequence = |assign: u16, pdo: u16, entry: u32| {
         vec![

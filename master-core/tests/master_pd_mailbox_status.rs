@@ -61,7 +61,7 @@ fn run_cycles(rig: &PdRig, cycles: u64) {
 fn sm1_reads(rig: &PdRig, frames: &[Vec<u8>]) -> usize {
     let info = rig.master().slave(SlaveAddress::Position(STORE)).unwrap();
     let mailbox = info.mailbox.unwrap();
-    count_node(frames, Command::Fprd, info.station, mailbox.sm1_start)
+    count_node(frames, Command::Fprd, info.station, mailbox.read.start)
 }
 
 #[test]

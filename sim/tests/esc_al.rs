@@ -8,7 +8,7 @@ use master_core::wire::command::Command;
 use master_core::wire::register::al::AlState;
 use master_core::wire::register::al_status_code::AlStatusCode;
 use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{MailboxArea, SiiFixedRepr};
+use master_core::wire::sii::fixed::{SiiFixedRepr, SiiMailboxArea};
 
 const S: u16 = 0x1001;
 
@@ -105,11 +105,11 @@ fn refusal_codes() {
 fn bootstrap_mailbox_code_0x0015() {
     let mut bench = Bench::empty();
     let mut b = SiiBuilder::new(SiiFixedRepr {
-        boot_rx_mailbox: MailboxArea {
+        boot_rx_mailbox: SiiMailboxArea {
             offset: 0x1000,
             size: 512,
         },
-        boot_tx_mailbox: MailboxArea {
+        boot_tx_mailbox: SiiMailboxArea {
             offset: 0x1200,
             size: 512,
         },

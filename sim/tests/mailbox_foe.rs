@@ -3,6 +3,7 @@
 
 mod mailbox_support;
 
+use master_core::wire::Emit;
 use master_core::wire::foe::{FoeError, FoePacket, FoeRepr};
 use master_core::wire::mailbox::MailboxType;
 use sim::device::MailboxStack;
@@ -11,10 +12,7 @@ use sim::device::foe::{BusyPhase, FileStore, FoeFile, FoeService};
 use mailbox_support::{Bench, Reply};
 
 fn foe(repr: FoeRepr<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut FoePacket::new_unchecked(&mut out[..]))
-        .unwrap();
-    out
+    repr.to_vec().unwrap()
 }
 
 fn parse(reply: &Reply) -> FoeRepr<'_> {

@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 
 use master_core::gateway::BROADCAST_ADDRESS;
 use master_core::master_od::MasterIdentity;
+use master_core::wire::Emit;
 use master_core::wire::coe::{AbortCode, CoeRepr, DataType, ObjectCode, SdoRequest, SdoResponse};
 use master_core::wire::foe::{self, FoePacket, FoeRepr};
 use master_core::wire::mailbox::{ErrorReply, ErrorReplyRepr, MailboxErrorCode, MailboxType};
@@ -108,10 +109,7 @@ fn upload_request(index: u16, subindex: u8) -> CoeRepr<'static> {
 }
 
 fn soe_bytes(repr: &SoeRepr<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut SoePacket::new_unchecked(&mut out[..]))
-        .expect("emit SoE");
-    out
+    repr.to_vec().expect("emit SoE")
 }
 
 fn soe_of(reply: &Reply) -> SoeRepr<'_> {
@@ -131,10 +129,7 @@ fn soe_read_request(idn: u16) -> Vec<u8> {
 }
 
 fn foe_bytes(repr: &FoeRepr<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut FoePacket::new_unchecked(&mut out[..]))
-        .expect("emit FoE");
-    out
+    repr.to_vec().expect("emit FoE")
 }
 
 fn foe_of(reply: &Reply) -> FoeRepr<'_> {
@@ -754,10 +749,7 @@ fn errors_follow_the_table() {
             vendor_type: 1,
             data: &[1, 2],
         };
-        let mut out = vec![0u8; repr.buffer_len()];
-        repr.emit(&mut VoePacket::new_unchecked(&mut out[..]))
-            .unwrap();
-        out
+        repr.to_vec().unwrap()
     };
     let reply = client.exchange(0, MailboxType::Voe, &voe);
     assert_eq!(

@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use crate::mailbox::MailboxConfig;
 
-use super::dc::DcSettings;
+use super::bringup::dc_settings::DcSettings;
 use crate::wire::register::AlState;
 
 /// Settings of a [`Master`](super::Master).

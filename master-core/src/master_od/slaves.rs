@@ -159,14 +159,14 @@ pub(crate) fn declare(mut b: DictionaryBuilder, snap: &MasterSnapshot) -> Dictio
                     "Mailbox out size",
                     DataType::Unsigned16,
                     ro,
-                    mailbox.map_or(0, |m| m.sm0_length),
+                    mailbox.map_or(0, |m| m.write.len),
                 )
                 .entry(
                     0x22,
                     "Mailbox in size",
                     DataType::Unsigned16,
                     ro,
-                    mailbox.map_or(0, |m| m.sm1_length),
+                    mailbox.map_or(0, |m| m.read.len),
                 )
                 .entry(
                     0x23,

@@ -27,18 +27,9 @@ pub const RX_PDO_ASSIGN: u16 = 0x1C12;
 /// 0x1C13 SM3 (inputs) PDO assignment.
 pub const TX_PDO_ASSIGN: u16 = 0x1C13;
 
-/// The four identity values of 0x1018 (also SII words 8-15).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Identity {
-    /// :01 EtherCAT vendor ID.
-    pub vendor_id: u32,
-    /// :02 Product code.
-    pub product_code: u32,
-    /// :03 Revision number.
-    pub revision: u32,
-    /// :04 Serial number (0 if unused).
-    pub serial: u32,
-}
+/// The four identity values of 0x1018 (also SII words 8-15); one type with the master's
+/// slave snapshot.
+pub use crate::wire::identity::Identity;
 
 /// One PDO mapping entry: `(index << 16) | (subindex << 8) | bit_length`; index 0 is a
 /// gap of `bit_length` bits.

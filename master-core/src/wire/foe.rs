@@ -415,6 +415,7 @@ impl fmt::Display for FoeRepr<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
     use proptest::prelude::*;
 
@@ -612,8 +613,7 @@ mod tests {
                 4 => FoeRepr::Error { code: FoeError::from(param), text: &payload },
                 _ => FoeRepr::Busy { done, entire, text: &payload },
             };
-            let mut buf = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut FoePacket::new_unchecked(&mut buf[..])).unwrap();
+            let buf = repr.to_vec().unwrap();
             let parsed = FoeRepr::parse(&FoePacket::new_checked(&buf[..]).unwrap()).unwrap();
             prop_assert_eq!(parsed, repr);
         }

@@ -141,6 +141,7 @@ impl fmt::Display for VoeRepr<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use crate::wire::WireError;
     use proptest::prelude::*;
 
@@ -192,8 +193,7 @@ mod tests {
         fn round_trip(vendor_id in any::<u32>(), vendor_type in any::<u16>(),
                       data in proptest::collection::vec(any::<u8>(), 0..64)) {
             let repr = VoeRepr { vendor_id, vendor_type, data: &data };
-            let mut buf = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut VoePacket::new_unchecked(&mut buf[..])).unwrap();
+            let buf = repr.to_vec().unwrap();
             let packet = VoePacket::new_checked(&buf[..]).unwrap();
             prop_assert_eq!(VoeRepr::parse(&packet).unwrap(), repr);
         }

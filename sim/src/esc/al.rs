@@ -12,7 +12,7 @@ use master_core::wire::register::address as reg;
 use master_core::wire::register::al::{AlControl, AlState, AlStatus};
 use master_core::wire::register::al_status_code::AlStatusCode;
 use master_core::wire::register::sync_manager::{SmActivate, SmControl, SmPdiControl};
-use master_core::wire::sii::fixed::MailboxArea;
+use master_core::wire::sii::fixed::SiiMailboxArea;
 
 use crate::device::{Device, ProcessDataSizes};
 
@@ -212,7 +212,7 @@ impl Esc {
 
     /// INIT → PREOP/BOOT: SM0/SM1 must match the SII mailbox (digest §5.1). A slave without
     /// a mailbox needs nothing.
-    fn check_mailbox(&self, rx: MailboxArea, tx: MailboxArea) -> Result<(), ()> {
+    fn check_mailbox(&self, rx: SiiMailboxArea, tx: SiiMailboxArea) -> Result<(), ()> {
         if !rx.is_present() && !tx.is_present() {
             return Ok(());
         }
@@ -345,11 +345,11 @@ mod tests {
 
     fn boot_image() -> Vec<u8> {
         let mut b = master_core::wire::sii::SiiBuilder::new(SiiFixedRepr {
-            boot_rx_mailbox: MailboxArea {
+            boot_rx_mailbox: SiiMailboxArea {
                 offset: 0x1000,
                 size: 244,
             },
-            boot_tx_mailbox: MailboxArea {
+            boot_tx_mailbox: SiiMailboxArea {
                 offset: 0x1100,
                 size: 244,
             },

@@ -5,6 +5,8 @@ use std::net::Ipv4Addr;
 use proptest::prelude::*;
 
 use super::*;
+
+use crate::wire::Emit;
 use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
 
 /// A made-up Ethernet frame of `len` bytes: broadcast, a local MAC, EtherType 0x0800, then a
@@ -690,8 +692,7 @@ pub(crate) fn arb_eoe() -> impl Strategy<Value = EoeRepr<'static>> {
 proptest! {
     #[test]
     fn round_trip(repr in arb_eoe()) {
-        let mut buf = vec![0u8; repr.buffer_len()];
-        repr.emit(&mut EoePacket::new_unchecked(&mut buf[..])).unwrap();
+        let buf = repr.to_vec().unwrap();
         prop_assert_eq!(parse(&buf).unwrap(), repr);
     }
 

@@ -169,6 +169,7 @@ impl fmt::Display for MailboxMessage<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
     // Appendix C.6, response read from SM1 (with the rest of a 128-byte SM1 after it).
@@ -269,8 +270,7 @@ mod tests {
             bytes[5] = ty | (counter << 4);
             bytes[HEADER_LEN..].copy_from_slice(&data);
             if let Ok(message) = MailboxMessage::parse(&bytes) {
-                let mut out = vec![0u8; message.buffer_len()];
-                message.emit(&mut out).unwrap();
+                let out = message.to_vec().unwrap();
                 let again = MailboxMessage::parse(&out).unwrap();
                 prop_assert_eq!(again.payload, message.payload);
             }

@@ -286,6 +286,7 @@ impl<'a> Iterator for CategoryIter<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
     #[test]
@@ -356,8 +357,7 @@ mod tests {
         fn round_trip(ty in 0u16..0xFFFF, words in proptest::collection::vec(any::<u16>(), 0..20)) {
             let data: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
             let repr = CategoryRepr { category_type: CategoryType::from(ty), data: &data };
-            let mut buf = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut Category::new_unchecked(&mut buf[..])).unwrap();
+            let buf = repr.to_vec().unwrap();
             let view = Category::new_checked(&buf[..]).unwrap();
             prop_assert_eq!(CategoryRepr::parse(&view).unwrap(), repr);
             let walked: Vec<_> = CategoryIter::new(&buf).collect::<Result<_>>().unwrap();

@@ -146,6 +146,7 @@ impl DcCategoryRepr {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
     // An EL2262-like element (§4.9): cycle/shift 0, SYNC1 factor −1, AssignActivate 0x0730,
@@ -199,8 +200,7 @@ pub(crate) mod tests {
         #[test]
         fn round_trip(entries in proptest::collection::vec(arb_entry(), 0..5)) {
             let r = DcCategoryRepr { entries };
-            let mut buf = vec![0u8; r.buffer_len()];
-            r.emit(&mut buf).unwrap();
+            let buf = r.to_vec().unwrap();
             prop_assert_eq!(DcCategoryRepr::parse(&buf).unwrap(), r);
         }
 

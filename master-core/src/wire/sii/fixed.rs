@@ -154,14 +154,14 @@ impl fmt::Display for MailboxProtocols {
 
 /// A mailbox area (offset + size in bytes) from the fixed area.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct MailboxArea {
+pub struct SiiMailboxArea {
     /// Physical start address (the SM start).
     pub offset: u16,
     /// Size in bytes (the SM length).
     pub size: u16,
 }
 
-impl MailboxArea {
+impl SiiMailboxArea {
     /// Whether the area is configured (non-zero size).
     pub fn is_present(&self) -> bool {
         self.size != 0
@@ -205,8 +205,8 @@ impl<T: AsRef<[u8]>> SiiFixed<T> {
         field::u32_le(self.buffer.as_ref(), f.start)
     }
 
-    fn area_at(&self, f: Field) -> MailboxArea {
-        MailboxArea {
+    fn area_at(&self, f: Field) -> SiiMailboxArea {
+        SiiMailboxArea {
             offset: field::u16_le(self.buffer.as_ref(), f.start),
             size: field::u16_le(self.buffer.as_ref(), f.start + 2),
         }
@@ -269,19 +269,19 @@ impl<T: AsRef<[u8]>> SiiFixed<T> {
         self.u16_at(fields::PORT1_DELAY)
     }
     /// Words 0x14/0x15: bootstrap receive mailbox (master → slave).
-    pub fn boot_rx_mailbox(&self) -> MailboxArea {
+    pub fn boot_rx_mailbox(&self) -> SiiMailboxArea {
         self.area_at(fields::BOOT_RX_MAILBOX)
     }
     /// Words 0x16/0x17: bootstrap send mailbox (slave → master).
-    pub fn boot_tx_mailbox(&self) -> MailboxArea {
+    pub fn boot_tx_mailbox(&self) -> SiiMailboxArea {
         self.area_at(fields::BOOT_TX_MAILBOX)
     }
     /// Words 0x18/0x19: standard receive mailbox (SM0).
-    pub fn std_rx_mailbox(&self) -> MailboxArea {
+    pub fn std_rx_mailbox(&self) -> SiiMailboxArea {
         self.area_at(fields::STD_RX_MAILBOX)
     }
     /// Words 0x1A/0x1B: standard send mailbox (SM1).
-    pub fn std_tx_mailbox(&self) -> MailboxArea {
+    pub fn std_tx_mailbox(&self) -> SiiMailboxArea {
         self.area_at(fields::STD_TX_MAILBOX)
     }
     /// Word 0x1C: mailbox protocols.
@@ -307,7 +307,7 @@ impl<T: AsRef<[u8]> + AsMut<[u8]>> SiiFixed<T> {
         field::set_u32_le(self.buffer.as_mut(), f.start, v)
     }
 
-    fn set_area_at(&mut self, f: Field, a: MailboxArea) {
+    fn set_area_at(&mut self, f: Field, a: SiiMailboxArea) {
         field::set_u16_le(self.buffer.as_mut(), f.start, a.offset);
         field::set_u16_le(self.buffer.as_mut(), f.start + 2, a.size);
     }
@@ -357,13 +357,13 @@ pub struct SiiFixedRepr {
     /// Port 1 delay.
     pub port1_delay: u16,
     /// Bootstrap receive mailbox (master → slave).
-    pub boot_rx_mailbox: MailboxArea,
+    pub boot_rx_mailbox: SiiMailboxArea,
     /// Bootstrap send mailbox (slave → master).
-    pub boot_tx_mailbox: MailboxArea,
+    pub boot_tx_mailbox: SiiMailboxArea,
     /// Standard receive mailbox (SM0, master → slave).
-    pub std_rx_mailbox: MailboxArea,
+    pub std_rx_mailbox: SiiMailboxArea,
     /// Standard send mailbox (SM1, slave → master).
-    pub std_tx_mailbox: MailboxArea,
+    pub std_tx_mailbox: SiiMailboxArea,
     /// Mailbox protocols.
     pub mailbox_protocols: MailboxProtocols,
     /// EEPROM size word: (value + 1) Kbit.
@@ -573,8 +573,8 @@ mod tests {
         assert!(SiiFixed::new_checked(&[0u8; 127][..]).is_err());
     }
 
-    pub(crate) fn arb_area() -> impl Strategy<Value = MailboxArea> {
-        (any::<u16>(), any::<u16>()).prop_map(|(offset, size)| MailboxArea { offset, size })
+    pub(crate) fn arb_area() -> impl Strategy<Value = SiiMailboxArea> {
+        (any::<u16>(), any::<u16>()).prop_map(|(offset, size)| SiiMailboxArea { offset, size })
     }
 
     pub(crate) fn arb_fixed() -> impl Strategy<Value = SiiFixedRepr> {

@@ -94,6 +94,7 @@ impl fmt::Display for FmmuCategoryRepr {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
     #[test]
@@ -136,8 +137,7 @@ mod tests {
             let mut bytes = bytes;
             if bytes.len() % 2 == 1 { bytes.push(0xFF); }
             let r = FmmuCategoryRepr::parse(&bytes).unwrap();
-            let mut out = vec![0u8; r.buffer_len()];
-            r.emit(&mut out).unwrap();
+            let out = r.to_vec().unwrap();
             prop_assert_eq!(&out, &bytes);
             prop_assert_eq!(FmmuCategoryRepr::parse(&out).unwrap(), r);
         }

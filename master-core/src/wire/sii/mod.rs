@@ -19,5 +19,5 @@ pub mod syncm;
 
 pub use builder::SiiBuilder;
 pub use category::{Category, CategoryIter, CategoryRepr, CategoryType};
-pub use fixed::{MailboxArea, MailboxProtocols, SiiFixed, SiiFixedRepr, set_alias};
+pub use fixed::{MailboxProtocols, SiiFixed, SiiFixedRepr, SiiMailboxArea, set_alias};
 pub use image::{SiiCategory, SiiImage};

@@ -101,6 +101,7 @@ impl fmt::Display for StringsRepr<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
     // Two strings "EL2004" and "DcSync" (names from §4.5/§4.9), laid out by hand:
@@ -148,8 +149,7 @@ mod tests {
         #[test]
         fn round_trip(strings in proptest::collection::vec(proptest::collection::vec(any::<u8>(), 0..20), 0..10)) {
             let repr = StringsRepr { strings: strings.iter().map(|s| &s[..]).collect() };
-            let mut buf = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut buf).unwrap();
+            let buf = repr.to_vec().unwrap();
             prop_assert_eq!(buf.len() % 2, 0);
             prop_assert_eq!(StringsRepr::parse(&buf).unwrap(), repr);
         }

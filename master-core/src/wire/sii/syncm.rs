@@ -219,6 +219,7 @@ impl SyncmCategoryRepr {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
     // §4.7, EL2262: an output SM and a virtual input SM.
@@ -292,8 +293,7 @@ pub(crate) mod tests {
         #[test]
         fn round_trip(entries in proptest::collection::vec(arb_entry(), 0..8)) {
             let r = SyncmCategoryRepr { entries };
-            let mut buf = vec![0u8; r.buffer_len()];
-            r.emit(&mut buf).unwrap();
+            let buf = r.to_vec().unwrap();
             prop_assert_eq!(SyncmCategoryRepr::parse(&buf).unwrap(), r);
         }
 

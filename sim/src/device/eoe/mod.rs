@@ -24,11 +24,11 @@ pub mod ip_config;
 use std::any::Any;
 use std::collections::VecDeque;
 
-use master_core::wire::WireError;
 use master_core::wire::eoe::{
     EoeFrameType, EoePacket, EoeRepr, EoeResult, Fragmenter, Reassembler,
 };
 use master_core::wire::mailbox::{self, MailboxErrorCode, MailboxHeader, MailboxType};
+use master_core::wire::{Emit, WireError};
 
 use crate::device::mailbox::{MailboxService, ReplySink};
 use crate::device::{DeviceContext, OutboxFull};
@@ -79,9 +79,7 @@ impl Default for EoeService {
 
 /// Builds an EoE message with the codec.
 fn build(repr: &EoeRepr<'_>) -> Result<Vec<u8>, WireError> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut EoePacket::new_unchecked(&mut out[..]))?;
-    Ok(out)
+    repr.to_vec()
 }
 
 impl EoeService {

@@ -33,9 +33,9 @@ pub mod store;
 
 use std::any::Any;
 
-use master_core::wire::WireError;
 use master_core::wire::foe::{self, FoeError, FoePacket, FoeRepr};
 use master_core::wire::mailbox::{MailboxHeader, MailboxType};
+use master_core::wire::{Emit, WireError};
 
 use crate::device::DeviceContext;
 use crate::device::mailbox::{MailboxService, ReplySink};
@@ -97,9 +97,7 @@ impl Default for FoeService {
 
 /// Builds an FoE message with the codec.
 fn build(repr: &FoeRepr<'_>) -> Result<Vec<u8>, WireError> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut FoePacket::new_unchecked(&mut out[..]))?;
-    Ok(out)
+    repr.to_vec()
 }
 
 fn send(replies: &mut ReplySink, repr: &FoeRepr<'_>) {

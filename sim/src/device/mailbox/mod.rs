@@ -54,7 +54,7 @@ use master_core::wire::register::al_status_code::AlStatusCode;
 use crate::device::{Device, DeviceContext, Outbox};
 
 pub use service::{MailboxService, ReplySink};
-pub use stats::{MailboxCounters, MailboxStats};
+pub use stats::{MailboxCounters, MailboxStackStats};
 
 use service::{MIN_TX_MAILBOX, PendingReply, error_reply_data};
 
@@ -83,7 +83,7 @@ pub struct MailboxStack {
     backlog: VecDeque<(Vec<u8>, Instant)>,
     backlog_capacity: usize,
     response_delay: Duration,
-    stats: Arc<MailboxStats>,
+    stats: Arc<MailboxStackStats>,
 }
 
 impl Default for MailboxStack {
@@ -133,7 +133,7 @@ impl MailboxStack {
             backlog: VecDeque::new(),
             backlog_capacity: capacity,
             response_delay: Duration::ZERO,
-            stats: Arc::new(MailboxStats::default()),
+            stats: Arc::new(MailboxStackStats::default()),
         }
     }
 
@@ -187,7 +187,7 @@ impl MailboxStack {
     }
 
     /// The live counters (a shared handle that stays valid while the stack is boxed away).
-    pub fn stats(&self) -> Arc<MailboxStats> {
+    pub fn stats(&self) -> Arc<MailboxStackStats> {
         Arc::clone(&self.stats)
     }
 

@@ -27,6 +27,7 @@ pub mod idn;
 use std::any::Any;
 use std::collections::BTreeMap;
 
+use master_core::wire::Emit;
 use master_core::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
 use master_core::wire::soe::{
     self, ElementFlags, Idn, IdnOrFragments, SoeError, SoeOpcode, SoePacket, SoeRepr,
@@ -232,9 +233,7 @@ fn refresh_idn_list(table: &mut BTreeMap<u16, IdnEntry>) {
 
 /// Emits a response with the codec.
 fn build(repr: &SoeRepr<'_>) -> Result<Vec<u8>, master_core::wire::WireError> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut SoePacket::new_unchecked(&mut out[..]))?;
-    Ok(out)
+    repr.to_vec()
 }
 
 fn respond(
