@@ -242,7 +242,7 @@ impl MasterDictionary {
             Action::ResetDiagnosis => {
                 self.diagnosis.reset();
                 lock(&self.counters).clear();
-                // Any write clears the ESC's error counters (digest §2.7).
+                // Any write clears the ESC's error counters (ETG.1000.4, spec-notes §esc.errors).
                 let zeros = [0u8; ERROR_COUNTERS_LEN];
                 for slave in self.master.slaves().iter().filter(|s| s.present) {
                     let _ = self

@@ -1,4 +1,4 @@
-//! SoE — servo drive profile over EtherCAT (mailbox type 5, digest §7).
+//! SoE — servo drive profile over EtherCAT (mailbox type 5, ETG.1000.6, spec-notes §soe).
 //!
 //! ```text
 //! byte 0  bits 0-2 opcode, bit 3 incomplete, bit 4 error, bits 5-7 drive number
@@ -37,13 +37,13 @@ pub const HEADER_LEN: usize = fields::PAYLOAD.start;
 pub const ERROR_CODE_LEN: usize = 2;
 
 /// Element data per fragment for a receiver mailbox of `mailbox_size` bytes: `M − 6 − 4`
-/// (digest §7.4). 0 if the mailbox is too small.
+/// (ETG.1000.6, spec-notes §soe). 0 if the mailbox is too small.
 pub const fn fragment_capacity(mailbox_size: usize) -> usize {
     mailbox_size.saturating_sub(crate::wire::mailbox::HEADER_LEN + HEADER_LEN)
 }
 
 enum_with_unknown! {
-    /// SoE opcode (digest §7.1, 3 bits).
+    /// SoE opcode (ETG.1000.6, spec-notes §soe, 3 bits).
     pub enum SoeOpcode(u8) {
         /// Read request.
         ReadRequest = 1,
@@ -76,7 +76,7 @@ impl SoeOpcode {
 }
 
 /// The element flags of byte 1: which elements of an IDN are requested or contained
-/// (digest §7.1). All 8 bits are defined, so every byte is a valid set.
+/// (ETG.1000.6, spec-notes §soe). All 8 bits are defined, so every byte is a valid set.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct ElementFlags(u8);
 
@@ -167,7 +167,7 @@ impl fmt::Display for ElementFlags {
     }
 }
 
-/// An IDN (identification number, digest §7.2): bit 15 S/P, bits 12-14 parameter set,
+/// An IDN (identification number, spec-notes §soe): bit 15 S/P, bits 12-14 parameter set,
 /// bits 0-11 data block number. Printed `S-0-0024` / `P-0-0001`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Idn(u16);
@@ -268,7 +268,7 @@ impl FromStr for Idn {
 }
 
 enum_with_unknown! {
-    /// SoE error code (digest §7.5, IgH's table).
+    /// SoE error code (ETG.1000.6, spec-notes §soe, IgH's table).
     pub enum SoeError(u16) {
         /// No error.
         NoError = 0x0000,
@@ -374,7 +374,7 @@ enum_with_unknown! {
 }
 
 impl SoeError {
-    /// The text of the error code (digest §7.5).
+    /// The text of the error code (ETG.1000.6, spec-notes §soe).
     pub fn description(self) -> &'static str {
         use SoeError::*;
         match self {
@@ -438,7 +438,7 @@ impl SoeError {
 }
 
 enum_with_unknown! {
-    /// Data type of an IDN (attribute bits 20-22, digest §7.3).
+    /// Data type of an IDN (attribute bits 20-22, ETG.1000.6, spec-notes §soe).
     pub enum SoeDataType(u8) {
         /// Binary.
         Binary = 0,
@@ -459,7 +459,7 @@ enum_with_unknown! {
     }
 }
 
-/// The attribute element of an IDN (u32, digest §7.3), decoded.
+/// The attribute element of an IDN (u32, ETG.1000.6, spec-notes §soe), decoded.
 ///
 /// Data length follows SOEM's split of bits 16-18: bits 16-17 give the (element) size
 /// 0 → 1, 1 → 2, 2 → 4, 3 → 8 bytes and bit 18 marks a variable-length list of such
@@ -586,7 +586,7 @@ impl Iterator for SoeFragments {
 
 /// Splits a value of `total_len` bytes into fragments of at most `capacity` bytes
 /// (`capacity` = [`fragment_capacity`] of the receiver's mailbox) following IgH's rule
-/// (digest §7.4): every fragment but the last is full, Incomplete = 1 and carries
+/// (ETG.1000.6, spec-notes §soe): every fragment but the last is full, Incomplete = 1 and carries
 /// `ceil(remaining / capacity) − 1`; the last carries the IDN. A value that fits (including
 /// an empty one) is a single last fragment.
 ///
@@ -723,7 +723,7 @@ pub enum IdnOrFragments {
 
 /// A parsed SoE message.
 ///
-/// Where the error code sits (digest §7.5, IgH): for a read response it is the *last* two
+/// Where the error code sits (spec-notes §soe, IgH): for a read response it is the *last* two
 /// bytes (element data, if any, come first); for every other opcode it is right after the
 /// header at offset 4 (further bytes, if any, are kept in `data`). Both coincide when no
 /// data are present, which is the usual case.
@@ -852,7 +852,7 @@ mod tests {
     use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
     use proptest::prelude::*;
 
-    // Digest C.15.
+    // ETG.1000.6, spec-notes §soe.
     static READ_REQ: [u8; 10] = [0x04, 0x00, 0x00, 0x00, 0x00, 0x15, 0x01, 0x40, 0x18, 0x00];
     static NO_IDN_REPLY: [u8; 12] = [
         0x06, 0x00, 0x00, 0x00, 0x00, 0x15, 0x12, 0x40, 0x18, 0x00, 0x01, 0x10,
@@ -968,7 +968,7 @@ mod tests {
 
     #[test]
     fn attribute_decode() {
-        // Worked from §7.3: factor 1, 4 bytes (010), unsigned (1), 3 decimals,
+        // Worked from spec-notes §soe: factor 1, 4 bytes (010), unsigned (1), 3 decimals,
         // write-protected in OP → 0x4312_0001.
         let attr = SoeAttribute::from_u32(0x4312_0001);
         assert_eq!(
