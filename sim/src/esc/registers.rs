@@ -2,7 +2,7 @@
 //!
 //! Read-only registers (information block, DL status, AL status, SM status, ...) keep their
 //! value when the master writes them; the write still counts in the working counter, as on
-//! a real ESC (digest §1.4). Registers with write side effects (error counters, EEPROM
+//! a real ESC (spec-notes §commands). Registers with write side effects (error counters, EEPROM
 //! command, DC latch and system time, AL control) are handled by hooks in
 //! [`super::physical`]; their mask here only says what is stored.
 
@@ -38,7 +38,7 @@ impl Layout {
 
 /// Reset value of AL status and AL control: INIT.
 pub const AL_INIT: u16 = 0x0001;
-/// Watchdog divider reset value: (2498 + 2) × 40 ns = 100 µs per tick (digest §2.8).
+/// Watchdog divider reset value: (2498 + 2) × 40 ns = 100 µs per tick (spec-notes §esc.watchdog).
 pub const WATCHDOG_DIVIDER_DEFAULT: u16 = 0x09C2;
 /// Watchdog times reset value: 1000 ticks = 100 ms.
 pub const WATCHDOG_TIME_DEFAULT: u16 = 1000;
@@ -157,7 +157,7 @@ pub(crate) fn load_reset_values(mem: &mut Memory, config: &EscConfig) {
     mem.set_u16(reg::AL_STATUS.into(), AL_INIT);
     for n in 0..config.effective_sm_count() {
         // SyncManagers start disabled by the PDI: the slave application enables them on the
-        // state transitions that need them (§3.2).
+        // state transitions that need them (ETG.1000.6, spec-notes §al).
         let pdi_control = u32::from(reg::SM_BASE) + u32::from(n) * SM_LEN as u32 + 7;
         mem.set_u8(pdi_control, SM_PDI_DEACTIVATED);
     }
