@@ -1,4 +1,4 @@
-//! The gateway's own answers (docs/gateway.md, the seed's error table): unknown addresses,
+//! The gateway's own answers (docs/gateway.md, spec-notes §gateway.dialect): unknown addresses,
 //! protocols a slave does not serve, messages larger than its mailbox, strict mode, clients
 //! outside the allowlist, malformed datagrams — each counted under its reason.
 

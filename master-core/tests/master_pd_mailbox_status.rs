@@ -20,7 +20,7 @@ use sim::topology::Topology;
 /// The CoE store's position in the default segment.
 const STORE: u16 = 3;
 
-/// Logical address of the mailbox-status bits (the seed capture's 0x40000).
+/// Logical address of the mailbox-status bits (0x40000 as in spec-notes §capture).
 const STATUS_BASE: u32 = 0x0004_0000;
 
 /// A master on the recorded in-process link.

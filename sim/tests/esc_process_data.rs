@@ -1,5 +1,5 @@
 //! Process data through the 3-buffer SyncManagers and FMMUs, from INIT to OP with whole
-//! frames (digest §2.11, §2.12, Appendix A).
+//! frames (ETG.1000.4, spec-notes §esc.fmmu, §esc.sm, §bringup).
 
 mod common;
 

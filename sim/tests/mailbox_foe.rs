@@ -68,7 +68,7 @@ fn read_file(bench: &mut Bench, name: &str, password: u32) -> Result<Vec<u8>, Fa
 /// Progress reports of the BUSY answers seen during a write.
 type BusyLog = Vec<(u16, u16, String)>;
 
-/// What a master does to download `data` as `name`, re-sending after BUSY (§8.2).
+/// What a master does to download `data` as `name`, re-sending after BUSY (spec-notes §foe).
 fn write_file(
     bench: &mut Bench,
     name: &str,

@@ -32,7 +32,7 @@ const DRIVE: u16 = 0;
 const DO8: u16 = 1;
 const DI8: u16 = 2;
 const STORE: u16 = 3;
-/// Logical address of the mailbox-status bits (the seed capture's 0x40000).
+/// Logical address of the mailbox-status bits (0x40000 as in spec-notes §capture).
 const STATUS_BASE: u32 = 0x0004_0000;
 
 fn config() -> MasterConfig {

@@ -1,4 +1,4 @@
-//! Raw mailbox transactions for the ETG.8200 gateway: one message in, the
+//! Raw mailbox transactions for the ETG.8200 gateway (spec-notes §gateway): one message in, the
 //! slave's answer out, with the engine's counter and all the guards of any other request.
 
 use crate::mailbox::engine::exchange::Exchange;

@@ -7,8 +7,8 @@
 //! any executor (or driven by a plain `block_on`), and the caller needs no particular
 //! runtime. It also installs the process-data exchange as the bus's cyclic task.
 //!
-//! [`Master::scan`] brings the segment up as the seed capture shows it (digest Appendix A):
-//! count the slaves (BRD), reset their registers (§2.15), give each its station address
+//! [`Master::scan`] brings the segment up as the reference capture shows it (spec-notes §bringup):
+//! count the slaves (BRD), reset their registers (spec-notes §esc.reset), give each its station address
 //! (`station_base + position`), read its ESC information, alias and whole SII, DL status,
 //! configure the mailbox SyncManagers from the SII, and move it INIT → PREOP → SAFEOP → OP,
 //! with the process-data SyncManagers and FMMUs set from the layout a [`LayoutSource`]

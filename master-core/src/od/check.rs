@@ -1,5 +1,5 @@
 //! Value checks shared by every dictionary: length against the type, value against the
-//! declared minimum and maximum (digest §6.6: 0x06070012/13, 0x06090031/32).
+//! declared minimum and maximum (ETG.1000.6, spec-notes §coe.abort: 0x06070012/13, 0x06090031/32).
 
 use core::cmp::Ordering;
 

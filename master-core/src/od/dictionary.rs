@@ -86,7 +86,7 @@ pub struct EntryWrite<'a> {
 
 /// An object dictionary as the SDO server sees it.
 ///
-/// Conventions for the abort codes (digest §6.6, §12.6): unknown index 0x06020000; subindex
+/// Conventions for the abort codes (spec-notes §coe.abort, §master-od): unknown index 0x06020000; subindex
 /// above the highest declared one 0x06090011; a gap below it 0x08000020. Reads and writes
 /// check access for `state` (see [`super::access`]).
 pub trait Dictionary {
@@ -124,7 +124,7 @@ pub trait Dictionary {
     /// are in ascending subindex order; read-only entries have already been left out by
     /// the server. Either all entries are stored or none.
     ///
-    /// The default writes entry by entry in the order of the PDO procedure (digest §6.11):
+    /// The default writes entry by entry in the order of the PDO procedure (spec-notes §coe.pdo):
     /// SI0 = 0 first, then the entries, then SI0, so dictionaries that refuse entry writes
     /// while SI0 ≠ 0 accept it; it is not atomic. Dictionaries that can do better override
     /// it.

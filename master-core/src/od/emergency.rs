@@ -1,4 +1,4 @@
-//! Building CoE emergency messages (digest §6.7) for the owner of a dictionary to post in
+//! Building CoE emergency messages (spec-notes §coe.emcy) for the owner of a dictionary to post in
 //! SM1 — unsolicited, outside any SDO exchange, so the server does not send them itself.
 
 use crate::wire::coe::emergency::EMERGENCY_LEN;

@@ -135,7 +135,7 @@ pub struct Object {
     /// Entries in ascending subindex order; subindices may have gaps.
     pub entries: Vec<Entry>,
     /// Entries other than SI0 may only be written while SI0 is 0 (PDO mapping and
-    /// assignment, digest §6.11); otherwise abort 0x06010003.
+    /// assignment, ETG.1000.6, spec-notes §coe.pdo); otherwise abort 0x06010003.
     pub zero_count_to_write: bool,
 }
 

@@ -1,4 +1,4 @@
-//! Standard communication-area objects (digest §6.10, §6.11): identity, device type and
+//! Standard communication-area objects (spec-notes §coe.objects, §coe.pdo): identity, device type and
 //! names, PDO mapping and assignment, sync manager types — declared through the builder,
 //! and read back for the process-data layout.
 
@@ -156,7 +156,7 @@ impl DictionaryBuilder {
 
     /// A PDO mapping object (0x1600.. RxPDO, 0x1A00.. TxPDO) with room for `capacity`
     /// entries, `entries` mapped. SI0 and entries are writable in PREOP only, entries only
-    /// while SI0 = 0 (digest §6.11).
+    /// while SI0 = 0 (ETG.1000.6, spec-notes §coe.pdo).
     pub fn pdo_mapping(self, index: u16, name: &str, entries: &[PdoEntry], capacity: u8) -> Self {
         let mapped = u8::try_from(entries.len()).unwrap_or(u8::MAX);
         let capacity = capacity.max(mapped);

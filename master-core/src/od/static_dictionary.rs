@@ -304,7 +304,7 @@ impl Dictionary for StaticDictionary {
     ) -> Result<(), AbortCode> {
         self.check_entry(index, subindex, data, state)?;
         let object = self.find(index)?;
-        // Strict PDO procedure (§6.11): mapping/assignment entries change only while the
+        // Strict PDO procedure (spec-notes §coe.pdo): mapping/assignment entries change only while the
         // object is switched off with SI0 = 0.
         if object.zero_count_to_write && subindex != 0 && object.count() != Some(0) {
             return Err(AbortCode::SubindexNotWritable);

@@ -1,4 +1,4 @@
-//! VoE — vendor specific over EtherCAT (mailbox type 0xF, digest §10).
+//! VoE — vendor specific over EtherCAT (mailbox type 0xF, ETG.1000.4, spec-notes §voe).
 //!
 //! ```text
 //! offset 0  u32  vendor id    EtherCAT vendor id of the protocol owner (as in 0x1018:01)
@@ -145,7 +145,7 @@ mod tests {
     use crate::wire::WireError;
     use proptest::prelude::*;
 
-    // Worked out from the §10 table: vendor 0x00001164 (LE), type 0x0001 (LE), 2 data bytes.
+    // Worked out from spec-notes §voe: vendor 0x00001164 (LE), type 0x0001 (LE), 2 data bytes.
     static BYTES: [u8; 8] = [0x64, 0x11, 0x00, 0x00, 0x01, 0x00, 0x01, 0x02];
 
     #[test]

@@ -112,7 +112,7 @@ fn datagram_cases() -> Vec<Case> {
         .collect()
 }
 
-/// Several datagrams in one frame: the seed capture's cyclic frame (LRD inputs, LWR outputs,
+/// Several datagrams in one frame: the reference capture's cyclic frame (LRD inputs, LWR outputs,
 /// LRD of the mapped mailbox-status bit, FRMW of the reference clock).
 fn cyclic_frame_case() -> Case {
     let inputs = [0u8; 2];

@@ -1,4 +1,4 @@
-//! A VoE (vendor specific over EtherCAT, mailbox type 0xF, digest §10) echo service.
+//! A VoE (vendor specific over EtherCAT, mailbox type 0xF, spec-notes §voe) echo service.
 //!
 //! VoE has no standard semantics, so the simulated device defines its own: for requests
 //! carrying the configured vendor id it answers with the same vendor id and vendor type and

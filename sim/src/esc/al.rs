@@ -1,4 +1,4 @@
-//! The AL state machine (digest §3.2): requests arrive in AL control 0x0120 and are
+//! The AL state machine (ETG.1000.6, spec-notes §al): requests arrive in AL control 0x0120 and are
 //! answered at once in AL status 0x0130 and AL status code 0x0134.
 //!
 //! The ESC runs the checks every slave firmware runs (mailbox SyncManagers on INIT →
@@ -210,7 +210,7 @@ impl Esc {
             && c.end() <= self.mem.end()
     }
 
-    /// INIT → PREOP/BOOT: SM0/SM1 must match the SII mailbox (digest §5.1). A slave without
+    /// INIT → PREOP/BOOT: SM0/SM1 must match the SII mailbox (spec-notes §mbx.handshake). A slave without
     /// a mailbox needs nothing.
     fn check_mailbox(&self, rx: SiiMailboxArea, tx: SiiMailboxArea) -> Result<(), ()> {
         if !rx.is_present() && !tx.is_present() {

@@ -1,4 +1,4 @@
-//! The SII EEPROM and its register interface 0x0500-0x050F (digest §2.9, §4).
+//! The SII EEPROM and its register interface 0x0500-0x050F (spec-notes §esc.sii-if, §sii).
 //!
 //! Commands complete synchronously: a master never sees the busy bit. Reads return 4 or 8
 //! bytes (0x0502 bit 6) and 0xFFFF for words beyond the image; a write needs the write
@@ -183,7 +183,7 @@ impl Esc {
         self.update_dl_status();
     }
 
-    /// Executes the command just written to 0x0502 (digest §2.9).
+    /// Executes the command just written to 0x0502 (ETG.1000.4, spec-notes §esc.sii-if).
     pub(crate) fn eeprom_command(&mut self) {
         let mut control = self.eeprom_control();
         let command = control.command;

@@ -201,7 +201,7 @@ pub fn exec_logical(
     run(esc, dev, command, address, data)
 }
 
-/// Digest C.4: SM0 at 0x1000 and SM1 at 0x1080, 128 bytes each, enabled.
+/// ETG.1000.4, spec-notes §esc.sm: SM0 at 0x1000 and SM1 at 0x1080, 128 bytes each, enabled.
 pub const MAILBOX_SMS: [u8; 16] = [
     0x00, 0x10, 0x80, 0x00, 0x26, 0x00, 0x01, 0x00, 0x80, 0x10, 0x80, 0x00, 0x22, 0x00, 0x01, 0x00,
 ];

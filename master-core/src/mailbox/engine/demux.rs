@@ -1,5 +1,5 @@
 //! Sorting what comes out of a slave's send mailbox: the answer the waiting request asked
-//! for, or a message the slave sent on its own (seed 002: one reader per mailbox, and every
+//! for, or a message the slave sent on its own (spec-notes §mbx.demux: one reader per mailbox, and every
 //! message goes where it belongs — an EoE frame is never eaten by a CoE transfer, nor an
 //! SDO answer by the EoE receiver).
 

@@ -1,4 +1,4 @@
-//! Naming a slave: by ring position, station address or alias (seed 004).
+//! Naming a slave: by ring position, station address or alias (spec-notes §addressing, §sii.alias).
 
 use core::fmt;
 

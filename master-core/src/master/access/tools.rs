@@ -1,5 +1,5 @@
 //! Register and SII access for tools: any ESC register of a slave, the SII image, SII
-//! words, and the station alias (seed 004).
+//! words, and the station alias (ETG.2010, spec-notes §sii.alias).
 
 use crate::bus::DatagramData;
 use crate::wire::register::address as reg;
@@ -107,7 +107,7 @@ pub(crate) async fn set_alias(
         what: "SII configuration area",
         source,
     })?;
-    // Only words 4 and 7 change (seed 004); write back just those.
+    // Only words 4 and 7 change (spec-notes §sii.alias); write back just those.
     let word_at = |w: u16| {
         let at = usize::from(w) * 2;
         let bytes: [u8; 2] = fixed

@@ -1,4 +1,4 @@
-//! Moving one slave between AL states (digest §3.3): request, poll, acknowledge errors.
+//! Moving one slave between AL states (spec-notes §al): request, poll, acknowledge errors.
 
 use tokio::time::Instant;
 

@@ -148,7 +148,7 @@ pub(crate) async fn identify(
     })
 }
 
-/// Writes SM0/SM1 for the standard (or bootstrap) mailbox, from the SII (digest §5.1).
+/// Writes SM0/SM1 for the standard (or bootstrap) mailbox, from the SII (spec-notes §mbx.handshake).
 async fn configure_mailbox(ctx: &Context, info: &SlaveInfo, boot: bool) -> Result<(), MasterError> {
     let mailbox = if boot {
         info.boot_mailbox

@@ -1,4 +1,4 @@
-//! Distributed clocks (digest §13): propagation delays measured through the port
+//! Distributed clocks (ETG.1000.4, spec-notes §dc): propagation delays measured through the port
 //! receive-time latch, system-time offsets, static drift compensation at the scan, the
 //! reference clock's time distributed in every cycle (FRMW 0x0910, see `image`), and SYNC0
 //! activation before SAFEOP.
@@ -7,7 +7,7 @@
 //! reference to its own clock). Delays are computed for a line (each slave entered at port
 //! 0, left at the next open port): a slave's loop time is the time from passing port 0 to
 //! the frame's return at its last open port, and the delay between consecutive DC slaves is
-//! half the difference of their loop times (§13.2). Branches are not measured separately.
+//! half the difference of their loop times (spec-notes §dc). Branches are not measured separately.
 
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -362,7 +362,7 @@ async fn compensate_static_drift(
 }
 
 /// Starts SYNC0 on the slave of `record` if the settings ask for it and the slave has DC
-/// and process data (SOEM's `ecx_dcsync0` sequence, §13.5).
+/// and process data (SOEM's `ecx_dcsync0` sequence, ETG.1000.4, spec-notes §dc).
 pub(crate) async fn activate_sync0(ctx: &Context, record: &SlaveRecord) -> Result<(), MasterError> {
     let settings = ctx.config.dc;
     let info = &record.info;

@@ -1,5 +1,5 @@
-//! The SII EEPROM interface 0x0500–0x050F of one slave (digest §2.9): read, write, reload,
-//! and reading a whole image (§4.10).
+//! The SII EEPROM interface 0x0500–0x050F of one slave (spec-notes §esc.sii-if): read, write, reload,
+//! and reading a whole image (ETG.2010, spec-notes §sii).
 
 use std::time::Duration;
 
@@ -174,7 +174,7 @@ impl Eeprom<'_> {
     }
 
     /// Reads the whole image: the fixed area, then the categories up to END (or the end of
-    /// the EEPROM, or `max_words`), as SOEM and IgH walk it (§4.10).
+    /// the EEPROM, or `max_words`), as SOEM and IgH walk it (ETG.2010, spec-notes §sii).
     pub async fn read_image(&self, max_words: u16) -> Result<Vec<u8>, MasterError> {
         let mut words: Vec<u16> = Vec::new();
         let fixed_words = (FIXED_LEN / 2) as u16;

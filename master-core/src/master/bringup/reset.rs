@@ -1,5 +1,5 @@
 //! The register writes a master does to put slaves into a known state before configuring
-//! them (digest §2.15, SOEM's `ecx_set_slaves_to_default`), by broadcast for the whole
+//! them (spec-notes §esc.reset, SOEM's `ecx_set_slaves_to_default`), by broadcast for the whole
 //! segment or to one slave that came back.
 
 use crate::bus::{BusHandle, DatagramData, DatagramRequest};

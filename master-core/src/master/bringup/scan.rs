@@ -1,4 +1,4 @@
-//! Bringing the whole segment up (digest Appendix A): count, reset, identify every slave,
+//! Bringing the whole segment up (spec-notes §bringup): count, reset, identify every slave,
 //! then move them all to the target state together, so that their datagrams share frames.
 
 use std::future::Future;

@@ -1,5 +1,5 @@
 //! Copying bit fields between byte buffers (process data is packed bit by bit, LSB
-//! first, digest §6.5/§6.11).
+//! first, ETG.1000.6, spec-notes §coe.ca, §coe.pdo).
 
 /// Copies `len` bits from `src` at bit `from` to `dst` at bit `to`. Returns false, and
 /// changes nothing, if either range runs past its buffer.

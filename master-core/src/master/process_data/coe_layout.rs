@@ -1,4 +1,4 @@
-//! The process-data layout a CoE slave reports through its mailbox (digest §6.10, §6.11):
+//! The process-data layout a CoE slave reports through its mailbox (spec-notes §coe.objects, §coe.pdo):
 //! for every process-data SyncManager *n* the SII declares, the PDOs assigned in 0x1C10+n
 //! and the entries each mapping object (0x16xx/0x1Axx) lists. Each object is read with one
 //! complete-access upload first and, when the slave refuses that, subindex by subindex.

@@ -8,8 +8,8 @@
 //!    keep their ratio to the base cycle whatever the timing;
 //! 0. with distributed clocks, first an FRMW of the reference clock's system time
 //!    (0x0910, 8 bytes), which every other DC slave compares with its own (see `dc`);
-//! 2. an LRD of the mailbox-status bits at logical [`STATUS_BASE`] (the seed capture's
-//!    0x40000): bit *p* is bit 3 ("mailbox full") of SM1's status byte 0x080D of the slave
+//! 2. an LRD of the mailbox-status bits at logical [`STATUS_BASE`] (0x40000 as in
+//!    spec-notes §capture): bit *p* is bit 3 ("mailbox full") of SM1's status byte 0x080D of the slave
 //!    at position *p*, mapped by an FMMU of that slave (see `mailbox_status`). A set bit is
 //!    handed to the mailbox engine ([`MailboxEngine::notify_mailbox_full`]), which then
 //!    reads that slave's mailbox; the engine does not poll idle mailboxes.

@@ -31,7 +31,7 @@ pub struct PdSyncManager {
 }
 
 /// One mapped entry of a PDO: `(index << 16) | (subindex << 8) | bit_length` in the
-/// mapping object (digest §6.10); index 0 is a gap.
+/// mapping object (ETG.1000.6, spec-notes §coe.objects); index 0 is a gap.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct PdoEntryInfo {
     /// Mapped object index (0: a gap of `bit_length` bits).
@@ -133,7 +133,7 @@ pub trait LayoutSource: Send + Sync {
 }
 
 /// The layout the SII describes: SYNCM entries of type outputs/inputs, each as long as the
-/// PDOs the TXPDO/RXPDO categories assign to it (§4.8), or its SYNCM length when no PDO is
+/// PDOs the TXPDO/RXPDO categories assign to it (spec-notes §sii.categories), or its SYNCM length when no PDO is
 /// assigned. Virtual SyncManagers and empty ones carry nothing.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct SiiLayout;

@@ -1,5 +1,5 @@
-//! Mapping each mailbox slave's "mailbox full" bit into the cyclic frame (the seed
-//! capture's FMMU for 0x080D): bit 3 of SM1's status byte goes to bit *p* of the logical
+//! Mapping each mailbox slave's "mailbox full" bit into the cyclic frame (the FMMU of
+//! spec-notes §capture for 0x080D): bit 3 of SM1's status byte goes to bit *p* of the logical
 //! status area for the slave at ring position *p*. The FMMU is written with the mailbox
 //! SyncManagers (INIT → PREOP), so the bit is read from the moment the mailbox works.
 
@@ -14,7 +14,7 @@ use crate::master::context::Context;
 use crate::master::error::MasterError;
 use crate::master::info::SlaveInfo;
 
-/// Bit of the SM status byte that says "mailbox full" (digest §2.12).
+/// Bit of the SM status byte that says "mailbox full" (ETG.1000.4, spec-notes §esc.sm).
 const MAILBOX_FULL_BIT: u8 = 3;
 
 /// The send mailbox (slave → master) is SyncManager 1.

@@ -1,5 +1,5 @@
-//! A configured PDO assignment, written to a CoE slave in PREOP (digest §6.11, the seed
-//! capture's 0x1C12/0x1601 sequence): for each SyncManager named, clear 0x1C1n:00, rewrite
+//! A configured PDO assignment, written to a CoE slave in PREOP (spec-notes §coe.pdo: the
+//! reference capture's sequence): for each SyncManager named, clear 0x1C1n:00, rewrite
 //! the mapping of each PDO that comes with entries (clear :00, write :01.., write the count),
 //! write 0x1C1n:01.. and finally the count 0x1C1n:00. The slave then exchanges what was
 //! written, and the layout is read back from it ([`CoeLayout`](crate::master::CoeLayout)).
@@ -14,7 +14,7 @@ use crate::master::info::SlaveInfo;
 
 use super::pdo_assignment::PdoAssignment;
 
-/// Writes `assignments` to the slave behind `mailbox`, in the order of the seed capture.
+/// Writes `assignments` to the slave behind `mailbox`, in the order of spec-notes §coe.pdo.
 pub(crate) async fn write(
     position: u16,
     mailbox: &SlaveMailbox,

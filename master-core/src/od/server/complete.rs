@@ -1,4 +1,4 @@
-//! Complete access (digest §6.5): a whole ARRAY/RECORD in one transfer, from subindex 0
+//! Complete access (spec-notes §coe.ca): a whole ARRAY/RECORD in one transfer, from subindex 0
 //! (SI0 included, padded to 16 bits) or 1, laid out by [`crate::od::packing`].
 //!
 //! Strings (VISIBLE, OCTET, UNICODE) take part at their declared bit length, as ETG.1510

@@ -1,4 +1,4 @@
-//! CoE emergency (service 1, digest §6.7; CiA 301 EMCY carried over the mailbox).
+//! CoE emergency (service 1, spec-notes §coe.emcy; CiA 301 EMCY carried over the mailbox).
 //!
 //! ```text
 //! mailbox data offset 0  u16  CoE header `00 10`
@@ -157,7 +157,7 @@ mod tests {
     use crate::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
     use proptest::prelude::*;
 
-    // By hand from §6.7: length 10, CoE, counter 1; error 0x8100, register 0x11,
+    // By hand (spec-notes §coe.emcy): length 10, CoE, counter 1; error 0x8100, register 0x11,
     // data 01 02 03 04 05.
     static EMCY: [u8; 16] = [
         0x0a, 0x00, 0x00, 0x00, 0x00, 0x13, 0x00, 0x10, 0x00, 0x81, 0x11, 0x01, 0x02, 0x03, 0x04,

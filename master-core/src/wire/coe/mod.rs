@@ -1,4 +1,4 @@
-//! CANopen over EtherCAT (mailbox type 3, digest §6).
+//! CANopen over EtherCAT (mailbox type 3, ETG.1000.6, spec-notes §coe.sdo).
 //!
 //! Every view here wraps the *mailbox data* (the bytes after the 6-byte mailbox header,
 //! exactly `length` of them, starting with the CoE header), so the view's length is the
@@ -154,7 +154,7 @@ mod tests {
 
     #[test]
     fn dispatch_by_service() {
-        // C.6 request and response: the same command specifier bits mean different things.
+        // The worked upload of spec-notes §coe.sdo: the same command specifier bits mean different things.
         let req = [0x00, 0x20, 0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0];
         assert!(matches!(
             parse(&req).unwrap(),

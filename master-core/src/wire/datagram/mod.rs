@@ -1,5 +1,5 @@
 //! Datagrams (EtherCAT PDUs), the datagram chain of a frame, and the frame builder
-//! (digest §1.3, §1.6; ETG.1000.4 EtherCAT DLPDU).
+//! (ETG.1000.4 EtherCAT DLPDU, spec-notes §datagram, §frame).
 //!
 //! ```text
 //! offset 0       u8      command (see `command::Command`)
@@ -50,7 +50,7 @@ pub const HEADER_LEN: usize = fields::DATA.start;
 pub const WKC_LEN: usize = 2;
 /// Bytes a datagram adds to its data: header + working counter.
 pub const OVERHEAD: usize = HEADER_LEN + WKC_LEN;
-/// Largest data length of one datagram: 1500 − 2 − 10 − 2 (digest §1.3, IgH
+/// Largest data length of one datagram: 1500 − 2 − 10 − 2 (ETG.1000.4, spec-notes §datagram, IgH
 /// `EC_MAX_DATA_SIZE`). The 11-bit field could say 2047, but such frames exceed the MTU.
 pub const MAX_DATA_LEN: usize = frame::MAX_PAYLOAD_LEN - OVERHEAD;
 
@@ -373,7 +373,7 @@ impl fmt::Display for DatagramRepr<'_> {
     }
 }
 
-/// Iterator over the datagram chain of an EtherCAT payload (digest §1.3 "M bit").
+/// Iterator over the datagram chain of an EtherCAT payload (spec-notes §datagram "M bit").
 ///
 /// Walks `len + 12` bytes per datagram and stops after the datagram with M = 0; bytes after
 /// it are padding and ignored. A malformed datagram, or an M = 1 datagram with nothing

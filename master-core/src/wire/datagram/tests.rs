@@ -23,7 +23,7 @@ fn node(station: u16, ado: u16) -> DatagramAddress {
     DatagramAddress::Node { station, ado }
 }
 
-// Digest C.1, datagram part: BRD idx 1, ADP 0, ADO 0, len 2.
+// ETG.1000.4, spec-notes §commands, datagram part: BRD idx 1, ADP 0, ADO 0, len 2.
 static C1_BRD: [u8; 14] = [
     0x07, 0x01, 0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
 ];
@@ -86,7 +86,7 @@ fn c3_sii_read() {
         &data,
         DatagramRepr::request(Command::Fprd, 5, node(0x1001, 0x0508), &[0; 8]),
     );
-    // Returned from an EL2004 (C.3) with WKC 1: vendor 2, product 0x07D43052.
+    // Returned from an EL2004 (spec-notes §esc.sii-if) with WKC 1: vendor 2, product 0x07D43052.
     let mut returned = data;
     returned[10..18].copy_from_slice(&[0x02, 0x00, 0x00, 0x00, 0x52, 0x30, 0xd4, 0x07]);
     returned[18] = 0x01;
@@ -171,7 +171,7 @@ fn c18_cyclic_lrw() {
 
 #[test]
 fn seed_station_address_write() {
-    // Seed 001: APWR to position 0, ADO 0x0010, data 0x03E9 (TwinCAT's station 1001).
+    // spec-notes §capture: APWR to position 0, ADO 0x0010, data 0x03E9 (TwinCAT's station 1001).
     let bytes = [
         0x02, 0x81, 0x00, 0x00, 0x10, 0x00, 0x02, 0x00, 0x00, 0x00, 0xe9, 0x03, 0x00, 0x00,
     ];
@@ -186,7 +186,7 @@ fn seed_station_address_write() {
     );
 }
 
-/// Seed 001, first captured frame: BWR idx 0x80 to ADO 0x0101 (loop control), 1 byte 00,
+/// spec-notes §capture, first frame: BWR idx 0x80 to ADO 0x0101 (loop control), 1 byte 00,
 /// EtherCAT header 0x100d; the source MAC is all zeros in the capture.
 static SEED_FIRST_FRAME: [u8; 60] = [
     0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x88, 0xa4, 0x0d,
@@ -227,7 +227,7 @@ fn c1_frame_built() {
     assert_eq!(buffer, expected);
 }
 
-/// Seed 001's cyclic frame: LRD 0x11000 (inputs, 2 bytes), LWR 0x12000 (outputs, 2 bytes
+/// The cyclic frame of spec-notes §capture: LRD 0x11000 (inputs, 2 bytes), LWR 0x12000 (outputs, 2 bytes
 /// 0xAA 0x55), LRD 0x40000 (1 byte: SM1 status 0x080D via FMMU, bit 3 = mailbox full),
 /// FRMW 0x0910 from station 0x03E9 (8 bytes DC system time). Indices 0x10..=0x13.
 #[rustfmt::skip]
@@ -294,7 +294,7 @@ fn seed_cyclic_frame() {
 
 #[test]
 fn padding_after_last_datagram_is_ignored() {
-    // C.1 BRD followed by garbage that is not a datagram: M = 0 ends the chain.
+    // The count-slaves BRD of spec-notes §commands followed by garbage that is not a datagram: M = 0 ends the chain.
     let mut payload = C1_BRD.to_vec();
     payload.extend_from_slice(&[0xff; 20]);
     let mut chain = Datagrams::new(&payload);
@@ -330,7 +330,7 @@ fn more_bit_without_following_datagram_is_an_error() {
 
 #[test]
 fn mutable_walk_processes_in_place() {
-    // The seed cyclic frame's chain as an emulated slave would see it: bump every WKC
+    // The reference cyclic frame's chain as an emulated slave would see it: bump every WKC
     // and fill the 1-byte mailbox status read with bit 3 (SM1 full).
     let mut payload = SEED_CYCLIC[16..].to_vec();
     payload.extend_from_slice(&[0u8; 5]); // padding is ignored

@@ -1,4 +1,4 @@
-//! The EtherCAT frame: 2-byte EtherCAT header plus payload (digest §1.1, §1.2, §1.6, §1.7).
+//! The EtherCAT frame: 2-byte EtherCAT header plus payload (ETG.1000.4, spec-notes §frame).
 //!
 //! ```text
 //! offset 0  u16 LE  bits 0-10 length (payload bytes after this header, padding excluded)
@@ -40,11 +40,11 @@ pub const HEADER_LEN: usize = fields::PAYLOAD.start;
 pub const MAX_LENGTH: u16 = fields::LENGTH_MASK;
 /// The reserved bit 11 of the EtherCAT header (must be 0).
 pub const RESERVED_BIT: u16 = fields::RESERVED_MASK;
-/// Largest EtherCAT payload that fits a standard 1500-byte Ethernet MTU (digest §1.3).
+/// Largest EtherCAT payload that fits a standard 1500-byte Ethernet MTU (spec-notes §datagram).
 pub const MAX_PAYLOAD_LEN: usize = 1500 - HEADER_LEN;
 
 enum_with_unknown! {
-    /// EtherCAT header type, bits 12-15 (digest §1.2; names as Wireshark's frame dissector).
+    /// EtherCAT header type, bits 12-15 (spec-notes §frame; names as Wireshark's frame dissector).
     pub enum FrameType(u8) {
         /// EtherCAT DLPDU: a chain of datagrams ("EtherCAT command").
         Datagrams = 1,
@@ -52,9 +52,9 @@ enum_with_unknown! {
         Ads = 2,
         /// RAW-IO (Beckhoff specific, not used by ecatd).
         RawIo = 3,
-        /// Network variables (digest §1.8).
+        /// Network variables (ETG.1000.4, spec-notes §frame).
         NetworkVariables = 4,
-        /// Mailbox (ETG.8200 gateway over UDP, digest §11).
+        /// Mailbox (ETG.8200 gateway over UDP, spec-notes §gateway).
         Mailbox = 5,
     }
 }
@@ -94,7 +94,7 @@ impl<T: AsRef<[u8]>> Frame<T> {
 
     /// Checks that the header is present and that `length` does not exceed the buffer.
     ///
-    /// Bytes after `length` are allowed and ignored: they are Ethernet padding (digest §1.6).
+    /// Bytes after `length` are allowed and ignored: they are Ethernet padding (spec-notes §frame).
     /// The reserved bit is checked by [`FrameHeader::parse`], not here.
     pub fn check_len(&self) -> Result<()> {
         let buf = self.buffer.as_ref();
@@ -179,7 +179,7 @@ pub struct FrameHeader {
 
 impl FrameHeader {
     /// Parses the header of a checked view; the reserved bit 11 set is an error (Wireshark
-    /// flags it as invalid, digest §1.2).
+    /// flags it as invalid, ETG.1000.4, spec-notes §frame).
     pub fn parse<T: AsRef<[u8]>>(frame: &Frame<T>) -> Result<Self> {
         frame.check_len()?;
         if frame.reserved_bit() {
@@ -240,7 +240,7 @@ impl fmt::Display for FrameHeader {
 /// A whole Ethernet frame carrying EtherCAT, parsed down to the EtherCAT payload.
 ///
 /// Accepts frames with or without padding (captures taken on the sending host lack it,
-/// digest §1.6) and with or without one 802.1Q tag.
+/// ETG.1000.4, spec-notes §frame) and with or without one 802.1Q tag.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct EthercatFrame<'a> {
     /// The Ethernet header.
@@ -332,7 +332,7 @@ pub(crate) mod tests {
     use crate::wire::ethernet::BROADCAST;
     use proptest::prelude::*;
 
-    // Digest C.1: BRD count-slaves frame, 60 bytes without FCS.
+    // ETG.1000.4, spec-notes §commands: BRD count-slaves frame, 60 bytes without FCS.
     static C1_FRAME: [u8; 60] = [
         0xff, 0xff, 0xff, 0xff, 0xff, 0xff, // destination
         0x02, 0x00, 0x00, 0x00, 0x00, 0x01, // source
@@ -345,7 +345,7 @@ pub(crate) mod tests {
         0, // 30 bytes padding
     ];
 
-    // Seed 001: the EtherCAT header of the first captured frame, value 0x100d.
+    // spec-notes §capture: the EtherCAT header of the first frame, value 0x100d.
     static SEED_HEADER: [u8; 2] = [0x0d, 0x10];
 
     #[test]
@@ -385,7 +385,7 @@ pub(crate) mod tests {
 
     #[test]
     fn c1_frame_without_padding_or_with_vlan_tag() {
-        // As captured on the sending host: no padding (digest §1.6).
+        // As captured on the sending host: no padding (ETG.1000.4, spec-notes §frame).
         let frame = EthercatFrame::parse(&C1_FRAME[..30]).unwrap();
         assert_eq!(frame.header.length, 14);
         assert_eq!(frame.datagrams().unwrap().count(), 1);
@@ -402,7 +402,7 @@ pub(crate) mod tests {
 
     #[test]
     fn c1_returned_from_three_slaves() {
-        // Digest C.1: returned ADP `03 00`, WKC `03 00`; data = OR of type/revision (here
+        // spec-notes §commands: returned ADP `03 00`, WKC `03 00`; data = OR of type/revision (here
         // 0x11, 0x00 as an example of returned data).
         let mut returned = C1_FRAME;
         returned[18] = 0x03;
@@ -429,14 +429,14 @@ pub(crate) mod tests {
         .emit(&mut Frame::new_unchecked(&mut bytes[..]))
         .unwrap();
         assert_eq!(bytes, [0x0e, 0x10]);
-        // Seed 001: 0x100d is type 1, reserved 0, length 13 (= 10 + 1 data byte + 2).
+        // Reference capture: 0x100d is type 1, reserved 0, length 13 (= 10 + 1 data byte + 2).
         let mut seed = SEED_HEADER.to_vec();
         seed.extend_from_slice(&[0u8; 13]);
         let header = FrameHeader::parse(&Frame::new_checked(&seed[..]).unwrap()).unwrap();
         assert_eq!(header.length, 13);
         assert_eq!(header.frame_type, FrameType::Datagrams);
         assert_eq!(header.to_raw(), Ok(0x100d));
-        // Digest §1.2 worked values: 0x2C → `2c 10`; ethercrab's 0x28 → `28 10`.
+        // Worked values (spec-notes §frame): 0x2C → `2c 10`; ethercrab's 0x28 → `28 10`.
         for (length, bytes) in [(0x2C, [0x2c, 0x10]), (0x28, [0x28, 0x10])] {
             let mut out = [0xa5u8; 2];
             FrameHeader {
@@ -458,7 +458,7 @@ pub(crate) mod tests {
         assert_eq!(FrameType::Mailbox.name(), "Mailbox");
         assert_eq!(FrameType::NetworkVariables.name(), "Network Variables");
         assert_eq!(FrameType::from(9), FrameType::Unknown(9));
-        // Type 5 mailbox header as the ETG.8200 gateway sends it (digest C.16: `10 50`).
+        // Type 5 mailbox header as the ETG.8200 gateway sends it (spec-notes §gateway: `10 50`).
         let mut bytes = [0x10, 0x50, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0];
         let view = Frame::new_checked(&bytes[..]).unwrap();
         assert_eq!(view.frame_type(), FrameType::Mailbox);
@@ -470,7 +470,7 @@ pub(crate) mod tests {
 
     #[test]
     fn reserved_bit_is_refused() {
-        // 0x180E: C.1's header with bit 11 set.
+        // 0x180E: the count-slaves frame's header with bit 11 set (spec-notes §frame).
         let mut bytes = C1_FRAME;
         bytes[15] = 0x18;
         assert_eq!(

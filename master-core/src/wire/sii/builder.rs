@@ -1,4 +1,4 @@
-//! `SiiBuilder`: emits a complete, valid SII image (digest §4) — used by the simulator to
+//! `SiiBuilder`: emits a complete, valid SII image (spec-notes §sii) — used by the simulator to
 //! give its slaves an EEPROM.
 
 use super::category::{CATEGORY_HEADER_LEN, Category, CategoryRepr, CategoryType};
@@ -328,7 +328,7 @@ mod tests {
 
     #[test]
     fn hand_made_image() {
-        // EL2004-like fixed area (§4.1/§4.2) + GENERAL (§4.5 bytes) + END, laid out by hand.
+        // EL2004-like fixed area (spec-notes §sii.fixed) + GENERAL (§sii.categories) + END, laid out by hand.
         let mut image = vec![0u8; 128];
         image[..16].copy_from_slice(&[
             0x04, 0x01, 0x00, 0x00, 0x00, 0x00, 0x0f, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,

@@ -1,4 +1,4 @@
-//! DC category, type 60: 24 bytes per operation mode (digest §4.9, KickCAT's layout).
+//! DC category, type 60: 24 bytes per operation mode (spec-notes §sii.categories, KickCAT's layout).
 //!
 //! ```text
 //! 0x00 u32 SYNC0 cycle time | 0x04 u32 SYNC0 shift | 0x08 u32 SYNC1 shift
@@ -149,7 +149,7 @@ pub(crate) mod tests {
     use crate::wire::Emit;
     use proptest::prelude::*;
 
-    // An EL2262-like element (§4.9): cycle/shift 0, SYNC1 factor −1, AssignActivate 0x0730,
+    // An EL2262-like element (spec-notes §sii.categories): cycle/shift 0, SYNC1 factor −1, AssignActivate 0x0730,
     // SYNC0 factor −8, name index 7 ("DcSync2", index chosen by hand), description 0.
     static ENTRY: [u8; 24] = [
         0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // times

@@ -1,6 +1,6 @@
-//! FMMU category, type 40: one usage byte per FMMU (digest §4.6).
+//! FMMU category, type 40: one usage byte per FMMU (ETG.2010, spec-notes §sii.categories).
 //!
-//! Note the encoding differs from the FMMU type register (§2.11): here 1 = outputs and
+//! Note the encoding differs from the FMMU type register (spec-notes §esc.fmmu): here 1 = outputs and
 //! 2 = inputs.
 
 use core::fmt;
@@ -99,7 +99,7 @@ mod tests {
 
     #[test]
     fn el2262() {
-        // §4.6: `01 01 02 ff` = outputs, outputs, inputs, unused.
+        // ETG.2010, spec-notes §sii.categories: `01 01 02 ff` = outputs, outputs, inputs, unused.
         let data = [0x01, 0x01, 0x02, 0xff];
         let r = FmmuCategoryRepr::parse(&data).unwrap();
         assert_eq!(

@@ -1,4 +1,4 @@
-//! The SII / EEPROM image (digest §4).
+//! The SII / EEPROM image (ETG.2010, spec-notes §sii).
 //!
 //! [`checksum`] computes word 7; [`fixed`] is words 0x00–0x3F; [`category`] walks the
 //! category list from word 0x40; [`strings`], [`general`], [`fmmu`], [`syncm`], [`pdo`] and

@@ -1,4 +1,4 @@
-//! TXPDO (type 50) and RXPDO (type 51) categories (digest §4.8).
+//! TXPDO (type 50) and RXPDO (type 51) categories (ETG.2010, spec-notes §sii.categories).
 //!
 //! ```text
 //! PDO header (8): 0 u16 index | 2 u8 entry count | 3 u8 SM | 4 u8 DC sync | 5 u8 name idx
@@ -263,7 +263,7 @@ impl PdoCategoryRepr {
         Ok(())
     }
 
-    /// Total bits of the PDOs assigned to SyncManager `sm` (its process-data size, §4.8).
+    /// Total bits of the PDOs assigned to SyncManager `sm` (its process-data size, spec-notes §sii.categories).
     pub fn bits_for_sm(&self, sm: u8) -> u32 {
         self.pdos
             .iter()
@@ -279,7 +279,7 @@ pub(crate) mod tests {
     use crate::wire::Emit;
     use proptest::prelude::*;
 
-    // §4.8, EL2262 TXPDO: 0x1702, 1 entry, SM 2, DC sync 0, flags 0x0030, with entry
+    // spec-notes §sii.categories, EL2262 TXPDO: 0x1702, 1 entry, SM 2, DC sync 0, flags 0x0030, with entry
     // 0x1D09:0x98, UNSIGNED32 (0x07), 32 bits. String indices (5, 6) chosen by hand.
     static TXPDO: [u8; 16] = [
         0x02, 0x17, 0x01, 0x02, 0x00, 0x05, 0x30, 0x00, // header

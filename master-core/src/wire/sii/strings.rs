@@ -1,4 +1,4 @@
-//! STRINGS category, type 10 (digest §4.4).
+//! STRINGS category, type 10 (ETG.2010, spec-notes §sii.categories).
 //!
 //! ```text
 //! u8 count N | N × (u8 length L | L bytes, no terminator) | pad to an even byte count
@@ -104,7 +104,7 @@ mod tests {
     use crate::wire::Emit;
     use proptest::prelude::*;
 
-    // Two strings "EL2004" and "DcSync" (names from §4.5/§4.9), laid out by hand:
+    // Two strings "EL2004" and "DcSync" (names from spec-notes §sii.categories), laid out by hand:
     // count 2, len 6 "EL2004", len 6 "DcSync", 1 pad byte → 16 bytes.
     static DATA: [u8; 16] = [
         0x02, 0x06, b'E', b'L', b'2', b'0', b'0', b'4', 0x06, b'D', b'c', b'S', b'y', b'n', b'c',

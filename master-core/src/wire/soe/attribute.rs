@@ -4,7 +4,7 @@ use crate::wire::error::{Result, WireError};
 use crate::wire::macros::enum_with_unknown;
 
 enum_with_unknown! {
-    /// Data type of an IDN (attribute bits 20-22, digest §7.3).
+    /// Data type of an IDN (attribute bits 20-22, ETG.1000.6, spec-notes §soe).
     pub enum SoeDataType(u8) {
         /// Binary.
         Binary = 0,
@@ -25,7 +25,7 @@ enum_with_unknown! {
     }
 }
 
-/// The attribute element of an IDN (u32, digest §7.3), decoded.
+/// The attribute element of an IDN (u32, ETG.1000.6, spec-notes §soe), decoded.
 ///
 /// Data length follows SOEM's split of bits 16-18: bits 16-17 give the (element) size
 /// 0 → 1, 1 → 2, 2 → 4, 3 → 8 bytes and bit 18 marks a variable-length list of such

@@ -3,7 +3,7 @@
 use crate::wire::macros::enum_with_unknown;
 
 enum_with_unknown! {
-    /// SoE error code (digest §7.5, IgH's table).
+    /// SoE error code (ETG.1000.6, spec-notes §soe, IgH's table).
     pub enum SoeError(u16) {
         /// No error.
         NoError = 0x0000,
@@ -109,7 +109,7 @@ enum_with_unknown! {
 }
 
 impl SoeError {
-    /// The text of the error code (digest §7.5).
+    /// The text of the error code (ETG.1000.6, spec-notes §soe).
     pub fn description(self) -> &'static str {
         use SoeError::*;
         match self {

@@ -52,7 +52,7 @@ impl Iterator for SoeFragments {
 
 /// Splits a value of `total_len` bytes into fragments of at most `capacity` bytes
 /// (`capacity` = [`fragment_capacity`](super::fragment_capacity) of the receiver's mailbox) following IgH's rule
-/// (digest §7.4): every fragment but the last is full, Incomplete = 1 and carries
+/// (ETG.1000.6, spec-notes §soe): every fragment but the last is full, Incomplete = 1 and carries
 /// `ceil(remaining / capacity) − 1`; the last carries the IDN. A value that fits (including
 /// an empty one) is a single last fragment.
 ///

@@ -5,7 +5,7 @@ use core::str::FromStr;
 
 use crate::wire::error::{Result, WireError};
 
-/// An IDN (identification number, digest §7.2): bit 15 S/P, bits 12-14 parameter set,
+/// An IDN (identification number, spec-notes §soe): bit 15 S/P, bits 12-14 parameter set,
 /// bits 0-11 data block number. Printed `S-0-0024` / `P-0-0001`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Idn(u16);

@@ -1,4 +1,4 @@
-//! SoE — servo drive profile over EtherCAT (mailbox type 5, digest §7).
+//! SoE — servo drive profile over EtherCAT (mailbox type 5, ETG.1000.6, spec-notes §soe).
 //!
 //! ```text
 //! byte 0  bits 0-2 opcode, bit 3 incomplete, bit 4 error, bits 5-7 drive number
@@ -53,13 +53,13 @@ pub const HEADER_LEN: usize = fields::PAYLOAD.start;
 pub const ERROR_CODE_LEN: usize = 2;
 
 /// Element data per fragment for a receiver mailbox of `mailbox_size` bytes: `M − 6 − 4`
-/// (digest §7.4). 0 if the mailbox is too small.
+/// (ETG.1000.6, spec-notes §soe). 0 if the mailbox is too small.
 pub const fn fragment_capacity(mailbox_size: usize) -> usize {
     mailbox_size.saturating_sub(crate::wire::mailbox::HEADER_LEN + HEADER_LEN)
 }
 
 enum_with_unknown! {
-    /// SoE opcode (digest §7.1, 3 bits).
+    /// SoE opcode (ETG.1000.6, spec-notes §soe, 3 bits).
     pub enum SoeOpcode(u8) {
         /// Read request.
         ReadRequest = 1,
@@ -92,7 +92,7 @@ impl SoeOpcode {
 }
 
 /// The element flags of byte 1: which elements of an IDN are requested or contained
-/// (digest §7.1). All 8 bits are defined, so every byte is a valid set.
+/// (ETG.1000.6, spec-notes §soe). All 8 bits are defined, so every byte is a valid set.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct ElementFlags(u8);
 

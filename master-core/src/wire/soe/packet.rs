@@ -117,7 +117,7 @@ pub enum IdnOrFragments {
 
 /// A parsed SoE message.
 ///
-/// Where the error code sits (digest §7.5, IgH): for a read response it is the *last* two
+/// Where the error code sits (spec-notes §soe, IgH): for a read response it is the *last* two
 /// bytes (element data, if any, come first); for every other opcode it is right after the
 /// header at offset 4 (further bytes, if any, are kept in `data`). Both coincide when no
 /// data are present, which is the usual case.

@@ -4,7 +4,7 @@ use crate::wire::error::WireError;
 use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
 use proptest::prelude::*;
 
-// Digest C.15.
+// ETG.1000.6, spec-notes §soe.
 static READ_REQ: [u8; 10] = [0x04, 0x00, 0x00, 0x00, 0x00, 0x15, 0x01, 0x40, 0x18, 0x00];
 static NO_IDN_REPLY: [u8; 12] = [
     0x06, 0x00, 0x00, 0x00, 0x00, 0x15, 0x12, 0x40, 0x18, 0x00, 0x01, 0x10,
@@ -120,7 +120,7 @@ fn element_flags_display() {
 
 #[test]
 fn attribute_decode() {
-    // Worked from §7.3: factor 1, 4 bytes (010), unsigned (1), 3 decimals,
+    // Worked from spec-notes §soe: factor 1, 4 bytes (010), unsigned (1), 3 decimals,
     // write-protected in OP → 0x4312_0001.
     let attr = SoeAttribute::from_u32(0x4312_0001);
     assert_eq!(

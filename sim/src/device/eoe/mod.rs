@@ -1,4 +1,4 @@
-//! The EoE side of a simulated slave (mailbox type 2, digest §9).
+//! The EoE side of a simulated slave (mailbox type 2, ETG.1000.6, spec-notes §eoe).
 //!
 //! - [`ip_config`]: what Set IP parameter stored;
 //! - [`endpoint`]: the slave's own IPv4 host (ARP and ICMP echo, built with etherparse);
