@@ -1,5 +1,5 @@
 //! CoE through the ETG.8200 gateway against the simulated segment: expedited and
-//! segmented transfers (the 4 KiB object both ways), the seed's short sample requests, SDO
+//! segmented transfers (the 4 KiB object both ways), the sample clients' short requests, SDO
 //! Information with its fragments, addressing by position, and the rewritten counter.
 
 mod gateway_support;
@@ -76,7 +76,7 @@ fn the_seeds_short_sample_requests_are_served() {
     let rig = GwRig::start(test_config());
     let client = rig.client();
     let address = station(COE_STORE);
-    // Seed 000's upload: 8 bytes of CoE data (the reserved bytes cut to 2).
+    // The short upload of spec-notes §coe.sdo-short: 8 bytes of CoE data (the reserved bytes cut to 2).
     let mut upload = vec![0u8; 8];
     upload[1] = 0x20;
     upload[2] = 0x40;

@@ -1,4 +1,4 @@
-//! The gateway's own answers (docs/gateway.md, the seed's error table): unknown addresses,
+//! The gateway's own answers (docs/gateway.md, spec-notes §gateway.dialect): unknown addresses,
 //! protocols a slave does not serve, messages larger than its mailbox, strict mode, clients
 //! outside the allowlist, malformed datagrams — each counted under its reason.
 
@@ -11,6 +11,7 @@ use gateway_support::{
     COE_STORE, Client, DO8, DRIVE, GwRig, Reply, allowing, datagram, sdo, station, test_config,
 };
 use master_core::gateway::{GatewayConfig, MailboxGatewayStats};
+use master_core::wire::Emit;
 use master_core::wire::coe::{AbortCode, SdoRequest, SdoResponse};
 use master_core::wire::foe::{FoeError, FoePacket, FoeRepr};
 use master_core::wire::mailbox::{ErrorReply, ErrorReplyRepr, MailboxErrorCode, MailboxType};
@@ -60,10 +61,7 @@ fn foe_read(name: &[u8]) -> Vec<u8> {
         password: 0,
         file_name: name,
     };
-    let mut data = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut FoePacket::new_unchecked(&mut data[..]))
-        .unwrap();
-    data
+    repr.to_vec().unwrap()
 }
 
 /// SoE read of S-0-0030 (manufacturer version), value element.

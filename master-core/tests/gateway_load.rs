@@ -9,6 +9,7 @@ use std::sync::Barrier;
 
 use gateway_support::master_support::wait_until;
 use gateway_support::{COE_STORE, Client, DRIVE, GwRig, sdo, station, test_config};
+use master_core::wire::Emit;
 use master_core::wire::coe::{SdoPayload, SdoRequest, SdoResponse};
 use master_core::wire::mailbox::MailboxType;
 use master_core::wire::voe::{VoePacket, VoeRepr};
@@ -52,9 +53,7 @@ fn voe_echo(client: &mut Client, who: usize, n: usize) {
         vendor_type: 0x0042,
         data: &payload,
     };
-    let mut request = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut VoePacket::new_unchecked(&mut request[..]))
-        .unwrap();
+    let request = repr.to_vec().unwrap();
     let reply = client.request(station(DRIVE), MailboxType::Voe, &request);
     let answer = VoeRepr::parse(&VoePacket::new_checked(&reply.data[..]).unwrap()).unwrap();
     assert_eq!(

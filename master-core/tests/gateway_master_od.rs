@@ -213,7 +213,7 @@ fn values_describe_the_master_and_the_segment() {
     assert_eq!(protocols, 0x02 | 0x04 | 0x08 | 0x10 | 0x20);
     // The whole segment is in OP.
     assert_eq!(u16_of(client.upload(MASTER, 0xF120, 0x10).unwrap()), 0x0008);
-    // Unknown objects and subindices abort as the digest says.
+    // Unknown objects and subindices abort as spec-notes §coe.abort says.
     assert_eq!(
         client.upload(MASTER, 0x8000 + 99, 1),
         Err(AbortCode::ObjectDoesNotExist)

@@ -6,6 +6,7 @@ mod gateway_support;
 
 use gateway_support::{Client, DRIVE, GwRig, station, test_config};
 use master_core::master::SlaveAddress;
+use master_core::wire::Emit;
 use master_core::wire::foe::{self, FoePacket, FoeRepr};
 use master_core::wire::mailbox::MailboxType;
 use master_core::wire::register::AlState;
@@ -21,17 +22,11 @@ use sim::topology::Topology;
 const MIB: usize = 1 << 20;
 
 fn soe(repr: &SoeRepr<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut SoePacket::new_unchecked(&mut out[..]))
-        .unwrap();
-    out
+    repr.to_vec().unwrap()
 }
 
 fn foe_msg(repr: FoeRepr<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut FoePacket::new_unchecked(&mut out[..]))
-        .unwrap();
-    out
+    repr.to_vec().unwrap()
 }
 
 /// A list element: current length, maximum length, contents.
@@ -236,9 +231,7 @@ fn voe_is_echoed_through_the_gateway() {
         vendor_type: 0x0042,
         data: &data,
     };
-    let mut request = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut VoePacket::new_unchecked(&mut request[..]))
-        .unwrap();
+    let request = repr.to_vec().unwrap();
     let reply = client.request(station(DRIVE), MailboxType::Voe, &request);
     assert_eq!(reply.header.mailbox_type, MailboxType::Voe);
     let answer = VoeRepr::parse(&VoePacket::new_checked(&reply.data[..]).unwrap()).unwrap();

@@ -7,9 +7,9 @@ use std::time::{Duration, Instant};
 
 use common::frames::{MIN_FRAME_LEN, seq_of, test_frame};
 use master_core::link::{
-    ETHERNET_HEADER_LEN, FaultConfig, FaultCounts, FaultInjector, Link, MAX_FRAME_LEN, MemoryLink,
-    Wait,
+    FaultConfig, FaultCounts, FaultInjector, Link, MAX_FRAME_LEN, MemoryLink, Wait,
 };
+use master_core::wire::ethernet::HEADER_LEN as ETHERNET_HEADER_LEN;
 
 const FRAMES: u32 = 1000;
 const SEED: u64 = 0x88a4;

@@ -1,5 +1,5 @@
-//! A PDO assignment given to the master is written in PREOP exactly as the seed capture
-//! shows it (clear 0x1C1n:00, clear and write the mapping, write the PDOs, write the count)
+//! A PDO assignment given to the master is written in PREOP as spec-notes §coe.pdo says
+//! (clear 0x1C1n:00, clear and write the mapping, write the PDOs, write the count)
 //! and takes effect: the simulated drive exchanges what was written, and the image follows.
 
 mod master_pd_support;
@@ -58,9 +58,9 @@ fn a_configured_assignment_is_written_in_preop_and_takes_effect() {
     let report = block_on(rig.master().scan()).expect("scan");
     assert!(report.failures.is_empty(), "{:?}", report.failures);
 
-    // On the wire, in order: the seed's sequence for SM2, then for SM3.
+    // On the wire, in order: the reference sequence for SM2, then for SM3.
     let info = rig.master().slave(drive).unwrap();
-    let sm0 = info.mailbox.unwrap().sm0_start;
+    let sm0 = info.mailbox.unwrap().write.start;
     let writes = sdo_downloads(&returned.frames(), info.station, sm0);
     let sequence = |assign: u16, pdo: u16, entry: u32| {
         vec![

@@ -145,6 +145,7 @@ impl sim::device::mailbox::MailboxService for NoCompleteAccess {
         ctx: &sim::device::DeviceContext,
         replies: &mut sim::device::mailbox::ReplySink,
     ) {
+        use master_core::wire::Emit;
         use master_core::wire::coe::{AbortCode, CoeFrame, CoeRepr, SdoRequest, SdoResponse};
         let parsed = CoeFrame::new_checked(data)
             .ok()
@@ -162,10 +163,7 @@ impl sim::device::mailbox::MailboxService for NoCompleteAccess {
                 subindex,
                 code: AbortCode::UnsupportedAccess,
             });
-            let mut buf = vec![0u8; abort.buffer_len()];
-            let built = abort
-                .emit(&mut CoeFrame::new_unchecked(&mut buf[..]))
-                .map(|()| buf);
+            let built = abort.to_vec();
             let _ = replies.send_emitted(built);
             return;
         }

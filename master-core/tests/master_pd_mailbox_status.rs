@@ -20,7 +20,7 @@ use sim::topology::Topology;
 /// The CoE store's position in the default segment.
 const STORE: u16 = 3;
 
-/// Logical address of the mailbox-status bits (the seed capture's 0x40000).
+/// Logical address of the mailbox-status bits (0x40000 as in spec-notes §capture).
 const STATUS_BASE: u32 = 0x0004_0000;
 
 /// A master on the recorded in-process link.
@@ -61,7 +61,7 @@ fn run_cycles(rig: &PdRig, cycles: u64) {
 fn sm1_reads(rig: &PdRig, frames: &[Vec<u8>]) -> usize {
     let info = rig.master().slave(SlaveAddress::Position(STORE)).unwrap();
     let mailbox = info.mailbox.unwrap();
-    count_node(frames, Command::Fprd, info.station, mailbox.sm1_start)
+    count_node(frames, Command::Fprd, info.station, mailbox.read.start)
 }
 
 #[test]

@@ -47,9 +47,9 @@ fn the_default_segment_comes_up_as_the_topology_describes_it() {
                 let layout = info.mailbox.expect("mailbox");
                 // The simulator puts SM0 at 0x1000 and SM1 right behind it.
                 assert_eq!(layout.station, info.station);
-                assert_eq!((layout.sm0_start, layout.sm0_length), (0x1000, m.rx_size));
+                assert_eq!((layout.write.start, layout.write.len), (0x1000, m.rx_size));
                 assert_eq!(
-                    (layout.sm1_start, layout.sm1_length),
+                    (layout.read.start, layout.read.len),
                     (0x1000 + m.rx_size, m.tx_size)
                 );
                 assert_eq!(layout.protocols.0, protocol_bits(&spec.protocols));
@@ -239,8 +239,8 @@ fn a_slave_goes_to_boot_with_the_bootstrap_mailbox_and_back_to_op() {
     // SM0/SM1 hold the bootstrap mailbox the SII announces.
     let boot = info.boot_mailbox.expect("bootstrap mailbox");
     let sm0 = block_on(rig.master().read_register(drive, 0x0800, 4)).unwrap();
-    assert_eq!(sm0[..2], boot.sm0_start.to_le_bytes());
-    assert_eq!(sm0[2..], boot.sm0_length.to_le_bytes());
+    assert_eq!(sm0[..2], boot.write.start.to_le_bytes());
+    assert_eq!(sm0[2..], boot.write.len.to_le_bytes());
     block_on(rig.master().request_state(drive, AlState::Op)).expect("back to OP");
     assert_eq!(rig.segment().esc(0).unwrap().al_state(), AlState::Op);
     // The cyclic exchange serves the drive again.

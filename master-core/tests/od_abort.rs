@@ -1,5 +1,5 @@
 //! Every refusal of the CoE server reaches the client as an SDO abort with its code
-//! (digest §6.6, §12.6), and requests that are not SDO at all get an `Outcome` instead.
+//! (spec-notes §coe.abort, §master-od), and requests that are not SDO at all get an `Outcome` instead.
 
 #[path = "od_support.rs"]
 mod support;
@@ -61,7 +61,7 @@ mod od {
             c.abort_of(&down(0x5555, 0, &[1])),
             AbortCode::ObjectDoesNotExist
         );
-        // Above the highest subindex: 0x06090011; a gap below it: 0x08000020 (§12.6).
+        // Above the highest subindex: 0x06090011; a gap below it: 0x08000020 (spec-notes §master-od).
         assert_eq!(c.abort_of(&up(0x1018, 5)), AbortCode::SubindexDoesNotExist);
         assert_eq!(c.abort_of(&up(0x2004, 1)), AbortCode::SubindexDoesNotExist);
         assert_eq!(c.abort_of(&up(0x2040, 3)), AbortCode::TransferFailed);
@@ -214,7 +214,7 @@ mod od {
 
     #[test]
     fn pdo_entries_need_si0_zero() {
-        // Strict §6.11: mapping and assignment entries change only while SI0 = 0.
+        // Strict spec-notes §coe.pdo: mapping and assignment entries change only while SI0 = 0.
         let mut c = Client::new(128);
         let entry = PdoEntry::new(0x7000, 0, 16).to_u32().to_le_bytes();
         assert_eq!(

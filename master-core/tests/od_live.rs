@@ -8,7 +8,7 @@ use std::borrow::Cow;
 
 use master_core::od::access::{check_read, check_write};
 use master_core::od::check::check_value;
-use master_core::od::{Dictionary, EntryInfo, ObjectInfo, StaticDictionary};
+use master_core::od::{DictEntryInfo, DictObjectInfo, Dictionary, StaticDictionary};
 use master_core::wire::coe::info::{OdListType, SdoInfoService, ValueInfo};
 use master_core::wire::coe::{AbortCode, DataType, ObjectAccess, ObjectCode};
 use master_core::wire::register::AlState;
@@ -27,7 +27,7 @@ struct Live {
 const INDEX: u16 = 0xF120;
 
 impl Live {
-    fn info(&self, subindex: u8) -> Result<EntryInfo<'static>, AbortCode> {
+    fn info(&self, subindex: u8) -> Result<DictEntryInfo<'static>, AbortCode> {
         let (name, data_type, bits, access) = match subindex {
             0 => (
                 "Number of entries",
@@ -41,7 +41,7 @@ impl Live {
             3..=15 => return Err(AbortCode::TransferFailed),
             _ => return Err(AbortCode::SubindexDoesNotExist),
         };
-        Ok(EntryInfo {
+        Ok(DictEntryInfo {
             index: INDEX,
             subindex,
             name: Cow::Borrowed(name),
@@ -65,8 +65,8 @@ impl Dictionary for Live {
         }
     }
 
-    fn object(&self, index: u16) -> Option<ObjectInfo<'_>> {
-        (index == INDEX).then(|| ObjectInfo {
+    fn object(&self, index: u16) -> Option<DictObjectInfo<'_>> {
+        (index == INDEX).then(|| DictObjectInfo {
             index,
             name: Cow::Borrowed("Master diag data"),
             object_code: ObjectCode::Record,
@@ -75,7 +75,7 @@ impl Dictionary for Live {
         })
     }
 
-    fn entry(&self, index: u16, subindex: u8) -> Result<EntryInfo<'_>, AbortCode> {
+    fn entry(&self, index: u16, subindex: u8) -> Result<DictEntryInfo<'_>, AbortCode> {
         if index != INDEX {
             return Err(AbortCode::ObjectDoesNotExist);
         }

@@ -64,7 +64,7 @@ mod od {
                 }
             );
         }
-        // Digest C.6: upload of 0x1018:01 gives `43 18 10 01 | vendor`.
+        // ETG.1000.6, spec-notes §coe.sdo: upload of 0x1018:01 gives `43 18 10 01 | vendor`.
         let reply = c.one(&SdoRequest::InitiateUpload {
             index: 0x1018,
             subindex: 1,
@@ -161,7 +161,7 @@ mod od {
     #[test]
     fn short_last_segment_is_padded_to_seven_bytes() {
         // 100 bytes, M = 24: 8 in the initiate, 15 per segment; 92 = 6 × 15 + 2, the last
-        // segment has 2 bytes in a 10-byte frame with 5 unused (digest C.9 rule).
+        // segment has 2 bytes in a 10-byte frame with 5 unused (spec-notes §coe.sdo rule).
         let mut c = Client::new(24);
         let data = pattern(100);
         c.download(OCTETS, 0, false, &data).unwrap();
@@ -324,7 +324,7 @@ mod od {
     #[test]
     fn tolerated_sample_client_requests_are_served() {
         let mut c = Client::new(128);
-        // seeds/README.md: an upload request of 8 bytes (reserved bytes cut to 2)...
+        // spec-notes §coe.sdo-short: an upload request of 8 bytes (reserved bytes cut to 2)...
         let upload = [
             0x08, 0x00, 0x00, 0x00, 0x00, 0x13, 0x00, 0x20, 0x40, 0x18, 0x10, 0x01, 0x00, 0x00,
         ];
@@ -429,7 +429,7 @@ mod od {
 
     #[test]
     fn pdo_procedure_of_digest_6_11() {
-        // Expedited downloads in the order of §6.11 / C.7 succeed in PREOP.
+        // Expedited downloads in the order of ETG.1000.6, spec-notes §coe.pdo succeed in PREOP.
         let mut c = Client::new(128);
         c.download(0x1C12, 0, false, &[0]).unwrap();
         c.download(0x1600, 0, false, &[0]).unwrap();

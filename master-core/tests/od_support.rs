@@ -6,6 +6,7 @@ use master_core::od::access::presets::{RO_TX, RW_PREOP, RW_RX, WO};
 use master_core::od::{
     Identity, Outcome, PdoEntry, SdoServer, ServerContext, SmType, StaticDictionary,
 };
+use master_core::wire::Emit;
 use master_core::wire::coe::info::{SdoInfoFrame, SdoInfoRepr, SdoInfoService};
 use master_core::wire::coe::sdo::SdoFrame;
 use master_core::wire::coe::sdo_payload::SdoPayload;
@@ -159,10 +160,7 @@ pub fn test_dictionary() -> StaticDictionary {
 
 /// Emits an SDO request through the codec.
 pub fn sdo_bytes(req: &SdoRequest<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; req.buffer_len()];
-    req.emit(&mut SdoFrame::new_unchecked(&mut out[..]))
-        .expect("request emits");
-    out
+    req.to_vec().expect("request emits")
 }
 
 /// Emits an SDO Info request through the codec.
@@ -172,10 +170,7 @@ pub fn info_bytes(service: SdoInfoService<'_>) -> Vec<u8> {
         fragments_left: 0,
         service,
     };
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut SdoInfoFrame::new_unchecked(&mut out[..]))
-        .expect("info request emits");
-    out
+    repr.to_vec().expect("info request emits")
 }
 
 /// Parses a reply as an SDO response.

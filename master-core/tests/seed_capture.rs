@@ -1,11 +1,11 @@
-//! The SyncManager and FMMU writes of the seed capture walk-through
-//! (`shared/seeds/001_*.txt`): SM0 mailbox out at 0x1000, SM1 mailbox in at 0x1400, SM2
+//! The SyncManager and FMMU writes of the reference capture (spec-notes §capture), a
+//! published bring-up by another master: SM0 mailbox out at 0x1000, SM1 mailbox in at 0x1400, SM2
 //! outputs at 0x1800, SM3 inputs at 0x1C00; FMMUs mapping 0x1800 to logical 0x12000, 0x1C00
 //! to 0x11000, and bit 3 of SM1's status byte (0x080D) to logical 0x40000.
 //!
 //! The walk-through shows screenshots, not bytes, for lengths; the lengths below (128-byte
 //! mailboxes, 2 bytes of outputs and inputs) are ours. Expected bytes are written out by hand
-//! from the register layouts (digest §2.11, §2.12).
+//! from the register layouts (ETG.1000.4, spec-notes §esc.fmmu, §esc.sm).
 
 use master_core::wire::command::{Command, DatagramAddress};
 use master_core::wire::datagram::{DatagramRepr, FrameBuilder};

@@ -19,7 +19,7 @@ use crate::esc::{Esc, FrameTiming, ManualTime, TimeSource};
 use master_core::wire::register::AlState;
 
 /// The locally-administered bit the first slave sets in the first source-MAC byte of the
-/// frames it returns (digest §1.1).
+/// frames it returns (ETG.1000.4, spec-notes §frame).
 const RETURNED_MAC_BIT: u8 = 0x02;
 
 /// One slave: its ESC and the application behind it.

@@ -1,5 +1,5 @@
 //! The AL state machine through whole frames: every transition, every refusal code and the
-//! acknowledge rules (digest §3.2, §3.3, Appendix C.5).
+//! acknowledge rules (ETG.1000.6, spec-notes §al).
 
 mod common;
 
@@ -8,7 +8,7 @@ use master_core::wire::command::Command;
 use master_core::wire::register::al::AlState;
 use master_core::wire::register::al_status_code::AlStatusCode;
 use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{MailboxArea, SiiFixedRepr};
+use master_core::wire::sii::fixed::{SiiFixedRepr, SiiMailboxArea};
 
 const S: u16 = 0x1001;
 
@@ -72,7 +72,7 @@ fn up_and_down_through_every_state() {
 #[test]
 fn refusal_codes() {
     let mut bench = bench();
-    // 0x0016: PREOP without mailbox SyncManagers (C.5: status 0x0011, code 0x0016).
+    // 0x0016: PREOP without mailbox SyncManagers (spec-notes §al: status 0x0011, code 0x0016).
     assert_eq!(bench.request(S, 0x0002), (0x0011, 0x0016));
     // 0x0011: INIT → SAFEOP / OP.
     assert_eq!(bench.request(S, 0x0014), (0x0011, 0x0011));
@@ -105,11 +105,11 @@ fn refusal_codes() {
 fn bootstrap_mailbox_code_0x0015() {
     let mut bench = Bench::empty();
     let mut b = SiiBuilder::new(SiiFixedRepr {
-        boot_rx_mailbox: MailboxArea {
+        boot_rx_mailbox: SiiMailboxArea {
             offset: 0x1000,
             size: 512,
         },
-        boot_tx_mailbox: MailboxArea {
+        boot_tx_mailbox: SiiMailboxArea {
             offset: 0x1200,
             size: 512,
         },

@@ -1,5 +1,5 @@
 //! Working counters, addressing and data of every datagram command, with whole frames
-//! through a segment (digest §1.4, §1.5, Appendix C.1, C.2, C.18).
+//! through a segment (ETG.1000.4, ETG.1000.3, spec-notes §commands, §addressing, §esc.fmmu).
 
 mod common;
 
@@ -84,7 +84,7 @@ fn fmmu_bytes(f: FmmuRepr) -> Vec<u8> {
 }
 
 /// Brings slave `p` with 2 bytes of outputs and 1 byte of inputs to SAFEOP, with the three
-/// FMMUs of digest C.18 shifted to `logical` (outputs, inputs, SM1 status).
+/// FMMUs of the worked example (spec-notes §esc.fmmu) shifted to `logical` (outputs, inputs, SM1 status).
 fn process_data_slave(bench: &mut Bench, p: usize, logical: u32) {
     {
         let mut d = bench.dev(p);
@@ -110,7 +110,7 @@ fn c18_fmmu_bytes_and_lrw_wkc_3() {
     let mut bench = Bench::new(1);
     bench.assign_addresses();
     process_data_slave(&mut bench, 0, 0);
-    // The FMMU registers hold exactly the bytes of digest C.18.
+    // The FMMU registers hold exactly the bytes of the worked example (spec-notes §esc.fmmu).
     let r = bench.one(fp(Command::Fprd, 0x1001, 0x0600, &[0; 48]));
     assert_eq!(
         r.data,

@@ -1,6 +1,6 @@
 //! Distributed clocks with whole frames: a master's propagation-delay measurement, offset
 //! compensation and drift compensation give the values the segment was built with
-//! (digest §13.2-13.4, Appendix C.17).
+//! (ETG.1000.4, spec-notes §dc).
 
 mod common;
 
@@ -28,7 +28,7 @@ struct Latch {
     dl: DlStatus,
 }
 
-/// Digest §13.2 steps 1-2: BWR 0x0900, then read the port times, 0x0918 and DL status.
+/// spec-notes §dc steps 1-2: BWR 0x0900, then read the port times, 0x0918 and DL status.
 fn latch(bench: &mut Bench) -> (u64, Vec<Latch>) {
     let master_time = bench.time.now_ns();
     let r = bench.one(b(Command::Bwr, 0x0900, &[0; 4]));
@@ -49,7 +49,7 @@ fn latch(bench: &mut Bench) -> (u64, Vec<Latch>) {
     (master_time, latches)
 }
 
-/// §13.2 step 4 for a line: the delay of each slave from the first one.
+/// ETG.1000.4, spec-notes §dc step 4 for a line: the delay of each slave from the first one.
 fn delays(latches: &[Latch]) -> Vec<u32> {
     let loop_time = |l: &Latch| {
         if l.dl.port_active(1) {
@@ -95,7 +95,7 @@ fn offset_and_drift_compensation_converge() {
     bench.time.advance(1_000_000);
     let (master_time, latches) = latch(&mut bench);
     let delays = delays(&latches);
-    // §13.3: offset = master time − 0x0918; written with the delay as IgH does (12 bytes).
+    // spec-notes §dc: offset = master time − 0x0918; written with the delay as IgH does (12 bytes).
     for p in 0..4 {
         let offset = master_time.wrapping_sub(latches[p].processing_unit);
         let mut data = offset.to_le_bytes().to_vec();
@@ -106,7 +106,7 @@ fn offset_and_drift_compensation_converge() {
         );
     }
     bench.one(b(Command::Bwr, 0x0930, &[0x00, 0x10]));
-    // §13.4: distribute the reference time (slave 0) until the filtered differences (depth
+    // spec-notes §dc: distribute the reference time (slave 0) until the filtered differences (depth
     // 4 after reset) settle.
     for _ in 0..150 {
         bench.time.advance(1_000_000);

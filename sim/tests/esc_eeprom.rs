@@ -1,4 +1,4 @@
-//! The SII EEPROM interface driven as masters drive it (digest §2.9, §4.2, Appendix C.3).
+//! The SII EEPROM interface driven as masters drive it (spec-notes §esc.sii-if, §sii.fixed).
 
 mod common;
 

@@ -1,6 +1,6 @@
 //! Mailbox SyncManagers through whole frames: handshake, blocked accesses, last-byte
 //! commit, the repeat procedure, FMMU-mapped status polling and device polling
-//! (digest §2.12, §5.5-5.7).
+//! (ETG.1000.4, spec-notes §esc.sm, §mbx.handshake).
 
 mod common;
 

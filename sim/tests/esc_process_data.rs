@@ -1,5 +1,5 @@
 //! Process data through the 3-buffer SyncManagers and FMMUs, from INIT to OP with whole
-//! frames (digest §2.11, §2.12, Appendix A).
+//! frames (ETG.1000.4, spec-notes §esc.fmmu, §esc.sm, §bringup).
 
 mod common;
 
@@ -7,7 +7,7 @@ use common::*;
 use master_core::wire::command::Command;
 use master_core::wire::register::fmmu::{Fmmu, FmmuRepr};
 use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{MailboxArea, MailboxProtocols, SiiFixedRepr};
+use master_core::wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
 use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 
 const S: u16 = 0x1001;
@@ -137,8 +137,8 @@ fn simple_terminal_without_mailbox() {
     // register 0x0F00 (control 0x44: buffered, write, watchdog).
     let mut b = SiiBuilder::new(SiiFixedRepr {
         pdi_control: 0x0104,
-        std_rx_mailbox: MailboxArea::default(),
-        std_tx_mailbox: MailboxArea::default(),
+        std_rx_mailbox: SiiMailboxArea::default(),
+        std_tx_mailbox: SiiMailboxArea::default(),
         mailbox_protocols: MailboxProtocols(0),
         ..fixed()
     });

@@ -1,4 +1,4 @@
-//! The segment: topology, unplugged slaves, power cycles and DL status (digest §2.3).
+//! The segment: topology, unplugged slaves, power cycles and DL status (spec-notes §esc.dl).
 
 mod common;
 

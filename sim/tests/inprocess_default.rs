@@ -2,6 +2,7 @@
 //! master's codecs: what a master sees when it opens the simulator.
 
 use master_core::link::{Link, MAX_FRAME_LEN, Wait};
+use master_core::wire::Emit;
 use master_core::wire::coe::sdo::SdoFrame;
 use master_core::wire::coe::sdo_payload::SdoPayload;
 use master_core::wire::coe::sdo_request::SdoRequest;
@@ -116,10 +117,7 @@ impl Master {
     }
 
     fn sdo(&mut self, request: SdoRequest<'_>) -> Vec<u8> {
-        let mut data = vec![0u8; request.buffer_len()];
-        request
-            .emit(&mut SdoFrame::new_unchecked(&mut data[..]))
-            .unwrap();
+        let data = request.to_vec().unwrap();
         self.coe(&data)
     }
 

@@ -9,6 +9,7 @@ use etherparse::{
     ArpEthIpv4Packet, ArpOperation, Icmpv4Type, LinkSlice, NetSlice, PacketBuilder, SlicedPacket,
     TransportSlice,
 };
+use master_core::wire::Emit;
 use master_core::wire::eoe::{
     EoeFrameType, EoePacket, EoeRepr, EoeResult, FragmentRepr, Fragmenter, IpParameters,
     Reassembler,
@@ -25,10 +26,7 @@ const SLAVE_IP: Ipv4Addr = Ipv4Addr::new(192, 168, 100, 2);
 const MASTER_IP: Ipv4Addr = Ipv4Addr::new(192, 168, 100, 1);
 
 fn eoe(repr: &EoeRepr<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut EoePacket::new_unchecked(&mut out[..]))
-        .unwrap();
-    out
+    repr.to_vec().unwrap()
 }
 
 fn parse(reply: &Reply) -> EoeRepr<'_> {

@@ -3,6 +3,7 @@
 
 mod mailbox_support;
 
+use master_core::wire::Emit;
 use master_core::wire::foe::{FoeError, FoePacket, FoeRepr};
 use master_core::wire::mailbox::MailboxType;
 use sim::device::MailboxStack;
@@ -11,10 +12,7 @@ use sim::device::foe::{BusyPhase, FileStore, FoeFile, FoeService};
 use mailbox_support::{Bench, Reply};
 
 fn foe(repr: FoeRepr<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut FoePacket::new_unchecked(&mut out[..]))
-        .unwrap();
-    out
+    repr.to_vec().unwrap()
 }
 
 fn parse(reply: &Reply) -> FoeRepr<'_> {
@@ -70,7 +68,7 @@ fn read_file(bench: &mut Bench, name: &str, password: u32) -> Result<Vec<u8>, Fa
 /// Progress reports of the BUSY answers seen during a write.
 type BusyLog = Vec<(u16, u16, String)>;
 
-/// What a master does to download `data` as `name`, re-sending after BUSY (§8.2).
+/// What a master does to download `data` as `name`, re-sending after BUSY (spec-notes §foe).
 fn write_file(
     bench: &mut Bench,
     name: &str,

@@ -5,6 +5,7 @@ mod mailbox_support;
 
 use std::any::Any;
 
+use master_core::wire::Emit;
 use master_core::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
 use master_core::wire::register::al::AlState;
 use master_core::wire::voe::{VoePacket, VoeRepr};
@@ -23,10 +24,7 @@ fn voe_request(vendor_id: u32, vendor_type: u16, data: &[u8]) -> Vec<u8> {
         vendor_type,
         data,
     };
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut VoePacket::new_unchecked(&mut out[..]))
-        .unwrap();
-    out
+    repr.to_vec().unwrap()
 }
 
 fn voe_bench() -> Bench {

@@ -3,6 +3,7 @@
 
 mod mailbox_support;
 
+use master_core::wire::Emit;
 use master_core::wire::mailbox::{MailboxErrorCode, MailboxType};
 use master_core::wire::register::al::AlState;
 use master_core::wire::soe::{
@@ -34,10 +35,7 @@ fn request(
         error: None,
         data,
     };
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut SoePacket::new_unchecked(&mut out[..]))
-        .unwrap();
-    out
+    repr.to_vec().unwrap()
 }
 
 fn idn(number: u16) -> IdnOrFragments {

@@ -2,6 +2,7 @@
 //! mailbox return the configured elements; bad IDN descriptions are refused when building.
 
 use master_core::link::{Link, MAX_FRAME_LEN, Wait};
+use master_core::wire::Emit;
 use master_core::wire::command::{Command, DatagramAddress};
 use master_core::wire::datagram::{DatagramRepr, FrameBuilder};
 use master_core::wire::frame::EthercatFrame;
@@ -117,9 +118,7 @@ impl Master {
             error: None,
             data: &[],
         };
-        let mut soe = vec![0u8; repr.buffer_len()];
-        repr.emit(&mut SoePacket::new_unchecked(&mut soe[..]))
-            .unwrap();
+        let soe = repr.to_vec().unwrap();
         self.counter = self.counter % 7 + 1;
         let header = MailboxHeader {
             length: soe.len() as u16,

@@ -41,7 +41,8 @@ use std::time::{Duration, Instant};
 use latency::{Row, row};
 use master_core::bus::{Bus, BusConfig};
 use master_core::master::{Master, MasterConfig, SlaveAddress};
-use master_core::wire::coe::{CoeFrame, CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
+use master_core::wire::Emit;
+use master_core::wire::coe::{CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
 use master_core::wire::gateway::{GatewayMessage, GatewayRepr};
 use master_core::wire::mailbox::{MailboxHeader, MailboxType};
 use master_core::wire::register::AlState;
@@ -138,9 +139,7 @@ impl GatewayClient {
             subindex: 1,
             complete_access: false,
         });
-        let mut request = vec![0u8; sdo.buffer_len()];
-        sdo.emit(&mut CoeFrame::new_unchecked(&mut request[..]))
-            .expect("emit");
+        let request = sdo.to_vec().expect("emit");
         GatewayClient {
             socket,
             gateway,
@@ -164,9 +163,7 @@ impl GatewayClient {
             },
             data: &self.request,
         };
-        let mut out = vec![0u8; repr.buffer_len()];
-        repr.emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
-            .expect("emit");
+        let out = repr.to_vec().expect("emit");
         self.socket.send_to(&out, self.gateway).expect("send");
         let (len, _) = self.socket.recv_from(&mut self.reply).expect("a reply");
         let message = GatewayMessage::new_checked(&self.reply[..len]).expect("reply parses");

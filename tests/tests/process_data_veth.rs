@@ -32,7 +32,7 @@ const DRIVE: u16 = 0;
 const DO8: u16 = 1;
 const DI8: u16 = 2;
 const STORE: u16 = 3;
-/// Logical address of the mailbox-status bits (the seed capture's 0x40000).
+/// Logical address of the mailbox-status bits (0x40000 as in spec-notes §capture).
 const STATUS_BASE: u32 = 0x0004_0000;
 
 fn config() -> MasterConfig {
@@ -192,7 +192,7 @@ fn a_configured_pdo_assignment_is_written_and_takes_effect() {
     master.master().set_pdo_assignment(drive, assignments);
     scanned(&master);
     let info = master.master().slave(drive).unwrap();
-    let sm0 = info.mailbox.unwrap().sm0_start;
+    let sm0 = info.mailbox.unwrap().write.start;
     let writes = sdo_downloads(&returned.frames(), info.station, sm0);
     let sequence = |assign: u16, pdo: u16, entry: u32| {
         vec![
@@ -239,7 +239,7 @@ fn an_emergency_is_noticed_through_the_status_bit_not_by_polling() {
     // Drive, CoE store and EoE port have mailboxes: three bits mapped.
     assert_eq!(m.cycle_stats().mailbox_status_slaves, 3);
     let store = m.slave(SlaveAddress::Position(STORE)).unwrap();
-    let sm1 = store.mailbox.unwrap().sm1_start;
+    let sm1 = store.mailbox.unwrap().read.start;
     let mut emergencies = m
         .mailbox(SlaveAddress::Position(STORE))
         .unwrap()

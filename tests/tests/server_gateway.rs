@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 
 use master_core::gateway::BROADCAST_ADDRESS;
 use master_core::master_od::MasterIdentity;
+use master_core::wire::Emit;
 use master_core::wire::coe::{AbortCode, CoeRepr, DataType, ObjectCode, SdoRequest, SdoResponse};
 use master_core::wire::foe::{self, FoePacket, FoeRepr};
 use master_core::wire::mailbox::{ErrorReply, ErrorReplyRepr, MailboxErrorCode, MailboxType};
@@ -108,10 +109,7 @@ fn upload_request(index: u16, subindex: u8) -> CoeRepr<'static> {
 }
 
 fn soe_bytes(repr: &SoeRepr<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut SoePacket::new_unchecked(&mut out[..]))
-        .expect("emit SoE");
-    out
+    repr.to_vec().expect("emit SoE")
 }
 
 fn soe_of(reply: &Reply) -> SoeRepr<'_> {
@@ -131,10 +129,7 @@ fn soe_read_request(idn: u16) -> Vec<u8> {
 }
 
 fn foe_bytes(repr: &FoeRepr<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut FoePacket::new_unchecked(&mut out[..]))
-        .expect("emit FoE");
-    out
+    repr.to_vec().expect("emit FoE")
 }
 
 fn foe_of(reply: &Reply) -> FoeRepr<'_> {
@@ -497,7 +492,7 @@ fn is_variable(data_type: DataType) -> bool {
     )
 }
 
-/// Whether complete access packs an entry at bit granularity (digest §6.5: BOOL, BITn,
+/// Whether complete access packs an entry at bit granularity (spec-notes §coe.ca: BOOL, BITn,
 /// any length that is not whole bytes); the others start on a byte boundary.
 fn bit_packed(entry: &EntrySummary) -> bool {
     entry.data_type == DataType::Boolean
@@ -506,7 +501,7 @@ fn bit_packed(entry: &EntrySummary) -> bool {
         || !entry.bit_length.is_multiple_of(8)
 }
 
-/// The complete-access image (digest §6.5) of an ARRAY/RECORD built from single-entry
+/// The complete-access image (spec-notes §coe.ca) of an ARRAY/RECORD built from single-entry
 /// reads: SI0 (`count`) in 16 bits, then the entries 1..=count that exist (gaps left out) at
 /// their described bit length: byte-sized ones byte-aligned (strings padded with zeros),
 /// bit-sized ones packed LSB first.
@@ -590,7 +585,7 @@ fn the_master_dictionary_is_listed_described_and_readable_through_ecatd() {
     let slaves = u16::try_from(topology.slaves.len()).unwrap();
 
     // Get OD List (all objects): the master's identity, three objects per slave of the
-    // topology (digest §12.2-12.4), the device-level objects (§12.5).
+    // topology (ETG.1510, spec-notes §master-od), the device-level objects (ibid.).
     let (list, list_fragments) = client.od_list(0);
     let mut expected = vec![0x1000, 0x1008, 0x1009, 0x100A, 0x1018];
     for base in [0x8000u16, 0x9000, 0xA000] {
@@ -655,7 +650,7 @@ fn the_master_dictionary_is_listed_described_and_readable_through_ecatd() {
                     described.push(entry);
                     entries += 1;
                 }
-                // A gap in a record: neither described nor readable (digest §12.6).
+                // A gap in a record: neither described nor readable (spec-notes §master-od).
                 (Err(a), Err(b)) if composite && subindex > 0 => {
                     let gap = u32::from(AbortCode::TransferFailed);
                     assert_eq!((a, b), (gap, gap), "{at}");
@@ -754,10 +749,7 @@ fn errors_follow_the_table() {
             vendor_type: 1,
             data: &[1, 2],
         };
-        let mut out = vec![0u8; repr.buffer_len()];
-        repr.emit(&mut VoePacket::new_unchecked(&mut out[..]))
-            .unwrap();
-        out
+        repr.to_vec().unwrap()
     };
     let reply = client.exchange(0, MailboxType::Voe, &voe);
     assert_eq!(

@@ -8,8 +8,9 @@ use std::net::{Ipv4Addr, UdpSocket};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+use master_core::wire::Emit;
+use master_core::wire::coe::CoeRepr;
 use master_core::wire::coe::sdo_request::SdoRequest;
-use master_core::wire::coe::{CoeFrame, CoeRepr};
 use master_core::wire::gateway::{GatewayMessage, GatewayRepr};
 use master_core::wire::mailbox::{MailboxHeader, MailboxType};
 
@@ -136,9 +137,7 @@ fn upload_request(address: u16, counter: u8, index: u16, subindex: u8) -> Vec<u8
         subindex,
         complete_access: false,
     });
-    let mut data = vec![0u8; coe.buffer_len()];
-    coe.emit(&mut CoeFrame::new_unchecked(&mut data[..]))
-        .expect("emit CoE");
+    let data = coe.to_vec().expect("emit CoE");
     let repr = GatewayRepr {
         header: MailboxHeader {
             length: data.len() as u16,
@@ -150,10 +149,7 @@ fn upload_request(address: u16, counter: u8, index: u16, subindex: u8) -> Vec<u8
         },
         data: &data,
     };
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
-        .expect("emit gateway message");
-    out
+    repr.to_vec().expect("emit gateway message")
 }
 
 #[test]

@@ -19,9 +19,9 @@
 use std::time::Duration;
 
 use crate::wire::command::{Command, DatagramAddress};
-use crate::wire::datagram::{self, DatagramRepr, FrameBuilder};
+use crate::wire::datagram::{self, DatagramRepr};
 use crate::wire::error::WireError;
-use crate::wire::frame::EthercatFrame;
+use crate::wire::frame::{EthercatFrame, FrameBuilder};
 
 use super::error::BusError;
 use super::index::IndexTable;

@@ -15,8 +15,8 @@ use std::time::{Duration, Instant};
 
 use crate::link::{self, Link, Wait};
 use crate::wire::command::DatagramAddress;
-use crate::wire::datagram::{DatagramRepr, FrameBuilder, OVERHEAD};
-use crate::wire::frame::EthercatFrame;
+use crate::wire::datagram::{DatagramRepr, OVERHEAD};
+use crate::wire::frame::{EthercatFrame, FrameBuilder};
 
 use super::Shared;
 use super::config::{BusConfig, FRAME_HEADERS_LEN, WaitMode};

@@ -64,7 +64,7 @@ impl BusHandle {
     /// send mailbox (SM1) empties it, so a retried read of a lost frame could return the
     /// *next* message and the lost one would be gone without a trace. The mailbox layer
     /// reads SM1 with this and recovers a lost read with the repeat procedure instead
-    /// (digest §5.6).
+    /// (ETG.1000.4, spec-notes §mbx.repeat).
     pub fn submit_once(&self, request: DatagramRequest) -> Pending {
         self.submit_single(request, true)
     }

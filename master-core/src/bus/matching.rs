@@ -72,7 +72,8 @@ mod tests {
     use super::*;
     use crate::bus::record::{RecordKind, SentDatagram};
     use crate::wire::command::{Command, DatagramAddress};
-    use crate::wire::datagram::{DatagramRepr, FrameBuilder};
+    use crate::wire::datagram::DatagramRepr;
+    use crate::wire::frame::FrameBuilder;
 
     const SOURCE: [u8; 6] = [2, 0, 0, 0, 0, 1];
 

@@ -57,7 +57,7 @@
 //! written again). For a mailbox it is not: a repeated mailbox write would deliver the same
 //! request twice, and a repeated read of the send mailbox could swallow a reply. The
 //! mailbox layer therefore guards every transaction with the mailbox counter (1..7,
-//! digest §5.3) and the repeat procedure (§5.6) rather than relying on the bus, and reads
+//! spec-notes §mbx.counter) and the repeat procedure (spec-notes §mbx.repeat) rather than relying on the bus, and reads
 //! the send mailbox with [`BusHandle::submit_once`], which fails a lost datagram instead
 //! of sending it again. The same
 //! goes for a datagram that fails with [`BusError::Timeout`] or [`BusError::Shutdown`]

@@ -4,7 +4,7 @@ use crate::wire::command::{Command, DatagramAddress};
 
 use super::data::DatagramData;
 
-/// What working counter a caller expects (digest §1.4 lists what each command adds).
+/// What working counter a caller expects (spec-notes §commands lists what each command adds).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum WkcCheck {
     /// Any working counter is fine; the caller looks at it itself (for example a mailbox

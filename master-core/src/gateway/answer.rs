@@ -1,4 +1,4 @@
-//! The gateway's own error answers (the seed's error table, docs/gateway.md): what a client
+//! The gateway's own error answers (spec-notes §gateway.dialect, docs/gateway.md): what a client
 //! gets when its request never reached a slave, in the protocol it spoke.
 //!
 //! | fault | CoE | SoE | FoE | other types |

@@ -1,4 +1,4 @@
-//! The ETG.8200 mailbox gateway (digest §11, docs/gateway.md): configuration and diagnosis
+//! The ETG.8200 mailbox gateway (spec-notes §gateway, docs/gateway.md): configuration and diagnosis
 //! tools send raw mailbox messages over UDP, the gateway relays them to the slaves'
 //! mailboxes (or to the master's own dictionary at address 0) and sends the answers back.
 //!

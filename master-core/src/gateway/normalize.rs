@@ -1,4 +1,4 @@
-//! Tolerance of short SDO requests (seeds/README.md): the seed's sample clients send an
+//! Tolerance of short SDO requests (spec-notes §coe.sdo-short): some sample clients send an
 //! upload request of 8 bytes instead of 10 and a download with command 0x20 and a 2-byte
 //! value. Our codec reads both; before such a request goes to a slave, which may be less
 //! forgiving, it is written again in the standard form (an expedited initiate of 10 bytes).
@@ -41,7 +41,7 @@ mod tests {
 
     #[test]
     fn the_seed_samples_become_standard_requests() {
-        // Seed 000's upload of 0x1018:01: 8 bytes of CoE data.
+        // The sample clients' upload of 0x1018:01 (spec-notes §gateway.dialect): 8 bytes of CoE data.
         let upload = [0x00, 0x20, 0x40, 0x18, 0x10, 0x01, 0x00, 0x00];
         assert_eq!(
             &coe_request(&upload)[..],

@@ -55,7 +55,7 @@ mod tests {
 
     #[test]
     fn a_slave_reply_gets_the_client_address_and_keeps_its_counter() {
-        // Digest §11.2: the slave's reply to the TwinSAFE Loader, address rewritten.
+        // spec-notes §gateway: the slave's reply to the TwinSAFE Loader, address rewritten.
         let message = [
             0x0a, 0x00, 0xe9, 0x03, 0x00, 0x13, 0x00, 0x30, 0x43, 0x80, 0xf9, 0x02, 0xea, 0x82,
             0x1e, 0x00,

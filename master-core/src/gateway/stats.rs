@@ -101,7 +101,7 @@ impl FailureCounts {
 
 /// The gateway's statistics since it was last started (all zero before the first start).
 ///
-/// The first eight fields are those of the seed's gateway, with the same meaning; the rest
+/// The first eight fields are those of the gateway of spec-notes §gateway.dialect; the rest
 /// are ours. Counters only grow while the gateway runs; a restart sets them to zero.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct MailboxGatewayStats {

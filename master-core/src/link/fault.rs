@@ -9,7 +9,8 @@ use std::collections::VecDeque;
 use std::io;
 use std::time::{Duration, Instant};
 
-use super::{ETHERNET_HEADER_LEN, Link, MAX_FRAME_LEN, Wait};
+use super::{Link, MAX_FRAME_LEN, Wait};
+use crate::wire::ethernet::HEADER_LEN as ETHERNET_HEADER_LEN;
 
 /// Which faults to inject, as probabilities per frame (0.0 = never, 1.0 = always).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -31,17 +31,15 @@ pub use memory::MemoryLink;
 pub use pcap::PcapTap;
 pub use raw_socket::{RawSocket, RawSocketOptions};
 
-/// The EtherType of EtherCAT frames (big-endian on the wire: `88 A4`).
-pub const ETHERTYPE_ETHERCAT: u16 = 0x88A4;
-
-/// Length of an Ethernet II header without a VLAN tag: destination, source, EtherType.
-pub const ETHERNET_HEADER_LEN: usize = 14;
+use crate::wire::ethernet;
 
 /// The largest frame a link is expected to carry: a 1500-byte payload behind a VLAN-tagged
-/// Ethernet header (14 + 4 + 1500), without FCS.
+/// Ethernet header (14 + 4 + 1500), without FCS. (The EtherType, header lengths and the
+/// untagged maximum are `wire::ethernet`'s.)
 ///
 /// A receive buffer of this size never truncates an EtherCAT frame.
-pub const MAX_FRAME_LEN: usize = ETHERNET_HEADER_LEN + 4 + 1500;
+pub const MAX_FRAME_LEN: usize =
+    ethernet::MAX_FRAME_LEN + (ethernet::VLAN_HEADER_LEN - ethernet::HEADER_LEN);
 
 /// How long [`Link::recv`] may wait for a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

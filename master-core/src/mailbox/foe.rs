@@ -1,4 +1,4 @@
-//! FoE client (digest §8): files of any size to and from a slave, with BUSY phases,
+//! FoE client (spec-notes §foe): files of any size to and from a slave, with BUSY phases,
 //! password, the slave's errors with its own code and text, and progress reports.
 //!
 //! On BUSY the last message is sent again (a WRQ, or the DATA packet the slave is not

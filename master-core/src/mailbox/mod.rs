@@ -1,5 +1,5 @@
 //! The mailbox engine: one owner per slave mailbox, and the CoE, SoE, FoE, VoE and EoE
-//! clients on top (digest §5-§10).
+//! clients on top (ETG.1000.4, spec-notes §mbx.header, §voe).
 //!
 //! [`MailboxEngine::start`] runs the engine on its own thread (a current-thread tokio
 //! runtime) next to the bus; [`MailboxEngine::add_slave`] hands it a slave's mailbox
@@ -27,7 +27,7 @@
 //! request, and every [`MailboxConfig::idle_poll`] otherwise — or at once on
 //! [`MailboxEngine::notify_mailbox_full`], the hook for the mapped SM1 status bit.
 //!
-//! Everything read is sorted by type (seed 002): the waiting request gets its answer, CoE
+//! Everything read is sorted by type (spec-notes §mbx.demux): the waiting request gets its answer, CoE
 //! emergencies go to a bounded history and a broadcast channel, EoE fragments to the EoE
 //! receiver, SoE notifications to theirs. Nothing is dropped silently: what nobody takes
 //! is counted in [`MailboxStats`].
@@ -35,7 +35,7 @@
 //! The bus resends lost frames, which can carry out a write twice and would let a
 //! resent read of SM1 swallow a message: writes are guarded by the counter (the slave
 //! discards a repetition), reads are sent once ([`BusHandle::submit_once`](crate::bus::BusHandle::submit_once)) and a lost
-//! one is recovered with the repeat procedure (digest §5.6).
+//! one is recovered with the repeat procedure (ETG.1000.4, spec-notes §mbx.repeat).
 //!
 //! Every request has a deadline ([`MailboxConfig::timeout`], or
 //! [`SlaveMailbox::with_timeout`]). Dropping a request's future cancels it: a request not

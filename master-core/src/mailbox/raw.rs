@@ -1,6 +1,7 @@
-//! Raw mailbox transactions for the ETG.8200 gateway: the mailbox type and the service
-//! data of one request in, the slave's answers out as [`RawReply`]s (header parsed once,
-//! here), with the engine's counter and all the guards of any other request.
+//! Raw mailbox transactions for the ETG.8200 gateway (spec-notes §gateway): the mailbox
+//! type and the service data of one request in, the slave's answers out as [`RawReply`]s
+//! (header parsed once, here), with the engine's counter and all the guards of any other
+//! request.
 
 use crate::mailbox::engine::exchange::{Exchange, Reply};
 use crate::mailbox::engine::job::{BoxFuture, call_for};

@@ -1,4 +1,4 @@
-//! SoE client (digest §7): reading and writing IDN elements of a servo drive, in
+//! SoE client (ETG.1000.6, spec-notes §soe): reading and writing IDN elements of a servo drive, in
 //! fragments when a value does not fit one mailbox message.
 
 use crate::mailbox::engine::exchange::Exchange;

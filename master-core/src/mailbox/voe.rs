@@ -1,4 +1,4 @@
-//! VoE client (digest §10): the master only moves the bytes; the meaning is the vendor's.
+//! VoE client (spec-notes §voe): the master only moves the bytes; the meaning is the vendor's.
 
 use crate::mailbox::engine::job::{BoxFuture, call};
 use crate::mailbox::engine::slave::SlaveMailbox;

@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use crate::mailbox::MailboxConfig;
 
-use super::dc::DcSettings;
+use super::bringup::dc_settings::DcSettings;
 use crate::wire::register::AlState;
 
 /// Settings of a [`Master`](super::Master).
@@ -14,7 +14,7 @@ use crate::wire::register::AlState;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MasterConfig {
     /// Station address of the slave at position 0; position *p* gets `station_base + p`.
-    /// Default 1001 (0x03E9), as IgH and the seed capture use.
+    /// Default 1001 (0x03E9), as IgH and the reference capture use (spec-notes §capture).
     pub station_base: u16,
     /// The state a scan brings every slave to, and the one the watch restores. Default OP.
     pub target_state: AlState,

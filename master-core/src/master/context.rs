@@ -7,63 +7,17 @@ use tokio::sync::broadcast;
 use crate::bus::BusHandle;
 use crate::mailbox::MailboxEngine;
 
-use super::address::{self, SlaveAddress};
-use super::config::MasterConfig;
-use super::dc::DcSlave;
-use super::error::MasterError;
-use super::event::MasterEvent;
-use super::image::Image;
-use super::info::{Identity, ProcessDataInfo, SlaveInfo};
-use super::layout::{LayoutSource, ProcessDataLayout};
-use super::pdo_config::{PdoAssignment, SlavePdoConfig};
-use crate::wire::register::{AlState, AlStatusCode, DlStatus, EscInfoRepr};
+use crate::master::access::address::{self, SlaveAddress};
+use crate::master::bringup::dc_settings::DcSlave;
+use crate::master::config::MasterConfig;
+use crate::master::error::MasterError;
+use crate::master::event::MasterEvent;
+use crate::master::info::SlaveInfo;
+use crate::master::process_data::image::Image;
+use crate::master::process_data::layout::LayoutSource;
+use crate::master::process_data::pdo_assignment::{PdoAssignment, SlavePdoConfig};
 
-/// One slave: the snapshot callers see, its SII image and its process-data layout.
-#[derive(Debug, Clone)]
-pub(crate) struct SlaveRecord {
-    pub info: SlaveInfo,
-    pub sii: Vec<u8>,
-    pub layout: ProcessDataLayout,
-    /// Whether the configured PDO assignment was written since the slave was identified
-    /// (a power cycle restores the slave's own).
-    pub pdo_written: bool,
-}
-
-impl SlaveRecord {
-    /// A slave that answered the scan but could not be identified (its SII unreadable):
-    /// kept in its place, with no SII, for the watch to try again.
-    pub fn unidentified(position: u16, station: u16, requested_state: AlState) -> SlaveRecord {
-        SlaveRecord {
-            info: SlaveInfo {
-                position,
-                station,
-                alias: 0,
-                identity: Identity::default(),
-                name: String::new(),
-                esc: EscInfoRepr::default(),
-                mailbox: None,
-                boot_mailbox: None,
-                dl_status: DlStatus::default(),
-                al_state: AlState::Init,
-                al_error: false,
-                al_status_code: AlStatusCode::NoError,
-                requested_state,
-                process_data: ProcessDataInfo::default(),
-                present: false,
-                device_type: 0,
-            },
-            sii: Vec::new(),
-            layout: ProcessDataLayout::default(),
-            pdo_written: false,
-        }
-    }
-}
-
-/// The slaves of the last scan, by ring position.
-#[derive(Debug, Default)]
-pub(crate) struct Slaves {
-    pub list: Vec<SlaveRecord>,
-}
+use crate::master::record::{SlaveRecord, Slaves};
 
 /// Shared by everything in the master. The lock is never held across an `.await`.
 pub(crate) struct Context {

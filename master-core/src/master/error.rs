@@ -5,7 +5,7 @@ use crate::mailbox::MailboxError;
 use crate::wire::WireError;
 use crate::wire::register::{AlState, AlStatusCode};
 
-use super::address::SlaveAddress;
+use super::access::address::SlaveAddress;
 
 /// Why a master operation failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

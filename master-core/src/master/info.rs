@@ -1,38 +1,12 @@
 //! A snapshot of what the master knows about one slave, for the mailbox engine, the server
 //! and tools.
 
+use crate::mailbox::SlaveMailboxConfig;
 use crate::wire::register::{AlState, AlStatusCode, DlStatus, EscInfoRepr};
-use crate::wire::sii::MailboxProtocols;
 
-/// Vendor, product, revision and serial number (SII words 0x08–0x0F).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct Identity {
-    /// Vendor ID.
-    pub vendor_id: u32,
-    /// Product code.
-    pub product_code: u32,
-    /// Revision number.
-    pub revision: u32,
-    /// Serial number.
-    pub serial: u32,
-}
-
-/// Where a slave's mailbox is: everything the mailbox engine needs to talk to it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct MailboxLayout {
-    /// Station address to send FPRD/FPWR to.
-    pub station: u16,
-    /// SM0 (master → slave) start address.
-    pub sm0_start: u16,
-    /// SM0 length: every write to it must be this long.
-    pub sm0_length: u16,
-    /// SM1 (slave → master) start address.
-    pub sm1_start: u16,
-    /// SM1 length: every read of it must be this long.
-    pub sm1_length: u16,
-    /// Mailbox protocols the slave supports (SII word 0x1C).
-    pub protocols: MailboxProtocols,
-}
+/// Vendor, product, revision and serial number (SII words 0x08–0x0F); the same type as
+/// [`od::Identity`](crate::od::Identity).
+pub use crate::wire::identity::Identity;
 
 /// A slave's share of the process image.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -63,9 +37,9 @@ pub struct SlaveInfo {
     /// The ESC's information block (type, revision, FMMUs, SyncManagers, RAM, features).
     pub esc: EscInfoRepr,
     /// Standard mailbox, if the slave has one.
-    pub mailbox: Option<MailboxLayout>,
+    pub mailbox: Option<SlaveMailboxConfig>,
     /// Bootstrap mailbox, if the slave announces one.
-    pub boot_mailbox: Option<MailboxLayout>,
+    pub boot_mailbox: Option<SlaveMailboxConfig>,
     /// DL status at the last look (port links, loops, communication).
     pub dl_status: DlStatus,
     /// Current AL state at the last look.

@@ -1,4 +1,4 @@
-//! The device-level objects (digest §12.5): 0xF000 modular device profile, 0xF002 scan
+//! The device-level objects (spec-notes §master-od): 0xF000 modular device profile, 0xF002 scan
 //! command, 0xF020.. configured and 0xF040.. detected address lists, 0xF120 master
 //! diagnosis, 0xF200 diagnosis reset.
 

@@ -1,4 +1,4 @@
-//! The master's own identity objects (digest §12.1): 0x1000, 0x1008, 0x1009, 0x100A, 0x1018.
+//! The master's own identity objects (spec-notes §master-od): 0x1000, 0x1008, 0x1009, 0x100A, 0x1018.
 
 use crate::od::DictionaryBuilder;
 use crate::wire::coe::{DataType, ObjectAccess};

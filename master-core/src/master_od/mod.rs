@@ -1,4 +1,4 @@
-//! The master's own object dictionary (ETG.1510 master diagnosis interface, digest §12),
+//! The master's own object dictionary (ETG.1510 master diagnosis interface, spec-notes §master-od),
 //! served at mailbox address 0 of the ETG.8200 gateway and usable locally.
 //!
 //! | objects | content |

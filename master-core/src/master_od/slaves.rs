@@ -1,4 +1,4 @@
-//! The per-slave objects (digest §12.2-§12.4): 0x8nnn configuration, 0x9nnn detected
+//! The per-slave objects (ETG.1510, spec-notes §master-od): 0x8nnn configuration, 0x9nnn detected
 //! information, 0xAnnn diagnosis, with n the slave's ring position.
 
 use crate::master::{Identity, SlaveInfo};
@@ -23,7 +23,7 @@ pub const DIAGNOSIS: u16 = 0xA000;
 /// 0xAnnn:02, the writable AL control.
 pub const AL_CONTROL_SUBINDEX: u8 = 2;
 
-/// 0x8nnn:23 link status (PyETG1510's reading of ETG.1510, digest §12.2): bit 0 no link at
+/// 0x8nnn:23 link status (PyETG1510's reading of ETG.1510, spec-notes §master-od): bit 0 no link at
 /// all, bit 1 a port with a link but no communication; bits 4-7 say which ports bit 1 is
 /// about.
 fn link_status(dl: &DlStatus) -> u8 {
@@ -159,14 +159,14 @@ pub(crate) fn declare(mut b: DictionaryBuilder, snap: &MasterSnapshot) -> Dictio
                     "Mailbox out size",
                     DataType::Unsigned16,
                     ro,
-                    mailbox.map_or(0, |m| m.sm0_length),
+                    mailbox.map_or(0, |m| m.write.len),
                 )
                 .entry(
                     0x22,
                     "Mailbox in size",
                     DataType::Unsigned16,
                     ro,
-                    mailbox.map_or(0, |m| m.sm1_length),
+                    mailbox.map_or(0, |m| m.read.len),
                 )
                 .entry(
                     0x23,

@@ -1,5 +1,5 @@
 //! Which access bits apply in which AL state, and the abort code for each refusal
-//! (digest §6.8 object access word, §6.6 abort codes).
+//! (ETG.1000.6, spec-notes §coe.info object access word, §coe.abort abort codes).
 
 use crate::wire::coe::{AbortCode, ObjectAccess};
 use crate::wire::register::AlState;

@@ -1,17 +1,17 @@
 //! Value checks shared by every dictionary: length against the type, value against the
-//! declared minimum and maximum (digest §6.6: 0x06070012/13, 0x06090031/32).
+//! declared minimum and maximum (ETG.1000.6, spec-notes §coe.abort: 0x06070012/13, 0x06090031/32).
 
 use core::cmp::Ordering;
 
 use crate::wire::coe::AbortCode;
 
-use super::dictionary::EntryInfo;
+use super::dictionary::DictEntryInfo;
 use super::value::{Number, decode_number};
 
 /// Checks the bytes of a download against the entry: a fixed-size value must have exactly
 /// ⌈bit length / 8⌉ bytes, a string or DOMAIN at most its maximum length; numbers must lie
 /// within the declared minimum and maximum (and fit BITn).
-pub fn check_value(info: &EntryInfo<'_>, data: &[u8]) -> Result<(), AbortCode> {
+pub fn check_value(info: &DictEntryInfo<'_>, data: &[u8]) -> Result<(), AbortCode> {
     if info.is_variable_length() {
         return if data.len() > info.max_len {
             Err(AbortCode::LengthTooHigh)
@@ -53,8 +53,8 @@ mod tests {
     use crate::wire::coe::{DataType, ObjectAccess};
     use std::borrow::Cow;
 
-    fn info(data_type: DataType, bits: u16) -> EntryInfo<'static> {
-        EntryInfo {
+    fn info(data_type: DataType, bits: u16) -> DictEntryInfo<'static> {
+        DictEntryInfo {
             index: 0x2000,
             subindex: 0,
             name: Cow::Borrowed("x"),

@@ -15,7 +15,7 @@ use super::value::{bytes_for_bits, is_variable_length};
 
 /// What SDO Information's Get Object Description reports about an object.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ObjectInfo<'a> {
+pub struct DictObjectInfo<'a> {
     /// Object index.
     pub index: u16,
     /// Object name.
@@ -28,7 +28,7 @@ pub struct ObjectInfo<'a> {
     pub max_subindex: u8,
 }
 
-impl ObjectInfo<'_> {
+impl DictObjectInfo<'_> {
     /// Whether subindex 0 holds the number of entries (ARRAY and RECORD).
     pub fn has_count(&self) -> bool {
         matches!(self.object_code, ObjectCode::Array | ObjectCode::Record)
@@ -38,7 +38,7 @@ impl ObjectInfo<'_> {
 /// What SDO Information's Get Entry Description reports about an entry, plus the byte
 /// capacity the server needs to bound transfers.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct EntryInfo<'a> {
+pub struct DictEntryInfo<'a> {
     /// Object index.
     pub index: u16,
     /// Subindex.
@@ -63,7 +63,7 @@ pub struct EntryInfo<'a> {
     pub maximum: Option<Cow<'a, [u8]>>,
 }
 
-impl EntryInfo<'_> {
+impl DictEntryInfo<'_> {
     /// Whether the value has a variable length (strings, DOMAIN).
     pub fn is_variable_length(&self) -> bool {
         is_variable_length(self.data_type)
@@ -86,7 +86,7 @@ pub struct EntryWrite<'a> {
 
 /// An object dictionary as the SDO server sees it.
 ///
-/// Conventions for the abort codes (digest §6.6, §12.6): unknown index 0x06020000; subindex
+/// Conventions for the abort codes (spec-notes §coe.abort, §master-od): unknown index 0x06020000; subindex
 /// above the highest declared one 0x06090011; a gap below it 0x08000020. Reads and writes
 /// check access for `state` (see [`super::access`]).
 pub trait Dictionary {
@@ -96,10 +96,10 @@ pub trait Dictionary {
     fn indices(&self, list: OdListType) -> Vec<u16>;
 
     /// Describes an object; `None` if it does not exist.
-    fn object(&self, index: u16) -> Option<ObjectInfo<'_>>;
+    fn object(&self, index: u16) -> Option<DictObjectInfo<'_>>;
 
     /// Describes an entry, or says why it does not exist.
-    fn entry(&self, index: u16, subindex: u8) -> Result<EntryInfo<'_>, AbortCode>;
+    fn entry(&self, index: u16, subindex: u8) -> Result<DictEntryInfo<'_>, AbortCode>;
 
     /// Appends the current value of an entry to `out`.
     fn read(
@@ -124,7 +124,7 @@ pub trait Dictionary {
     /// are in ascending subindex order; read-only entries have already been left out by
     /// the server. Either all entries are stored or none.
     ///
-    /// The default writes entry by entry in the order of the PDO procedure (digest §6.11):
+    /// The default writes entry by entry in the order of the PDO procedure (spec-notes §coe.pdo):
     /// SI0 = 0 first, then the entries, then SI0, so dictionaries that refuse entry writes
     /// while SI0 ≠ 0 accept it; it is not atomic. Dictionaries that can do better override
     /// it.

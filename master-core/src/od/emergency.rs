@@ -1,8 +1,8 @@
-//! Building CoE emergency messages (digest §6.7) for the owner of a dictionary to post in
+//! Building CoE emergency messages (spec-notes §coe.emcy) for the owner of a dictionary to post in
 //! SM1 — unsolicited, outside any SDO exchange, so the server does not send them itself.
 
 use crate::wire::coe::emergency::EMERGENCY_LEN;
-use crate::wire::coe::{Emergency, EmergencyRepr};
+use crate::wire::coe::{EmergencyFrame, EmergencyRepr};
 
 /// CiA 301 error codes a simulated device commonly reports.
 pub mod codes {
@@ -25,7 +25,7 @@ pub fn emergency(error_code: u16, error_register: u8, data: [u8; 5]) -> [u8; EME
         data,
     };
     // The buffer has exactly the emergency's length, which is all emit needs.
-    let _ = repr.emit(&mut Emergency::new_unchecked(&mut out[..]));
+    let _ = repr.emit(&mut EmergencyFrame::new_unchecked(&mut out[..]));
     out
 }
 
@@ -37,7 +37,8 @@ mod tests {
     fn parses_back() {
         let bytes = emergency(codes::COMMUNICATION, 0x11, [1, 2, 3, 4, 5]);
         assert_eq!(bytes[..2], [0x00, 0x10]);
-        let parsed = EmergencyRepr::parse(&Emergency::new_checked(&bytes[..]).unwrap()).unwrap();
+        let parsed =
+            EmergencyRepr::parse(&EmergencyFrame::new_checked(&bytes[..]).unwrap()).unwrap();
         assert_eq!(parsed.error_code, 0x8100);
         assert_eq!(parsed.error_register, 0x11);
         assert_eq!(parsed.data, [1, 2, 3, 4, 5]);

@@ -28,7 +28,7 @@ pub mod static_dictionary;
 pub mod value;
 
 pub use builder::{BuildError, DictionaryBuilder, ObjectBuilder};
-pub use dictionary::{Dictionary, EntryInfo, EntryWrite, ObjectInfo};
+pub use dictionary::{DictEntryInfo, DictObjectInfo, Dictionary, EntryWrite};
 pub use hooks::{WriteEvent, WriteHook};
 pub use object::{Entry, Object};
 pub use server::{MIN_MAILBOX_SIZE, Outcome, SdoServer, ServerContext};

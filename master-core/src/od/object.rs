@@ -4,7 +4,7 @@ use std::borrow::Cow;
 
 use crate::wire::coe::{AbortCode, DataType, ObjectAccess, ObjectCode};
 
-use super::dictionary::{EntryInfo, ObjectInfo};
+use super::dictionary::{DictEntryInfo, DictObjectInfo};
 use super::value::{EncodeValue, ValueError, bytes_for_bits, is_variable_length};
 
 /// One entry (subindex) of an object.
@@ -103,8 +103,8 @@ impl Entry {
     }
 
     /// The description the server and SDO Information use.
-    pub fn info(&self, index: u16) -> EntryInfo<'_> {
-        EntryInfo {
+    pub fn info(&self, index: u16) -> DictEntryInfo<'_> {
+        DictEntryInfo {
             index,
             subindex: self.subindex,
             name: Cow::Borrowed(&self.name),
@@ -135,7 +135,7 @@ pub struct Object {
     /// Entries in ascending subindex order; subindices may have gaps.
     pub entries: Vec<Entry>,
     /// Entries other than SI0 may only be written while SI0 is 0 (PDO mapping and
-    /// assignment, digest §6.11); otherwise abort 0x06010003.
+    /// assignment, ETG.1000.6, spec-notes §coe.pdo); otherwise abort 0x06010003.
     pub zero_count_to_write: bool,
 }
 
@@ -186,8 +186,8 @@ impl Object {
     }
 
     /// The description the server and SDO Information use.
-    pub fn info(&self) -> ObjectInfo<'_> {
-        ObjectInfo {
+    pub fn info(&self) -> DictObjectInfo<'_> {
+        DictObjectInfo {
             index: self.index,
             name: Cow::Borrowed(&self.name),
             object_code: self.object_code,

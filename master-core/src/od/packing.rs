@@ -1,4 +1,4 @@
-//! The byte image of a complete-access transfer (digest §6.5): entries concatenated in
+//! The byte image of a complete-access transfer (spec-notes §coe.ca): entries concatenated in
 //! subindex order; byte-sized entries start on a byte boundary, bit-sized ones (BOOLEAN,
 //! BITn, any length that is not whole bytes) are packed LSB first at the current bit
 //! position; SI0 of an ARRAY/RECORD takes 16 bits (its u8 and a padding byte).

@@ -1,4 +1,4 @@
-//! Standard communication-area objects (digest §6.10, §6.11): identity, device type and
+//! Standard communication-area objects (spec-notes §coe.objects, §coe.pdo): identity, device type and
 //! names, PDO mapping and assignment, sync manager types — declared through the builder,
 //! and read back for the process-data layout.
 
@@ -27,18 +27,9 @@ pub const RX_PDO_ASSIGN: u16 = 0x1C12;
 /// 0x1C13 SM3 (inputs) PDO assignment.
 pub const TX_PDO_ASSIGN: u16 = 0x1C13;
 
-/// The four identity values of 0x1018 (also SII words 8-15).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Identity {
-    /// :01 EtherCAT vendor ID.
-    pub vendor_id: u32,
-    /// :02 Product code.
-    pub product_code: u32,
-    /// :03 Revision number.
-    pub revision: u32,
-    /// :04 Serial number (0 if unused).
-    pub serial: u32,
-}
+/// The four identity values of 0x1018 (also SII words 8-15); one type with the master's
+/// slave snapshot.
+pub use crate::wire::identity::Identity;
 
 /// One PDO mapping entry: `(index << 16) | (subindex << 8) | bit_length`; index 0 is a
 /// gap of `bit_length` bits.
@@ -165,7 +156,7 @@ impl DictionaryBuilder {
 
     /// A PDO mapping object (0x1600.. RxPDO, 0x1A00.. TxPDO) with room for `capacity`
     /// entries, `entries` mapped. SI0 and entries are writable in PREOP only, entries only
-    /// while SI0 = 0 (digest §6.11).
+    /// while SI0 = 0 (ETG.1000.6, spec-notes §coe.pdo).
     pub fn pdo_mapping(self, index: u16, name: &str, entries: &[PdoEntry], capacity: u8) -> Self {
         let mapped = u8::try_from(entries.len()).unwrap_or(u8::MAX);
         let capacity = capacity.max(mapped);

@@ -14,7 +14,7 @@ use crate::wire::register::AlState;
 use super::access::{check_read, check_write};
 use super::builder::DictionaryBuilder;
 use super::check::check_value;
-use super::dictionary::{Dictionary, EntryInfo, EntryWrite, ObjectInfo};
+use super::dictionary::{DictEntryInfo, DictObjectInfo, Dictionary, EntryWrite};
 use super::hooks::{HookSlot, WriteEvent, WriteHook};
 use super::object::Object;
 use super::value::{DecodeValue, EncodeValue, ValueError};
@@ -274,11 +274,11 @@ impl Dictionary for StaticDictionary {
             .collect()
     }
 
-    fn object(&self, index: u16) -> Option<ObjectInfo<'_>> {
+    fn object(&self, index: u16) -> Option<DictObjectInfo<'_>> {
         self.objects.get(&index).map(Object::info)
     }
 
-    fn entry(&self, index: u16, subindex: u8) -> Result<EntryInfo<'_>, AbortCode> {
+    fn entry(&self, index: u16, subindex: u8) -> Result<DictEntryInfo<'_>, AbortCode> {
         Ok(self.find(index)?.entry(subindex)?.info(index))
     }
 
@@ -304,7 +304,7 @@ impl Dictionary for StaticDictionary {
     ) -> Result<(), AbortCode> {
         self.check_entry(index, subindex, data, state)?;
         let object = self.find(index)?;
-        // Strict PDO procedure (§6.11): mapping/assignment entries change only while the
+        // Strict PDO procedure (spec-notes §coe.pdo): mapping/assignment entries change only while the
         // object is switched off with SI0 = 0.
         if object.zero_count_to_write && subindex != 0 && object.count() != Some(0) {
             return Err(AbortCode::SubindexNotWritable);

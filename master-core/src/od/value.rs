@@ -1,4 +1,4 @@
-//! Typed values ⇄ CoE bytes, by data type (digest §6.9).
+//! Typed values ⇄ CoE bytes, by data type (ETG.1000.6, spec-notes §coe.types).
 //!
 //! Dictionaries store every value as the little-endian bytes that travel in an SDO transfer;
 //! these helpers turn Rust values into those bytes and back, checking that the value fits

@@ -1,4 +1,4 @@
-//! Datagram commands and their addressing (digest §1.4 command table, §1.5 addressing).
+//! Datagram commands and their addressing (spec-notes §commands, §addressing).
 //!
 //! The command byte (datagram offset 0) selects both *how* slaves are addressed (position,
 //! configured station address, broadcast or logical) and *what* they do (read, write, both,
@@ -11,7 +11,7 @@ use crate::wire::error::{Result, WireError};
 use crate::wire::macros::enum_with_unknown;
 
 enum_with_unknown! {
-    /// Datagram command (digest §1.4; ETG.1000.4 command types, Wireshark `EcCmd` names).
+    /// Datagram command (ETG.1000.4 command types, Wireshark `EcCmd` names, spec-notes §commands).
     pub enum Command(u8) {
         /// No operation: slaves ignore the datagram.
         Nop = 0x00,
@@ -46,7 +46,7 @@ enum_with_unknown! {
     }
 }
 
-/// How a command addresses slaves (digest §1.5).
+/// How a command addresses slaves (ETG.1000.3, spec-notes §addressing).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum AddressingMode {
     /// No addressing: NOP and unknown commands.
@@ -84,7 +84,7 @@ impl Command {
         }
     }
 
-    /// The long name of the command (ETG.1000.4 wording as used in the seed capture notes).
+    /// The long name of the command (ETG.1000.4 wording).
     pub fn description(self) -> &'static str {
         match self {
             Command::Nop => "No Operation",
@@ -106,7 +106,7 @@ impl Command {
         }
     }
 
-    /// How this command addresses slaves (digest §1.4 "Addressing" column).
+    /// How this command addresses slaves (ETG.1000.4, spec-notes §commands "Addressing" column).
     pub fn addressing(self) -> AddressingMode {
         match self {
             Command::Aprd | Command::Apwr | Command::Aprw | Command::Armw => {
@@ -163,14 +163,14 @@ impl fmt::Display for Command {
     }
 }
 
-/// The 4 address bytes of a datagram read according to its command (digest §1.3, §1.5).
+/// The 4 address bytes of a datagram read according to its command (spec-notes §datagram, §addressing).
 ///
 /// On the wire the bytes are ADP (u16 LE) then ADO (u16 LE), or one u32 LE logical address;
 /// so as a little-endian u32, `raw = adp | ado << 16`.
 ///
 /// Position and broadcast addresses keep the raw ADP rather than a position or nothing:
 /// slaves increment ADP as the datagram passes, so in a returned datagram it no longer
-/// names a position (a returned BRD carries the number of slaves it passed, digest C.1), and
+/// names a position (a returned BRD carries the number of slaves it passed, spec-notes §commands), and
 /// keeping the wire value makes decode/encode lossless.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum DatagramAddress {
@@ -360,7 +360,7 @@ pub(crate) mod tests {
 
     #[test]
     fn read_write_classification() {
-        // (read, write) per command code 0..=14, worked out from the digest §1.4 table.
+        // (read, write) per command code 0..=14, worked out from the command table (spec-notes §commands).
         let expected = [
             (false, false), // NOP
             (true, false),  // APRD
@@ -386,7 +386,7 @@ pub(crate) mod tests {
 
     #[test]
     fn position_addresses_of_c2() {
-        // Digest C.2: APWR to position 0 has ADP bytes `00 00`, position 1 has `ff ff`;
+        // spec-notes §commands: APWR to position 0 has ADP bytes `00 00`, position 1 has `ff ff`;
         // both with ADO 0x0010 (`10 00`).
         let p0 = DatagramAddress::position(0, 0x0010);
         let p1 = DatagramAddress::position(1, 0x0010);
@@ -408,7 +408,7 @@ pub(crate) mod tests {
 
     #[test]
     fn node_and_logical_addresses() {
-        // C.3: FPWR to station 0x1001 offset 0x0502 → `01 10 02 05`.
+        // ETG.1000.4, spec-notes §esc.sii-if: FPWR to station 0x1001 offset 0x0502 → `01 10 02 05`.
         let node = DatagramAddress::decode_bytes(Command::Fpwr, [0x01, 0x10, 0x02, 0x05]);
         assert_eq!(
             node,
@@ -417,7 +417,7 @@ pub(crate) mod tests {
                 ado: 0x0502
             })
         );
-        // Seed 001: address bytes `00 00 01 01` read as logical are 0x01010000.
+        // spec-notes §capture: address bytes `00 00 01 01` read as logical are 0x01010000.
         assert_eq!(
             DatagramAddress::decode_bytes(Command::Lrd, [0x00, 0x00, 0x01, 0x01]),
             Some(DatagramAddress::Logical(0x0101_0000))

@@ -1,4 +1,4 @@
-//! The Ethernet II header that carries EtherCAT (digest §1.1, §1.6).
+//! The Ethernet II header that carries EtherCAT (ETG.1000.4, spec-notes §frame).
 //!
 //! ```text
 //! offset 0   [u8; 6]  destination MAC (masters send broadcast ff:ff:ff:ff:ff:ff)
@@ -31,11 +31,11 @@ mod fields {
 pub const HEADER_LEN: usize = fields::PAYLOAD.start;
 /// Size of an Ethernet II header with one 802.1Q tag.
 pub const VLAN_HEADER_LEN: usize = fields::VLAN_PAYLOAD.start;
-/// EtherType of EtherCAT (digest §1.1).
+/// EtherType of EtherCAT (ETG.1000.4, spec-notes §frame).
 pub const ETHERTYPE_ETHERCAT: u16 = 0x88A4;
 /// Tag protocol identifier of an IEEE 802.1Q VLAN tag.
 pub const ETHERTYPE_VLAN: u16 = 0x8100;
-/// Minimum Ethernet frame length without the FCS (digest §1.6: 64 with FCS).
+/// Minimum Ethernet frame length without the FCS (ETG.1000.4, spec-notes §frame: 64 with FCS).
 pub const MIN_FRAME_LEN: usize = 60;
 /// Maximum untagged Ethernet frame length without the FCS (1500-byte MTU + header).
 pub const MAX_FRAME_LEN: usize = HEADER_LEN + 1500;
@@ -43,7 +43,7 @@ pub const MAX_FRAME_LEN: usize = HEADER_LEN + 1500;
 pub const BROADCAST: [u8; 6] = [0xFF; 6];
 
 /// Number of zero bytes to append to a frame of `frame_len` bytes (header included, FCS
-/// excluded) so that it reaches the Ethernet minimum of [`MIN_FRAME_LEN`] (digest §1.6).
+/// excluded) so that it reaches the Ethernet minimum of [`MIN_FRAME_LEN`] (spec-notes §frame).
 pub const fn padding_len(frame_len: usize) -> usize {
     MIN_FRAME_LEN.saturating_sub(frame_len)
 }
@@ -255,7 +255,7 @@ pub(crate) mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    // Digest C.1: the first 14 bytes of the 60-byte count-slaves frame.
+    // ETG.1000.4, spec-notes §commands: the first 14 bytes of the 60-byte count-slaves frame.
     static HEADER_BYTES: [u8; 14] = [
         0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x02, 0x00, 0x00, 0x00, 0x00, 0x01, 0x88, 0xa4,
     ];
@@ -362,7 +362,7 @@ pub(crate) mod tests {
             Mac([0xaa, 0xbb, 0xcc, 0x0d, 0xee, 0xff]).to_string(),
             "aa:bb:cc:0d:ee:ff"
         );
-        // C.1: 14 (Ethernet) + 2 (EtherCAT header) + 14 (BRD, 2 data bytes) = 30 → 30 zeros.
+        // spec-notes §commands: 14 (Ethernet) + 2 (EtherCAT header) + 14 (BRD, 2 data bytes) = 30 → 30 zeros.
         assert_eq!(padding_len(30), 30);
         assert_eq!(padding_len(60), 0);
         assert_eq!(padding_len(1514), 0);

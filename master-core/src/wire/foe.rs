@@ -1,4 +1,4 @@
-//! FoE — file access over EtherCAT (mailbox type 4, digest §8).
+//! FoE — file access over EtherCAT (mailbox type 4, ETG.1000.6, spec-notes §foe).
 //!
 //! ```text
 //! offset 0  u8   opcode     1 RRQ, 2 WRQ, 3 DATA, 4 ACK, 5 ERROR, 6 BUSY
@@ -10,7 +10,7 @@
 //!
 //! The view covers the mailbox *data* (after the 6-byte mailbox header). The packet number and
 //! error code are u32 as in SOEM, SOES and IgH (Wireshark and KickCAT use u16 + 2 reserved
-//! bytes; for packet numbers below 65536 the bytes are identical — digest §8.1, Appendix D).
+//! bytes; for packet numbers below 65536 the bytes are identical — ETG.1000.6, spec-notes §foe).
 
 use core::fmt;
 
@@ -32,13 +32,13 @@ mod fields {
 pub const HEADER_LEN: usize = fields::PAYLOAD.start;
 
 /// Maximum file data per DATA packet for a receiver mailbox of `mailbox_size` bytes:
-/// `M − 12` (6 mailbox header + 6 FoE header, digest §8.1). 0 if the mailbox is too small.
+/// `M − 12` (6 mailbox header + 6 FoE header, spec-notes §foe). 0 if the mailbox is too small.
 pub const fn max_data(mailbox_size: usize) -> usize {
     mailbox_size.saturating_sub(crate::wire::mailbox::HEADER_LEN + HEADER_LEN)
 }
 
 enum_with_unknown! {
-    /// FoE opcode (digest §8.1).
+    /// FoE opcode (ETG.1000.6, spec-notes §foe).
     pub enum FoeOpcode(u8) {
         /// Read request (upload slave → master).
         ReadRequest = 1,
@@ -71,7 +71,7 @@ impl FoeOpcode {
 }
 
 enum_with_unknown! {
-    /// FoE error code (digest §8.4; the 0x8000-based numbering of SOEM/SOES/KickCAT).
+    /// FoE error code (spec-notes §foe; the 0x8000-based numbering of SOEM/SOES/KickCAT).
     pub enum FoeError(u32) {
         /// Not defined (see the error text).
         NotDefined = 0x8000,
@@ -103,7 +103,7 @@ enum_with_unknown! {
 }
 
 impl FoeError {
-    /// The text of the error code (digest §8.4).
+    /// The text of the error code (ETG.1000.6, spec-notes §foe).
     pub fn description(self) -> &'static str {
         match self {
             FoeError::NotDefined => "Not defined",
@@ -212,8 +212,8 @@ impl<T: AsRef<[u8]> + AsMut<[u8]>> FoePacket<T> {
 
 /// A parsed FoE message.
 ///
-/// File names and texts are ASCII without a terminating NUL (digest §8.1). On parse, trailing
-/// NUL bytes are trimmed: some implementations (and the seed's sample client) send a C string,
+/// File names and texts are ASCII without a terminating NUL (spec-notes §foe). On parse, trailing
+/// NUL bytes are trimmed: some implementations (and a gateway's sample client) send a C string,
 /// and a NUL can never be part of a file name. Because parse would lose them, emit refuses a
 /// name or text that ends in NUL.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -415,10 +415,11 @@ impl fmt::Display for FoeRepr<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
     use proptest::prelude::*;
 
-    // Digest C.12.
+    // ETG.1000.6, spec-notes §foe.
     static WRQ: [u8; 18] = [
         0x0c, 0x00, 0x00, 0x00, 0x00, 0x24, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x66, 0x77, 0x2e,
         0x62, 0x69, 0x6e,
@@ -426,7 +427,7 @@ mod tests {
     static ACK0: [u8; 12] = [
         0x06, 0x00, 0x00, 0x00, 0x00, 0x14, 0x04, 0x00, 0x00, 0x00, 0x00, 0x00,
     ];
-    // C.12 DATA 1 with n = 3 bytes: mailbox length 6 + 3, Cnt 3.
+    // DATA 1 with n = 3 bytes (spec-notes §foe): mailbox length 6 + 3, Cnt 3.
     static DATA1: [u8; 15] = [
         0x09, 0x00, 0x00, 0x00, 0x00, 0x34, 0x03, 0x00, 0x01, 0x00, 0x00, 0x00, 0xd0, 0xd1, 0xd2,
     ];
@@ -612,8 +613,7 @@ mod tests {
                 4 => FoeRepr::Error { code: FoeError::from(param), text: &payload },
                 _ => FoeRepr::Busy { done, entire, text: &payload },
             };
-            let mut buf = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut FoePacket::new_unchecked(&mut buf[..])).unwrap();
+            let buf = repr.to_vec().unwrap();
             let parsed = FoeRepr::parse(&FoePacket::new_checked(&buf[..]).unwrap()).unwrap();
             prop_assert_eq!(parsed, repr);
         }

@@ -1,15 +1,15 @@
-//! The ETG.8200 mailbox-gateway message (digest §11.2): an EtherCAT header of type 5
+//! The ETG.8200 mailbox-gateway message (spec-notes §gateway): an EtherCAT header of type 5
 //! (mailbox) followed by one complete mailbox message, as carried in a UDP datagram (port
 //! 0x88A4) or on a TCP stream.
 //!
 //! ```text
 //! offset 0  u16  EtherCAT header: bits 0-10 length = 6 + mailbox length, bit 11 reserved,
 //!                bits 12-15 type = 5
-//! offset 2  6    mailbox header (§5.2)
+//! offset 2  6    mailbox header (ETG.1000.4, spec-notes §mbx.header)
 //! offset 8  n    mailbox data
 //! ```
 //!
-//! The 2-byte EtherCAT header is the same header as in `frame.rs` (§1.2); it is encoded here
+//! The 2-byte EtherCAT header is the same header as in `frame.rs` (spec-notes §frame); it is encoded here
 //! directly so that this module does not depend on the frame codec (to be deduplicated).
 
 use core::fmt;
@@ -30,7 +30,7 @@ pub const ECAT_HEADER_LEN: usize = fields::MAILBOX.start;
 /// The smallest gateway message: EtherCAT header + mailbox header.
 pub const MIN_LEN: usize = ECAT_HEADER_LEN + mailbox::HEADER_LEN;
 
-/// EtherCAT header type of a mailbox message (§1.2).
+/// EtherCAT header type of a mailbox message (ETG.1000.4, spec-notes §frame).
 pub const ECAT_TYPE_MAILBOX: u8 = 5;
 
 /// The largest mailbox message (header + data) whose size fits the 11-bit EtherCAT length.
@@ -55,7 +55,7 @@ impl<T: AsRef<[u8]>> GatewayMessage<T> {
         Ok(message)
     }
 
-    /// Validates a received message, in this order (the gateway checks of §11.2):
+    /// Validates a received message, in this order (the gateway checks of spec-notes §gateway):
     ///
     /// 1. at least 2 + 6 bytes, else `Truncated`;
     /// 2. EtherCAT type 5, else `UnknownType` — checked before any length because the
@@ -251,7 +251,7 @@ mod tests {
     use crate::wire::mailbox::MailboxType;
     use proptest::prelude::*;
 
-    // Digest C.16 / §11.2 (IgH README): CoE upload of 0x1018:01 from slave address 4.
+    // ETG.8200, spec-notes §gateway (IgH README): CoE upload of 0x1018:01 from slave address 4.
     static REQUEST: [u8; 18] = [
         0x10, 0x50, 0x0a, 0x00, 0x04, 0x00, 0x00, 0x03, 0x00, 0x20, 0x40, 0x18, 0x10, 0x01, 0x00,
         0x00, 0x00, 0x00,
@@ -298,7 +298,7 @@ mod tests {
 
     #[test]
     fn twinsafe_trace() {
-        // §11.2: TwinSAFE Loader → IgH, slave "1001" = 0x03E9, CoE, Cnt 2.
+        // ETG.8200, spec-notes §gateway: TwinSAFE Loader → IgH, slave "1001" = 0x03E9, CoE, Cnt 2.
         let bytes = [
             0x10, 0x50, 0x0a, 0x00, 0xe9, 0x03, 0x00, 0x23, 0x00, 0x20, 0x41, 0x80, 0xf9, 0x02,
             0x00, 0x00, 0x00, 0x00,
@@ -311,7 +311,7 @@ mod tests {
 
     #[test]
     fn long_reply_header() {
-        // §11.2 trace: a 250-byte mailbox data reply has EtherCAT header `00 51`.
+        // spec-notes §gateway trace: a 250-byte mailbox data reply has EtherCAT header `00 51`.
         let data = [0u8; 250];
         let repr = GatewayRepr {
             header: MailboxHeader {

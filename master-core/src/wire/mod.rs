@@ -13,7 +13,9 @@
 //!   `parse(&view) -> Result<Repr>`, `buffer_len(&self) -> usize`, and
 //!   `emit(&self, &mut view) -> Result<()>`. Emit into a buffer of `buffer_len()` bytes always
 //!   succeeds for a representation that came out of `parse`; out-of-range field values are
-//!   refused with an error, never silently truncated.
+//!   refused with an error, never silently truncated. Every representation also implements
+//!   [`Emit`] (`to_vec()`, `emit_into(&mut [u8])`), so a caller that wants bytes does not
+//!   allocate, wrap and emit by hand.
 //!
 //! Field offsets live in a private `mod fields` table per structure, never as magic numbers
 //! in accessor bodies. Code points (commands, mailbox types, AL status codes, abort codes,
@@ -26,6 +28,7 @@
 //! Errors are [`WireError`]: typed, naming the structure, never a panic — any byte string
 //! fed to any parser returns `Ok` or an error (checked by proptest and the fuzz targets).
 
+pub mod emit;
 pub mod error;
 pub mod field;
 pub(crate) mod macros;
@@ -34,6 +37,7 @@ pub mod command;
 pub mod datagram;
 pub mod ethernet;
 pub mod frame;
+pub mod identity;
 
 pub mod register;
 pub mod sii;
@@ -46,4 +50,5 @@ pub mod mailbox;
 pub mod soe;
 pub mod voe;
 
+pub use emit::Emit;
 pub use error::{Result, WireError};

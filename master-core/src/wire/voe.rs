@@ -1,4 +1,4 @@
-//! VoE — vendor specific over EtherCAT (mailbox type 0xF, digest §10).
+//! VoE — vendor specific over EtherCAT (mailbox type 0xF, ETG.1000.4, spec-notes §voe).
 //!
 //! ```text
 //! offset 0  u32  vendor id    EtherCAT vendor id of the protocol owner (as in 0x1018:01)
@@ -141,10 +141,11 @@ impl fmt::Display for VoeRepr<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use crate::wire::WireError;
     use proptest::prelude::*;
 
-    // Worked out from the §10 table: vendor 0x00001164 (LE), type 0x0001 (LE), 2 data bytes.
+    // Worked out from spec-notes §voe: vendor 0x00001164 (LE), type 0x0001 (LE), 2 data bytes.
     static BYTES: [u8; 8] = [0x64, 0x11, 0x00, 0x00, 0x01, 0x00, 0x01, 0x02];
 
     #[test]
@@ -192,8 +193,7 @@ mod tests {
         fn round_trip(vendor_id in any::<u32>(), vendor_type in any::<u16>(),
                       data in proptest::collection::vec(any::<u8>(), 0..64)) {
             let repr = VoeRepr { vendor_id, vendor_type, data: &data };
-            let mut buf = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut VoePacket::new_unchecked(&mut buf[..])).unwrap();
+            let buf = repr.to_vec().unwrap();
             let packet = VoePacket::new_checked(&buf[..]).unwrap();
             prop_assert_eq!(VoeRepr::parse(&packet).unwrap(), repr);
         }

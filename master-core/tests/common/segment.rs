@@ -1,5 +1,5 @@
 //! A **test double** of an EtherCAT segment: a few fake slaves, each a flat byte array,
-//! that process datagram frames the way the digest's §1.4 table says (addressing, ADP
+//! that process datagram frames the way the command table (spec-notes §commands) says (addressing, ADP
 //! increments, BRD's OR, read-write exchange, read-multiple-write, logical windows, working
 //! counter increments).
 //!
@@ -196,7 +196,7 @@ impl FakeSegment {
                 slave.apply(&mut datagram);
             }
         }
-        // The first slave marks the source MAC as locally administered (digest §1.1), so
+        // The first slave marks the source MAC as locally administered (spec-notes §frame), so
         // nothing may filter returning frames by their source address.
         frame[6] |= 0x02;
         true

@@ -12,12 +12,13 @@ use std::time::{Duration, Instant};
 
 use master_core::gateway::{AllowedNet, ClientNet, GatewayConfig, GatewayRole, MailboxGateway};
 use master_core::master::{Master, MasterConfig};
+use master_core::wire::Emit;
 use master_core::wire::coe::info::entry::{EntryDescription, ValueInfo};
 use master_core::wire::coe::info::object::ObjectDescription;
 use master_core::wire::coe::info::od_list::{OdList, OdListType};
 use master_core::wire::coe::info::{SdoInfoFrame, SdoInfoOpcode, SdoInfoRepr, SdoInfoService};
 use master_core::wire::coe::{
-    AbortCode, CoeFrame, CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoResponse, max_initiate_data,
+    AbortCode, CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoResponse, max_initiate_data,
     max_segment_data,
 };
 use master_core::wire::gateway::{GatewayMessage, GatewayRepr};
@@ -159,18 +160,12 @@ pub fn datagram(address: u16, ty: MailboxType, counter: u8, data: &[u8]) -> Vec<
         },
         data,
     };
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
-        .expect("emit");
-    out
+    repr.to_vec().expect("emit")
 }
 
 /// CoE mailbox data of a CoE message.
 pub fn coe(repr: &CoeRepr<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut CoeFrame::new_unchecked(&mut out[..]))
-        .expect("emit");
-    out
+    repr.to_vec().expect("emit")
 }
 
 pub fn sdo(request: SdoRequest<'_>) -> Vec<u8> {

@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 
 use std::net::Ipv4Addr;
 
+use master_core::wire::Emit;
 use master_core::wire::coe::info::{
     ObjectDescription, OdList, OdListType, SdoInfoRepr, SdoInfoService,
 };
@@ -111,7 +112,7 @@ fn datagram_cases() -> Vec<Case> {
         .collect()
 }
 
-/// Several datagrams in one frame: the seed capture's cyclic frame (LRD inputs, LWR outputs,
+/// Several datagrams in one frame: the reference capture's cyclic frame (LRD inputs, LWR outputs,
 /// LRD of the mapped mailbox-status bit, FRMW of the reference clock).
 fn cyclic_frame_case() -> Case {
     let inputs = [0u8; 2];
@@ -175,9 +176,7 @@ fn mailbox_bytes(payload: MailboxPayload<'_>, counter: u8) -> Vec<u8> {
         },
         payload,
     };
-    let mut bytes = vec![0u8; message.buffer_len()];
-    message.emit(&mut bytes).expect("emit mailbox");
-    bytes
+    message.to_vec().expect("emit mailbox")
 }
 
 /// A mailbox message as the master writes it (FPWR of the whole SM0) or reads it (FPRD of
@@ -212,9 +211,7 @@ fn gateway_frame(message: &[u8]) -> Vec<u8> {
         header: parsed.header,
         data: &message[6..],
     };
-    let mut payload = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut master_core::wire::gateway::GatewayMessage::new_unchecked(&mut payload[..]))
-        .expect("emit gateway message");
+    let payload = repr.to_vec().expect("emit gateway message");
     let builder = etherparse::PacketBuilder::ethernet2(SOURCE_MAC, [0x02, 0, 0, 0, 0, 2])
         .ipv4([127, 0, 0, 1], [127, 0, 0, 1], 64)
         .udp(40000, 34980);

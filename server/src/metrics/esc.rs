@@ -1,4 +1,4 @@
-//! Each slave's ESC error counters (registers 0x0300-0x0313, digest §2.7), read from the bus
+//! Each slave's ESC error counters (registers 0x0300-0x0313, spec-notes §esc.errors), read from the bus
 //! by a background task with one FPRD of the whole 20-byte block per slave at a modest
 //! period, never on a scrape; the scrape shows the last values read.
 //!

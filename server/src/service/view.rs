@@ -138,7 +138,7 @@ pub struct EventView {
     pub text: String,
 }
 
-/// A CoE emergency a slave sent (digest §6.7).
+/// A CoE emergency a slave sent (ETG.1000.6, spec-notes §coe.emcy).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 pub struct EmergencyView {
     /// CiA 301 error code.

@@ -7,7 +7,7 @@
 //! Both run on the thread that passes frames through the segment, so the lock is never
 //! contended; it exists to satisfy `Send`, and so a test can keep a handle.
 //!
-//! Emergencies (digest §6.7) are unsolicited: [`CoeService::raise_emergency`] queues one and
+//! Emergencies (spec-notes §coe.emcy) are unsolicited: [`CoeService::raise_emergency`] queues one and
 //! the next [`MailboxService::poll`] posts it, so it reaches SM1 only when the master may
 //! read, as on a real slave.
 

@@ -1,6 +1,6 @@
 //! A CiA-402-like drive whose process data are laid out by its own object dictionary.
 //!
-//! The process image is what the dictionary says (digest §6.11): SM2 carries the RxPDOs
+//! The process image is what the dictionary says (spec-notes §coe.pdo): SM2 carries the RxPDOs
 //! listed in 0x1C12, SM3 the TxPDOs listed in 0x1C13, each PDO the entries its mapping
 //! object (0x16xx / 0x1Axx) lists, packed bit by bit in order; an entry with index 0 is a
 //! gap. So a master that rewrites the assignment or a mapping in PREOP changes

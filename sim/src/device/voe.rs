@@ -1,4 +1,4 @@
-//! A VoE (vendor specific over EtherCAT, mailbox type 0xF, digest §10) echo service.
+//! A VoE (vendor specific over EtherCAT, mailbox type 0xF, spec-notes §voe) echo service.
 //!
 //! VoE has no standard semantics, so the simulated device defines its own: for requests
 //! carrying the configured vendor id it answers with the same vendor id and vendor type and
@@ -12,6 +12,7 @@
 
 use std::any::Any;
 
+use master_core::wire::Emit;
 use master_core::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
 use master_core::wire::voe::{VoePacket, VoeRepr};
 
@@ -87,10 +88,7 @@ impl MailboxService for VoeEcho {
             data: &inverted,
             ..request
         };
-        let mut out = vec![0u8; reply.buffer_len()];
-        let built = reply
-            .emit(&mut VoePacket::new_unchecked(&mut out[..]))
-            .map(|()| out);
+        let built = reply.to_vec();
         self.handled += 1;
         let _ = replies.send_emitted(built);
     }

@@ -1,4 +1,4 @@
-//! The AL state machine (digest §3.2): requests arrive in AL control 0x0120 and are
+//! The AL state machine (ETG.1000.6, spec-notes §al): requests arrive in AL control 0x0120 and are
 //! answered at once in AL status 0x0130 and AL status code 0x0134.
 //!
 //! The ESC runs the checks every slave firmware runs (mailbox SyncManagers on INIT →
@@ -12,7 +12,7 @@ use master_core::wire::register::address as reg;
 use master_core::wire::register::al::{AlControl, AlState, AlStatus};
 use master_core::wire::register::al_status_code::AlStatusCode;
 use master_core::wire::register::sync_manager::{SmActivate, SmControl, SmPdiControl};
-use master_core::wire::sii::fixed::MailboxArea;
+use master_core::wire::sii::fixed::SiiMailboxArea;
 
 use crate::device::{Device, ProcessDataSizes};
 
@@ -210,9 +210,9 @@ impl Esc {
             && c.end() <= self.mem.end()
     }
 
-    /// INIT → PREOP/BOOT: SM0/SM1 must match the SII mailbox (digest §5.1). A slave without
+    /// INIT → PREOP/BOOT: SM0/SM1 must match the SII mailbox (spec-notes §mbx.handshake). A slave without
     /// a mailbox needs nothing.
-    fn check_mailbox(&self, rx: MailboxArea, tx: MailboxArea) -> Result<(), ()> {
+    fn check_mailbox(&self, rx: SiiMailboxArea, tx: SiiMailboxArea) -> Result<(), ()> {
         if !rx.is_present() && !tx.is_present() {
             return Ok(());
         }
@@ -345,11 +345,11 @@ mod tests {
 
     fn boot_image() -> Vec<u8> {
         let mut b = master_core::wire::sii::SiiBuilder::new(SiiFixedRepr {
-            boot_rx_mailbox: MailboxArea {
+            boot_rx_mailbox: SiiMailboxArea {
                 offset: 0x1000,
                 size: 244,
             },
-            boot_tx_mailbox: MailboxArea {
+            boot_tx_mailbox: SiiMailboxArea {
                 offset: 0x1100,
                 size: 244,
             },

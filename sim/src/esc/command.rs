@@ -1,5 +1,5 @@
 //! The 15 datagram commands: who is addressed, what they do, and how the working counter
-//! grows (digest §1.4, §1.5).
+//! grows (ETG.1000.4, ETG.1000.3, spec-notes §commands, §addressing).
 //!
 //! - Position commands (APxx, ARMW) and broadcasts increment ADP in every slave; the slave
 //!   that sees ADP == 0 is addressed.

@@ -3,7 +3,7 @@
 
 use master_core::wire::register::{EscFeatures, PortType};
 
-/// Identity and capabilities of an emulated ESC (digest §2.1), fixed for its lifetime.
+/// Identity and capabilities of an emulated ESC (spec-notes §esc.info), fixed for its lifetime.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct EscConfig {
     /// ESC type, register 0x0000.
@@ -30,16 +30,16 @@ pub struct EscConfig {
     pub dc: DcConfig,
 }
 
-/// How an emulated ESC's local clock runs against the simulated time base (digest §13).
+/// How an emulated ESC's local clock runs against the simulated time base (spec-notes §dc).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct DcConfig {
     /// One-way delay in ns between the device before this slave (the master or the previous
     /// slave) and this slave's port 0, including that device's forwarding. Symmetric: the
-    /// returning frame takes as long. A master measuring propagation delays (§13.2) finds
+    /// returning frame takes as long. A master measuring propagation delays (spec-notes §dc) finds
     /// exactly this value per hop.
     pub hop_delay_ns: u32,
     /// Local time at power-on in ns. Different values per slave give a master's offset
-    /// compensation (§13.3) something to do.
+    /// compensation (ETG.1000.4, spec-notes §dc) something to do.
     pub clock_start_ns: u64,
     /// Drift of the local clock in parts per billion against the time base (positive:
     /// the local clock runs fast).

@@ -1,4 +1,4 @@
-//! The distributed clock (digest §2.13, §13): a local clock on the simulated time base,
+//! The distributed clock (spec-notes §esc.dc, §dc): a local clock on the simulated time base,
 //! receive-time latches, system time with offset, delay and a bounded-slew correction.
 //!
 //! - Local time = `clock_start_ns` + time since power-on, plus drift.
@@ -133,7 +133,7 @@ impl Esc {
         );
     }
 
-    /// A write to the speed counter start resets the filters (digest §13.3).
+    /// A write to the speed counter start resets the filters (ETG.1000.4, spec-notes §dc).
     pub(crate) fn reset_dc_filter(&mut self) {
         self.dc.filtered = None;
     }

@@ -1,5 +1,5 @@
 //! Data-link layer state: port links, DL status 0x0110 and the error counters 0x0300-0x0313
-//! (digest §2.3, §2.7).
+//! (ETG.1000.4, spec-notes §esc.dl, §esc.errors).
 //!
 //! The ESC is modelled with two ports in a line: port 0 towards the master, port 1 towards
 //! the next slave. Port 0's loop is always open (the frame comes in there); port 1 follows
@@ -13,7 +13,7 @@ use master_core::wire::register::dl::{DlControl, DlStatus, LoopMode, PortStatus}
 use super::Esc;
 use super::memory::overlaps;
 
-/// An error counter that can be bumped for fault injection (digest §2.7). Ports are 0-3;
+/// An error counter that can be bumped for fault injection (spec-notes §esc.errors). Ports are 0-3;
 /// counters saturate at 255.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ErrorCounter {
@@ -62,7 +62,7 @@ impl Ports {
 }
 
 /// Counters a write clears together: the invalid-frame and RX error counters of all ports
-/// are one group (digest §2.7); every other counter is cleared on its own.
+/// are one group (ETG.1000.4, spec-notes §esc.errors); every other counter is cleared on its own.
 const RX_ERROR_GROUP: (u16, usize) = (reg::RX_ERROR_COUNTERS, 12);
 const SINGLE_COUNTERS: [u16; 8] = [
     reg::PROCESSING_UNIT_ERROR_COUNTER,

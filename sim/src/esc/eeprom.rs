@@ -1,4 +1,4 @@
-//! The SII EEPROM and its register interface 0x0500-0x050F (digest §2.9, §4).
+//! The SII EEPROM and its register interface 0x0500-0x050F (spec-notes §esc.sii-if, §sii).
 //!
 //! Commands complete synchronously: a master never sees the busy bit. Reads return 4 or 8
 //! bytes (0x0502 bit 6) and 0xFFFF for words beyond the image; a write needs the write
@@ -10,7 +10,7 @@
 use master_core::wire::register::address as reg;
 use master_core::wire::register::eeprom::{EepromCommand, EepromControl};
 use master_core::wire::sii::checksum::checksum_ok;
-use master_core::wire::sii::fixed::{MailboxArea, SiiFixed, SiiFixedRepr};
+use master_core::wire::sii::fixed::{SiiFixed, SiiFixedRepr, SiiMailboxArea};
 use master_core::wire::sii::image::SiiImage;
 use master_core::wire::sii::syncm::SyncmType;
 
@@ -24,13 +24,13 @@ const ONE_ADDRESS_BYTE_LIMIT: usize = 2048;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub(crate) struct SiiInfo {
     /// Standard receive mailbox (SM0 in PREOP and above).
-    pub std_rx: MailboxArea,
+    pub std_rx: SiiMailboxArea,
     /// Standard send mailbox (SM1).
-    pub std_tx: MailboxArea,
+    pub std_tx: SiiMailboxArea,
     /// Bootstrap receive mailbox (SM0 in BOOT).
-    pub boot_rx: MailboxArea,
+    pub boot_rx: SiiMailboxArea,
     /// Bootstrap send mailbox (SM1 in BOOT).
-    pub boot_tx: MailboxArea,
+    pub boot_tx: SiiMailboxArea,
     /// The SyncManager carrying outputs.
     pub outputs_sm: Option<u8>,
     /// The SyncManager carrying inputs.
@@ -183,7 +183,7 @@ impl Esc {
         self.update_dl_status();
     }
 
-    /// Executes the command just written to 0x0502 (digest §2.9).
+    /// Executes the command just written to 0x0502 (ETG.1000.4, spec-notes §esc.sii-if).
     pub(crate) fn eeprom_command(&mut self) {
         let mut control = self.eeprom_control();
         let command = control.command;

@@ -1,5 +1,5 @@
 //! FMMUs: translating logical addresses to physical ones, byte- or bit-granular
-//! (digest §2.11, §2.16).
+//! (ETG.1000.4, spec-notes §esc.fmmu, §esc.emulation).
 //!
 //! An FMMU maps `bit_count` consecutive logical bits, starting at bit `logical_start_bit`
 //! of byte `logical_start`, onto consecutive physical bits starting at bit
@@ -104,7 +104,7 @@ impl Esc {
     }
 
     /// Whether `[addr, addr + len)` lies completely inside one enabled FMMU's physical
-    /// range (plain RAM reachable by physical commands, digest §2.16).
+    /// range (plain RAM reachable by physical commands, spec-notes §esc.emulation).
     pub(crate) fn fmmu_covers(&self, addr: u32, len: usize) -> bool {
         let end = u64::from(addr) + len as u64;
         len > 0

@@ -1,6 +1,6 @@
 //! The mailbox SyncManagers seen from the slave firmware: SM0 (master → slave) delivers
 //! complete messages to the device, SM1 (slave → master) is fed from the device's outbox
-//! one message at a time, and the repeat procedure re-posts a lost message (digest §5.5-5.7).
+//! one message at a time, and the repeat procedure re-posts a lost message (spec-notes §mbx.handshake).
 
 use std::collections::VecDeque;
 
@@ -164,7 +164,7 @@ impl Esc {
         }
     }
 
-    /// The repeat procedure (digest §5.6): when the master toggles SM1's repeat request
+    /// The repeat procedure (spec-notes §mbx.repeat): when the master toggles SM1's repeat request
     /// (0x080E bit 1), a newer unread message is taken back out of SM1 for later, the last
     /// message the master read is posted again, and the repeat acknowledge (0x080F bit 1)
     /// is set equal to the request.

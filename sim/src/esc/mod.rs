@@ -1,6 +1,6 @@
 //! The emulated EtherCAT Slave Controller (ESC): one slave's registers, process RAM,
 //! SyncManagers, FMMUs, SII EEPROM interface, AL state machine, DL status and distributed
-//! clock, driven datagram by datagram as a frame passes (digest §1-§4, §13, Appendix B).
+//! clock, driven datagram by datagram as a frame passes (spec-notes §frame, §sii, §dc, §esc.emulation).
 //!
 //! The ESC owns everything a real ESC chip does plus the parts of the slave firmware that
 //! every slave shares (AL transitions and their checks, mailbox SyncManager handling, the
@@ -16,7 +16,7 @@
 //!
 //! - **Process RAM** (≥ 0x1000) is reachable only inside an active SyncManager (with its
 //!   mailbox/buffered rules) or, outside any SyncManager, inside an enabled FMMU's physical
-//!   range (KickCAT's rule, digest §2.16). Other RAM accesses are blocked (no working
+//!   range (KickCAT's rule, spec-notes §esc.emulation). Other RAM accesses are blocked (no working
 //!   counter). An access that starts in the register area is clipped at 0x1000.
 //! - **SyncManager accesses**: mailbox accesses must start at the SM start; buffered ones
 //!   may start anywhere inside (bit-granular FMMUs). Accesses against the SM's direction
@@ -302,7 +302,7 @@ impl Esc {
         }
     }
 
-    /// After the last datagram of a frame: the device may post (§5.7), then the next queued
+    /// After the last datagram of a frame: the device may post (spec-notes §mbx.handshake), then the next queued
     /// message goes into SM1.
     fn end_of_frame(&mut self, device: &mut dyn Device) {
         self.poll_device(device);

@@ -7,8 +7,8 @@
 //!   0x1000. Writes go through the per-bit write masks of [`super::registers`] (read-only
 //!   bits keep their value, the access still counts), then through the hooks below.
 //! - Process RAM outside every SyncManager: the access is plain memory if it comes through
-//!   an FMMU or lies inside an enabled FMMU's physical range, and blocked otherwise (digest
-//!   §2.16). Plain accesses are clipped at the next SyncManager so they never bypass its
+//!   an FMMU or lies inside an enabled FMMU's physical range, and blocked otherwise
+//!   (spec-notes §esc.emulation). Plain accesses are clipped at the next SyncManager so they never bypass its
 //!   rules.
 //! - Beyond the RAM: blocked.
 
@@ -33,7 +33,7 @@ pub(crate) enum Origin {
     Fmmu,
 }
 
-/// The bytes of the ESC reset sequence written to 0x0040 (digest §2.2).
+/// The bytes of the ESC reset sequence written to 0x0040 (ETG.1000.4, spec-notes §esc.address).
 const RESET_SEQUENCE: [u8; 3] = reg::ESC_RESET_SEQUENCE;
 
 impl Esc {
@@ -237,7 +237,7 @@ impl Esc {
         false
     }
 
-    /// The ECAT event request register 0x0210 (digest §2.6): bit 2 DL status change, bit 3
+    /// The ECAT event request register 0x0210 (spec-notes §esc.events): bit 2 DL status change, bit 3
     /// AL status change, bits 4-11 SyncManager events of SMs with the ECAT IRQ enabled.
     pub(crate) fn ecat_event_request(&self) -> u16 {
         let mut events = 0u16;

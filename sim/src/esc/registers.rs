@@ -2,7 +2,7 @@
 //!
 //! Read-only registers (information block, DL status, AL status, SM status, ...) keep their
 //! value when the master writes them; the write still counts in the working counter, as on
-//! a real ESC (digest §1.4). Registers with write side effects (error counters, EEPROM
+//! a real ESC (spec-notes §commands). Registers with write side effects (error counters, EEPROM
 //! command, DC latch and system time, AL control) are handled by hooks in
 //! [`super::physical`]; their mask here only says what is stored.
 
@@ -42,7 +42,7 @@ impl Layout {
     }
 }
 
-/// Watchdog divider reset value: (2498 + 2) × 40 ns = 100 µs per tick (digest §2.8).
+/// Watchdog divider reset value: (2498 + 2) × 40 ns = 100 µs per tick (spec-notes §esc.watchdog).
 pub const WATCHDOG_DIVIDER_DEFAULT: u16 = 0x09C2;
 /// Watchdog times reset value: 1000 ticks = 100 ms.
 pub const WATCHDOG_TIME_DEFAULT: u16 = 1000;
@@ -189,7 +189,7 @@ pub(crate) fn load_reset_values(mem: &mut Memory, config: &EscConfig) {
     };
     for n in 0..config.effective_sm_count() {
         // SyncManagers start disabled by the PDI: the slave application enables them on the
-        // state transitions that need them (§3.2).
+        // state transitions that need them (ETG.1000.6, spec-notes §al).
         update_registers(mem, n, |sm| sm.set_pdi_control_raw(deactivated.encode()));
     }
     mem.set_u16(reg::WATCHDOG_DIVIDER.into(), WATCHDOG_DIVIDER_DEFAULT);

@@ -1,4 +1,4 @@
-//! SyncManager channels: the access rules an ESC enforces on process RAM (digest §2.12).
+//! SyncManager channels: the access rules an ESC enforces on process RAM (spec-notes §esc.sm).
 //!
 //! - **Mailbox (1-buffer) mode**: the data lives in RAM at the SM's address. The writer may
 //!   write only while the buffer is empty and must start at the SM start; writing the last

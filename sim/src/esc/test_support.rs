@@ -1,12 +1,13 @@
 //! Helpers for the ESC's unit tests: a standard SII image, a test device, and running one
 //! datagram through an ESC.
 
+use master_core::wire::Emit;
 use master_core::wire::command::{Command, DatagramAddress};
 use master_core::wire::datagram::{Datagram, DatagramRepr};
 use master_core::wire::register::al::AlState;
 use master_core::wire::register::al_status_code::AlStatusCode;
 use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{MailboxArea, MailboxProtocols, SiiFixedRepr};
+use master_core::wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
 use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 
 use crate::device::{Device, DeviceContext, Outbox, ProcessDataSizes};
@@ -21,11 +22,11 @@ pub fn fixed() -> SiiFixedRepr {
         vendor_id: 2,
         product_code: 0x1234,
         revision: 1,
-        std_rx_mailbox: MailboxArea {
+        std_rx_mailbox: SiiMailboxArea {
             offset: 0x1000,
             size: 128,
         },
-        std_tx_mailbox: MailboxArea {
+        std_tx_mailbox: SiiMailboxArea {
             offset: 0x1080,
             size: 128,
         },
@@ -160,9 +161,7 @@ fn run(
         address: raw_address,
         ..DatagramRepr::request(command, 0, DatagramAddress::Logical(0), data)
     };
-    let mut bytes = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut Datagram::new_unchecked(&mut bytes[..]))
-        .unwrap();
+    let mut bytes = repr.to_vec().unwrap();
     let mut dg = Datagram::new_checked(&mut bytes[..]).unwrap();
     esc.process_datagram(&mut dg, dev);
     Reply {
@@ -202,7 +201,7 @@ pub fn exec_logical(
     run(esc, dev, command, address, data)
 }
 
-/// Digest C.4: SM0 at 0x1000 and SM1 at 0x1080, 128 bytes each, enabled.
+/// ETG.1000.4, spec-notes §esc.sm: SM0 at 0x1000 and SM1 at 0x1080, 128 bytes each, enabled.
 pub const MAILBOX_SMS: [u8; 16] = [
     0x00, 0x10, 0x80, 0x00, 0x26, 0x00, 0x01, 0x00, 0x80, 0x10, 0x80, 0x00, 0x22, 0x00, 0x01, 0x00,
 ];

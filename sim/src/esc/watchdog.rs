@@ -1,4 +1,4 @@
-//! The process-data watchdog (digest §2.8, §2.16): ECAT writes to a SyncManager with the
+//! The process-data watchdog (spec-notes §esc.watchdog, §esc.emulation): ECAT writes to a SyncManager with the
 //! watchdog-trigger bit (control bit 6) restart it; when it runs out while the slave is in
 //! OP, the slave falls back to SAFEOP with error 0x001B, 0x0440 bit 0 drops to 0 and the
 //! expiry counter 0x0442 counts up.
@@ -14,7 +14,7 @@ use crate::device::Device;
 
 use super::Esc;
 
-/// One watchdog tick is (divider + 2) × 40 ns (a 25 MHz clock, digest §2.8).
+/// One watchdog tick is (divider + 2) × 40 ns (a 25 MHz clock, spec-notes §esc.watchdog).
 const TICK_BASE_NS: u64 = 40;
 
 impl Esc {

@@ -16,10 +16,10 @@ use master_core::od::{Identity, ValueError};
 use master_core::wire::WireError;
 use master_core::wire::coe::{DataType, ObjectAccess, ObjectCode};
 use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{MailboxArea, MailboxProtocols, SiiFixedRepr};
+use master_core::wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
 use master_core::wire::sii::fmmu::FmmuUsage;
 use master_core::wire::sii::general::{CoeDetails, GeneralRepr, PhysicalPorts};
-use master_core::wire::sii::pdo::{Pdo, PdoEntry as SiiPdoEntry, PdoFlags};
+use master_core::wire::sii::pdo::{Pdo, PdoFlags, SiiPdoEntry};
 use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 use thiserror::Error;
 
@@ -487,16 +487,16 @@ fn syncms(spec: &SlaveSpec) -> Vec<SyncmEntry> {
 fn sii(spec: &SlaveSpec, protocols: u16) -> Result<Vec<u8>, WireError> {
     let (rx, tx) = match spec.mailbox {
         Some(m) => (
-            MailboxArea {
+            SiiMailboxArea {
                 offset: m.sm0_start(),
                 size: m.rx_size,
             },
-            MailboxArea {
+            SiiMailboxArea {
                 offset: m.sm1_start(),
                 size: m.tx_size,
             },
         ),
-        None => (MailboxArea::default(), MailboxArea::default()),
+        None => (SiiMailboxArea::default(), SiiMailboxArea::default()),
     };
     let mut b = SiiBuilder::new(SiiFixedRepr {
         pdi_control: 0x0005,

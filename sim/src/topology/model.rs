@@ -305,7 +305,7 @@ pub struct CoeObject {
     pub size: Option<usize>,
 }
 
-/// One SoE IDN of a drive (digest §7.3): its elements as they travel on the wire.
+/// One SoE IDN of a drive (ETG.1000.6, spec-notes §soe): its elements as they travel on the wire.
 ///
 /// Byte elements (`min`, `max`, `value`, `default`) are little-endian, as in the SoE
 /// messages; for a list IDN they are the list contents without the 4-byte length header

@@ -14,7 +14,7 @@ use master_core::wire::frame::EthercatFrame;
 use master_core::wire::register::al::AlState;
 use master_core::wire::register::al_status_code::AlStatusCode;
 use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{MailboxArea, MailboxProtocols, SiiFixedRepr};
+use master_core::wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
 use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 use sim::device::{Device, DeviceContext, Outbox, ProcessDataSizes};
 use sim::esc::{Esc, EscConfig, ManualTime};
@@ -23,7 +23,7 @@ use sim::segment::Segment;
 /// Source MAC the bench sends from.
 pub const MASTER_MAC: [u8; 6] = [0x00, 0x00, 0x00, 0x00, 0x00, 0x01];
 
-/// Digest C.4: SM0 at 0x1000 and SM1 at 0x1080, 128 bytes each, enabled.
+/// ETG.1000.4, spec-notes §esc.sm: SM0 at 0x1000 and SM1 at 0x1080, 128 bytes each, enabled.
 pub const MAILBOX_SMS: [u8; 16] = [
     0x00, 0x10, 0x80, 0x00, 0x26, 0x00, 0x01, 0x00, 0x80, 0x10, 0x80, 0x00, 0x22, 0x00, 0x01, 0x00,
 ];
@@ -42,11 +42,11 @@ pub fn fixed() -> SiiFixedRepr {
         product_code: 0x1234,
         revision: 1,
         serial: 7,
-        std_rx_mailbox: MailboxArea {
+        std_rx_mailbox: SiiMailboxArea {
             offset: 0x1000,
             size: 128,
         },
-        std_tx_mailbox: MailboxArea {
+        std_tx_mailbox: SiiMailboxArea {
             offset: 0x1080,
             size: 128,
         },

@@ -4,6 +4,7 @@
 use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 
+use master_core::wire::Emit;
 use master_core::wire::coe::info::{
     EntryDescription, ObjectDescription, OdList, OdListType, SdoInfoOpcode, ValueInfo,
 };
@@ -43,10 +44,7 @@ impl Reply {
 
 /// The mailbox data of a CoE message.
 pub fn coe_bytes(repr: &CoeRepr) -> Vec<u8> {
-    let mut data = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut CoeFrame::new_unchecked(&mut data[..]))
-        .expect("emit CoE");
-    data
+    repr.to_vec().expect("emit CoE")
 }
 
 /// An ETG.8200 datagram carrying `data` of type `ty` for `address`.
@@ -62,10 +60,7 @@ pub fn datagram(address: u16, ty: MailboxType, counter: u8, data: &[u8]) -> Vec<
         },
         data,
     };
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
-        .expect("emit gateway message");
-    out
+    repr.to_vec().expect("emit gateway message")
 }
 
 /// A UDP socket talking to one gateway.

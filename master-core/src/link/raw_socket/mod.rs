@@ -18,7 +18,8 @@ use std::io;
 use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd, RawFd};
 use std::time::Instant;
 
-use super::{ETHERTYPE_ETHERCAT, Link, Wait};
+use super::{Link, Wait};
+use crate::wire::ethernet::ETHERTYPE_ETHERCAT;
 
 /// How to set up a [`RawSocket`].
 ///

@@ -1,4 +1,4 @@
-//! SDO Information (ETG.1000.6 §5.6.3): the slave's object dictionary as it describes itself.
+//! SDO Information (ETG.1000.6 §5.6.3, spec-notes §coe.info): the slave's object dictionary as it describes itself.
 //!
 //! A long answer comes in fragments (Incomplete set, fragments left counting down); the
 //! client keeps reading the send mailbox and concatenates their service data — for an OD

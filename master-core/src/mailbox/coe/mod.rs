@@ -1,4 +1,4 @@
-//! CoE client (digest §6): SDO transfers, SDO Information, emergencies.
+//! CoE client (ETG.1000.6, spec-notes §coe.sdo): SDO transfers, SDO Information, emergencies.
 //!
 //! - [`sdo`]: upload and download, expedited, normal and segmented, complete access;
 //! - [`info`]: SDO Information (OD list, object and entry descriptions, fragmented);

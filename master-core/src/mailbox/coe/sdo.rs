@@ -1,4 +1,4 @@
-//! SDO upload and download (ETG.1000.6 §5.6.2), run by the slave's owner task.
+//! SDO upload and download (ETG.1000.6 §5.6.2, spec-notes §coe.sdo, §coe.ca), run by the slave's owner task.
 //!
 //! Answers are matched to the transfer (index and subindex for initiate responses and
 //! aborts, the toggle bit for segments); a CoE answer that does not fit is a late one of an earlier request and is
@@ -298,7 +298,7 @@ impl SlaveMailbox {
         self.upload_with(index, subindex, false).await
     }
 
-    /// SDO upload of a whole object with complete access (digest §6.5): `subindex` 0
+    /// SDO upload of a whole object with complete access (spec-notes §coe.ca): `subindex` 0
     /// includes subindex 0 (padded to 16 bits), 1 starts at subindex 1.
     pub async fn sdo_upload_complete(&self, index: u16, subindex: u8) -> Result<Vec<u8>> {
         self.upload_with(index, subindex, true).await
@@ -325,7 +325,7 @@ impl SlaveMailbox {
         self.download_with(index, subindex, data, false).await
     }
 
-    /// SDO download of a whole object with complete access (digest §6.5).
+    /// SDO download of a whole object with complete access (ETG.1000.6, spec-notes §coe.ca).
     pub async fn sdo_download_complete(&self, index: u16, subindex: u8, data: &[u8]) -> Result<()> {
         self.download_with(index, subindex, data, true).await
     }

@@ -1,4 +1,4 @@
-//! The mailbox counters (digest §5.3): the master's 1..7 sequence for requests, and the
+//! The mailbox counters (spec-notes §mbx.counter): the master's 1..7 sequence for requests, and the
 //! check of the slave's counter that spots a message read twice.
 
 /// Counter state of one slave's mailbox.
@@ -33,7 +33,7 @@ impl Counters {
     /// A slave numbers every message it posts 1..7 (0 = it does not count, and nothing can
     /// be checked), so two messages in a row never have the same counter: one that repeats
     /// the last accepted counter is the same message again. That happens after repeat
-    /// requests (digest §5.6): the slave re-posts the message the master read last, which
+    /// requests (spec-notes §mbx.repeat): the slave re-posts the message the master read last, which
     /// the master already has when the lost frame was lost before it reached the slave —
     /// and after two repeats in a row a slave may even hand that copy out twice. A slave
     /// that falls back to INIT restarts its count; the master then takes its mailbox over

@@ -1,9 +1,9 @@
 //! Sorting what comes out of a slave's send mailbox: the answer the waiting request asked
-//! for, or a message the slave sent on its own (seed 002: one reader per mailbox, and every
+//! for, or a message the slave sent on its own (spec-notes §mbx.demux: one reader per mailbox, and every
 //! message goes where it belongs — an EoE frame is never eaten by a CoE transfer, nor an
 //! SDO answer by the EoE receiver).
 
-use crate::wire::coe::{CoeFrame, CoeService, Emergency, EmergencyRepr};
+use crate::wire::coe::{CoeFrame, CoeService, EmergencyFrame, EmergencyRepr};
 use crate::wire::eoe::{EoeFrameType, EoePacket};
 use crate::wire::mailbox::MailboxType;
 use crate::wire::soe::{SoeOpcode, SoePacket};
@@ -52,7 +52,9 @@ pub(crate) fn route(mailbox_type: MailboxType, data: &[u8], want: Option<Want>) 
         MailboxType::Coe => match CoeFrame::new_checked(data) {
             Err(_) => return Route::Malformed,
             Ok(frame) if frame.service() == CoeService::Emergency => {
-                return match Emergency::new_checked(data).and_then(|e| EmergencyRepr::parse(&e)) {
+                return match EmergencyFrame::new_checked(data)
+                    .and_then(|e| EmergencyRepr::parse(&e))
+                {
                     Ok(repr) => Route::Emergency(repr),
                     Err(_) => Route::Malformed,
                 };

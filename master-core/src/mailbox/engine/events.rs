@@ -11,7 +11,7 @@ use crate::wire::coe::EmergencyRepr;
 
 use super::stats::{Stats, add, inc};
 
-/// A CoE emergency (digest §6.7) as received.
+/// A CoE emergency (ETG.1000.6, spec-notes §coe.emcy) as received.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Emergency {
     /// Station address of the slave that sent it.
@@ -35,7 +35,7 @@ pub struct EoeFrame {
     pub frame: Vec<u8>,
 }
 
-/// An SoE notification or slave-info message (opcode 5 or 6, digest §7.6), kept raw: the
+/// An SoE notification or slave-info message (opcode 5 or 6, spec-notes §soe), kept raw: the
 /// layout after the header is not standardised.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SoeNotification {

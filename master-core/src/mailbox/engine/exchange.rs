@@ -6,11 +6,11 @@
 //!
 //! Guards against a bus that may deliver a retried write twice and lose a read:
 //! - every request carries the next counter 1..7, and a write the bus retried carries the
-//!   same one, so the slave discards the second copy (digest §5.3);
+//!   same one, so the slave discards the second copy (ETG.1000.4, spec-notes §mbx.counter);
 //! - SM1 is read with [`BusHandle::submit_once`]: a lost read is never blindly repeated
 //!   (which could swallow the next message) but recovered with the repeat procedure, and a
 //!   message re-posted by it that the master already has is recognised by the slave's
-//!   counter and dropped (§5.6).
+//!   counter and dropped (ETG.1000.4, spec-notes §mbx.repeat).
 //!
 //! The first read of an answer is sent right behind the write (usually in the same frame),
 //! so a slave that answers at once is read one round trip earlier; it is always settled —

@@ -209,7 +209,7 @@ impl MailboxEngine {
     }
 
     /// Reads slave `station`'s send mailbox now: the hook for the process-data path, which
-    /// sees the "mailbox full" bit of SM1 in the cyclic frame (digest §5.5) and can replace
+    /// sees the "mailbox full" bit of SM1 in the cyclic frame (spec-notes §mbx.handshake) and can replace
     /// polling ([`MailboxConfig::idle_poll`] `None`). Unknown stations are ignored.
     pub fn notify_mailbox_full(&self, station: u16) {
         if let Ok(slave) = self.slave(station) {

@@ -1,4 +1,4 @@
-//! The repeat procedure (digest §5.6): getting back a message whose read was lost.
+//! The repeat procedure (spec-notes §mbx.repeat): getting back a message whose read was lost.
 //!
 //! Reading SM1 empties it, so when the frame carrying the read does not come back, the
 //! message it read is gone — unless the master toggles the repeat request bit (SM1 activate

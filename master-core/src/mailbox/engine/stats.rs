@@ -56,7 +56,7 @@ pub struct MailboxStats {
     pub reads: u64,
     /// Reads of the send mailbox whose frame was lost.
     pub lost_reads: u64,
-    /// Repeat procedures run to recover them (digest §5.6).
+    /// Repeat procedures run to recover them (ETG.1000.4, spec-notes §mbx.repeat).
     pub repeats: u64,
     /// Messages dropped because they were read twice (the slave's counter after a repeat).
     pub duplicates: u64,

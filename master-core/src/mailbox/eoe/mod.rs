@@ -1,4 +1,4 @@
-//! EoE client (digest §9): Ethernet frames to and from a slave, IP parameters, address
+//! EoE client (spec-notes §eoe): Ethernet frames to and from a slave, IP parameters, address
 //! filter.
 //!
 //! - [`tx`]: frames to the slave, cut into fragments for its receive mailbox, sent only
@@ -24,7 +24,7 @@ use crate::wire::mailbox::MailboxType;
 
 pub(crate) use tx::{EoeSend, EoeTx};
 
-/// IP settings of an EoE slave (digest §9.3); `None` = not set / not reported.
+/// IP settings of an EoE slave (ETG.1000.6, spec-notes §eoe); `None` = not set / not reported.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct IpSettings {
     /// MAC address.
@@ -133,7 +133,7 @@ impl SlaveMailbox {
         sent.await.unwrap_or(Err(MailboxError::Shutdown))
     }
 
-    /// Set IP parameter: sends the fields that are `Some` (digest §9.3).
+    /// Set IP parameter: sends the fields that are `Some` (ETG.1000.6, spec-notes §eoe).
     pub async fn eoe_set_ip(&self, settings: &IpSettings) -> Result<()> {
         let settings = settings.clone();
         call(self, Some(MailboxType::Eoe), move |x| -> BoxFuture<'_, _> {
@@ -169,7 +169,7 @@ impl SlaveMailbox {
         .await
     }
 
-    /// Set address filter (digest §9.4). Few slaves support it; those that do not answer
+    /// Set address filter (spec-notes §eoe). Few slaves support it; those that do not answer
     /// [`EoeResult::NoFilterSupport`], returned as [`MailboxError::Eoe`].
     pub async fn eoe_set_address_filter(&self, filter: &AddressFilter) -> Result<()> {
         let filter = *filter;

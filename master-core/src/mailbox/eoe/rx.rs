@@ -1,4 +1,4 @@
-//! The EoE receiver of one slave: fragments in, Ethernet frames out (digest §9.2), with a
+//! The EoE receiver of one slave: fragments in, Ethernet frames out (spec-notes §eoe), with a
 //! deadline for the next fragment so a lost one does not hold a partial frame forever.
 
 use std::time::{Duration, Instant};

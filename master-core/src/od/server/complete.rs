@@ -1,4 +1,4 @@
-//! Complete access (digest §6.5): a whole ARRAY/RECORD in one transfer, from subindex 0
+//! Complete access (spec-notes §coe.ca): a whole ARRAY/RECORD in one transfer, from subindex 0
 //! (SI0 included, padded to 16 bits) or 1, laid out by [`crate::od::packing`].
 //!
 //! Strings (VISIBLE, OCTET, UNICODE) take part at their declared bit length, as ETG.1510
@@ -11,7 +11,7 @@ use crate::wire::coe::{AbortCode, DataType, ObjectAccess};
 use crate::wire::register::AlState;
 
 use super::super::access::{check_read, check_write};
-use super::super::dictionary::{Dictionary, EntryInfo, EntryWrite};
+use super::super::dictionary::{DictEntryInfo, Dictionary, EntryWrite};
 use super::super::packing::{Layout, get_bits, put_bits};
 
 /// What complete access needs of one entry.
@@ -23,7 +23,7 @@ struct Member {
 
 /// Bits an entry occupies in the image: its declared length (for strings their capacity);
 /// DOMAIN cannot take part.
-fn image_bits(info: &EntryInfo<'_>) -> Result<u16, AbortCode> {
+fn image_bits(info: &DictEntryInfo<'_>) -> Result<u16, AbortCode> {
     if info.data_type == DataType::Domain || (info.is_variable_length() && info.bit_length == 0) {
         return Err(AbortCode::CompleteAccessUnsupported);
     }

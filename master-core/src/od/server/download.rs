@@ -1,5 +1,5 @@
 //! SDO download (write): expedited, normal in one frame, or segmented with toggle and
-//! complete-size checks (digest §6.4).
+//! complete-size checks (ETG.1000.6, spec-notes §coe.sdo).
 
 use crate::wire::coe::AbortCode;
 use crate::wire::coe::sdo_payload::SdoPayload;
@@ -124,7 +124,7 @@ pub(super) fn segment(
 }
 
 fn ack(index: u16, subindex: u8) -> SdoResponse<'static> {
-    // Bit 4 is reserved in this response (digest §6.3), so complete access is not echoed.
+    // Bit 4 is reserved in this response (spec-notes §coe.sdo), so complete access is not echoed.
     SdoResponse::InitiateDownload {
         index,
         subindex,

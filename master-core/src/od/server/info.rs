@@ -1,4 +1,4 @@
-//! SDO Information (digest §6.8): OD lists, object and entry descriptions, and the SDO
+//! SDO Information (spec-notes §coe.info): OD lists, object and entry descriptions, and the SDO
 //! Info error for anything the server cannot answer.
 
 use crate::wire::coe::AbortCode;

@@ -1,5 +1,5 @@
 //! The SDO server: answers CoE mailbox requests (SDO transfers and SDO Information) from
-//! one mailbox partner against a [`Dictionary`] (digest §6.2-§6.8, §12.6).
+//! one mailbox partner against a [`Dictionary`] (spec-notes §coe.sdo, §coe.info, §master-od).
 //!
 //! One [`SdoServer`] per client: it holds the state of a segmented transfer between
 //! requests. Requests and replies are CoE mailbox *data* (from the CoE header on); the

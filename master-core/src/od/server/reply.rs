@@ -84,8 +84,8 @@ impl<'a> Replies<'a> {
         self.info(SdoInfoService::Error { code });
     }
 
-    /// Sends an SDO Information answer, in fragments if it exceeds the mailbox (digest
-    /// §6.8): each fragment carries the next piece of the service data, all but the last
+    /// Sends an SDO Information answer, in fragments if it exceeds the mailbox
+    /// (spec-notes §coe.info): each fragment carries the next piece of the service data, all but the last
     /// have Incomplete set, and Fragments-left counts down to 0. Pieces have an even size
     /// so that clients reading OD-list words fragment by fragment never see a split word.
     pub(super) fn info(&mut self, service: SdoInfoService<'_>) {

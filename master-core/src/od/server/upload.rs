@@ -1,5 +1,5 @@
 //! SDO upload (read): expedited for 1-4 bytes, normal when the value fits one mailbox,
-//! segmented otherwise (digest §6.4).
+//! segmented otherwise (ETG.1000.6, spec-notes §coe.sdo).
 
 use crate::wire::coe::sdo_payload::SdoPayload;
 use crate::wire::coe::sdo_response::SdoResponse;

@@ -1,4 +1,4 @@
-//! SDO abort codes (digest §6.6, ETG.1000.6 Table "SDO abort codes", CiA 301 §7.2.4.3.17).
+//! SDO abort codes (ETG.1000.6 Table "SDO abort codes", CiA 301 §7.2.4.3.17, spec-notes §coe.abort).
 //!
 //! The same u32 code travels in an SDO abort (service 2 or 3, command 0x80) and in an SDO
 //! Information error (opcode 7), always little-endian.
@@ -87,7 +87,7 @@ enum_with_unknown! {
 }
 
 impl AbortCode {
-    /// Every abort code the digest's table (§6.6) names, in table order.
+    /// Every abort code the ETG.1000.6 table (spec-notes §coe.abort) names, in table order.
     pub const ALL: [AbortCode; 36] = [
         AbortCode::ToggleBit,
         AbortCode::Timeout,
@@ -127,7 +127,7 @@ impl AbortCode {
         AbortCode::NoData,
     ];
 
-    /// The standard text of the code (§6.6); "Unknown abort code" for unnamed values.
+    /// The standard text of the code (spec-notes §coe.abort); "Unknown abort code" for unnamed values.
     pub fn description(self) -> &'static str {
         match self {
             AbortCode::ToggleBit => "Toggle bit not changed",

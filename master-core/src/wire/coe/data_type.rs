@@ -1,4 +1,4 @@
-//! CoE data types, object codes and object access flags (digest §6.8, §6.9; ETG.1000.6
+//! CoE data types, object codes and object access flags (spec-notes §coe.info, §coe.types; ETG.1000.6
 //! data type index table, ETG.1020 base types).
 //!
 //! These are shared by the wire (SDO Information) and by object dictionaries on both sides
@@ -9,7 +9,7 @@ use core::fmt;
 use crate::wire::macros::enum_with_unknown;
 
 enum_with_unknown! {
-    /// Data type index of an object or entry (u16, digest §6.9).
+    /// Data type index of an object or entry (u16, ETG.1000.6, spec-notes §coe.types).
     pub enum DataType(u16) {
         /// 0x0001 BOOLEAN (1 bit).
         Boolean = 0x0001,
@@ -249,7 +249,7 @@ impl fmt::Display for DataType {
 }
 
 enum_with_unknown! {
-    /// Object code of an object (u8, digest §6.8 "Get Object Description").
+    /// Object code of an object (u8, ETG.1000.6, spec-notes §coe.info "Get Object Description").
     pub enum ObjectCode(u8) {
         /// 0x00 NULL.
         Null = 0x00,
@@ -293,8 +293,8 @@ impl fmt::Display for ObjectCode {
     }
 }
 
-/// Object access word of an entry (u16, digest §6.8; SOES/KickCAT bit order — Wireshark's
-/// comment on these bits is wrong, see Appendix D).
+/// Object access word of an entry (u16, spec-notes §coe.info; SOES/KickCAT bit order — Wireshark's
+/// comment on these bits is wrong, see spec-notes §coe.info).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct ObjectAccess(pub u16);
 

@@ -1,4 +1,4 @@
-//! CoE emergency (service 1, digest §6.7; CiA 301 EMCY carried over the mailbox).
+//! CoE emergency (service 1, spec-notes §coe.emcy; CiA 301 EMCY carried over the mailbox).
 //!
 //! ```text
 //! mailbox data offset 0  u16  CoE header `00 10`
@@ -27,14 +27,14 @@ pub const EMERGENCY_LEN: usize = fields::DATA.end;
 
 /// A view of an emergency (mailbox data, CoE header included).
 #[derive(Debug, Clone)]
-pub struct Emergency<T: AsRef<[u8]>> {
+pub struct EmergencyFrame<T: AsRef<[u8]>> {
     buffer: T,
 }
 
-impl<T: AsRef<[u8]>> Emergency<T> {
+impl<T: AsRef<[u8]>> EmergencyFrame<T> {
     /// Wraps a buffer without checking it.
     pub const fn new_unchecked(buffer: T) -> Self {
-        Emergency { buffer }
+        EmergencyFrame { buffer }
     }
 
     /// Wraps a buffer and checks its length.
@@ -77,7 +77,7 @@ impl<T: AsRef<[u8]>> Emergency<T> {
     }
 }
 
-impl<T: AsRef<[u8]> + AsMut<[u8]>> Emergency<T> {
+impl<T: AsRef<[u8]> + AsMut<[u8]>> EmergencyFrame<T> {
     /// Sets the error code.
     pub fn set_error_code(&mut self, value: u16) {
         field::set_u16_le(self.buffer.as_mut(), fields::ERROR_CODE.start, value)
@@ -107,7 +107,7 @@ pub struct EmergencyRepr {
 
 impl EmergencyRepr {
     /// Parses an emergency; the CoE service must be 1.
-    pub fn parse<T: AsRef<[u8]>>(e: &Emergency<T>) -> Result<Self> {
+    pub fn parse<T: AsRef<[u8]>>(e: &EmergencyFrame<T>) -> Result<Self> {
         e.check_len()?;
         let service = e.service();
         if service != CoeService::Emergency {
@@ -129,7 +129,7 @@ impl EmergencyRepr {
     }
 
     /// Writes the CoE header and the emergency.
-    pub fn emit<T: AsRef<[u8]> + AsMut<[u8]>>(&self, e: &mut Emergency<T>) -> Result<()> {
+    pub fn emit<T: AsRef<[u8]> + AsMut<[u8]>>(&self, e: &mut EmergencyFrame<T>) -> Result<()> {
         room("CoE emergency", e.buffer.as_ref(), EMERGENCY_LEN)?;
         put_header(e.buffer.as_mut(), CoeService::Emergency);
         e.set_error_code(self.error_code);
@@ -157,7 +157,7 @@ mod tests {
     use crate::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
     use proptest::prelude::*;
 
-    // By hand from §6.7: length 10, CoE, counter 1; error 0x8100, register 0x11,
+    // By hand (spec-notes §coe.emcy): length 10, CoE, counter 1; error 0x8100, register 0x11,
     // data 01 02 03 04 05.
     static EMCY: [u8; 16] = [
         0x0a, 0x00, 0x00, 0x00, 0x00, 0x13, 0x00, 0x10, 0x00, 0x81, 0x11, 0x01, 0x02, 0x03, 0x04,
@@ -179,11 +179,11 @@ mod tests {
             MailboxHeader::parse(&mbx).unwrap().mailbox_type,
             MailboxType::Coe
         );
-        let e = EmergencyRepr::parse(&Emergency::new_checked(mbx.data()).unwrap()).unwrap();
+        let e = EmergencyRepr::parse(&EmergencyFrame::new_checked(mbx.data()).unwrap()).unwrap();
         assert_eq!(e, repr());
         let mut out = [0xa5u8; 10];
         repr()
-            .emit(&mut Emergency::new_unchecked(&mut out[..]))
+            .emit(&mut EmergencyFrame::new_unchecked(&mut out[..]))
             .unwrap();
         assert_eq!(out, EMCY[HEADER_LEN..]);
         assert_eq!(
@@ -194,17 +194,17 @@ mod tests {
 
     #[test]
     fn errors() {
-        assert!(Emergency::new_checked(&EMCY[HEADER_LEN..15]).is_err());
+        assert!(EmergencyFrame::new_checked(&EMCY[HEADER_LEN..15]).is_err());
         let mut sdo = EMCY;
         sdo[7] = 0x30;
         assert!(matches!(
-            EmergencyRepr::parse(&Emergency::new_unchecked(&sdo[HEADER_LEN..])),
+            EmergencyRepr::parse(&EmergencyFrame::new_unchecked(&sdo[HEADER_LEN..])),
             Err(WireError::UnknownType { value: 3, .. })
         ));
         let mut short = [0u8; 9];
         assert!(
             repr()
-                .emit(&mut Emergency::new_unchecked(&mut short[..]))
+                .emit(&mut EmergencyFrame::new_unchecked(&mut short[..]))
                 .is_err()
         );
         assert_eq!(short, [0; 9]);
@@ -224,13 +224,13 @@ mod tests {
         #[test]
         fn round_trip(e in arb_emergency()) {
             let mut out = [0u8; EMERGENCY_LEN];
-            e.emit(&mut Emergency::new_unchecked(&mut out[..])).unwrap();
-            prop_assert_eq!(EmergencyRepr::parse(&Emergency::new_checked(&out[..]).unwrap()).unwrap(), e);
+            e.emit(&mut EmergencyFrame::new_unchecked(&mut out[..])).unwrap();
+            prop_assert_eq!(EmergencyRepr::parse(&EmergencyFrame::new_checked(&out[..]).unwrap()).unwrap(), e);
         }
 
         #[test]
         fn never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..16)) {
-            if let Ok(e) = Emergency::new_checked(&bytes[..]) {
+            if let Ok(e) = EmergencyFrame::new_checked(&bytes[..]) {
                 let _ = EmergencyRepr::parse(&e);
             }
         }

@@ -1,4 +1,4 @@
-//! The 2-byte CoE header (digest §6.1, ETG.1000.6 CoE header).
+//! The 2-byte CoE header (ETG.1000.6 CoE header, spec-notes §coe.header).
 //!
 //! ```text
 //! u16 LE: bits 0-8 number (PDO number; 0 for SDO, SDO Info, emergency)
@@ -30,7 +30,7 @@ const RESERVED_MASK: u16 = 0x0E00;
 const SERVICE_SHIFT: u16 = 12;
 
 enum_with_unknown! {
-    /// CoE service (bits 12-15 of the CoE header, digest §6.1).
+    /// CoE service (bits 12-15 of the CoE header, ETG.1000.6, spec-notes §coe.header).
     pub enum CoeService(u8) {
         /// Emergency (slave → master, unsolicited).
         Emergency = 1,
@@ -219,7 +219,7 @@ pub(crate) mod tests {
 
     #[test]
     fn digest_header_bytes() {
-        // §6.1: SDO request `00 20`, response `00 30`, SDO info `00 80`, emergency `00 10`.
+        // spec-notes §coe.header: SDO request `00 20`, response `00 30`, SDO info `00 80`, emergency `00 10`.
         for (bytes, service) in [
             ([0x00, 0x20], CoeService::SdoRequest),
             ([0x00, 0x30], CoeService::SdoResponse),

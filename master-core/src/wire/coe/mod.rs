@@ -1,4 +1,4 @@
-//! CANopen over EtherCAT (mailbox type 3, digest §6).
+//! CANopen over EtherCAT (mailbox type 3, ETG.1000.6, spec-notes §coe.sdo).
 //!
 //! Every view here wraps the *mailbox data* (the bytes after the 6-byte mailbox header,
 //! exactly `length` of them, starting with the CoE header), so the view's length is the
@@ -25,7 +25,7 @@ use core::fmt;
 
 pub use abort::{AbortCode, sdo_abort};
 pub use data_type::{DataType, ObjectAccess, ObjectCode};
-pub use emergency::{Emergency, EmergencyRepr};
+pub use emergency::{EmergencyFrame, EmergencyRepr};
 pub use header::{COE_HEADER_LEN, CoeFrame, CoeHeaderRepr, CoeService};
 pub use info::{SdoInfoFrame, SdoInfoRepr, SdoInfoService};
 pub use sdo::{SdoFrame, max_initiate_data, max_segment_data};
@@ -64,7 +64,7 @@ impl<'a> CoeRepr<'a> {
         let bytes = frame.bytes();
         Ok(match header.service {
             CoeService::Emergency => {
-                CoeRepr::Emergency(EmergencyRepr::parse(&Emergency::new_checked(bytes)?)?)
+                CoeRepr::Emergency(EmergencyRepr::parse(&EmergencyFrame::new_checked(bytes)?)?)
             }
             CoeService::SdoRequest => {
                 CoeRepr::SdoRequest(SdoRequest::parse(&SdoFrame::new_checked(bytes)?)?)
@@ -98,7 +98,7 @@ impl<'a> CoeRepr<'a> {
     pub fn emit<T: AsRef<[u8]> + AsMut<[u8]>>(&self, frame: &mut CoeFrame<T>) -> Result<()> {
         let buf = frame.buffer_mut();
         match self {
-            CoeRepr::Emergency(e) => e.emit(&mut Emergency::new_unchecked(buf)),
+            CoeRepr::Emergency(e) => e.emit(&mut EmergencyFrame::new_unchecked(buf)),
             CoeRepr::SdoRequest(r) => r.emit(&mut SdoFrame::new_unchecked(buf)),
             CoeRepr::SdoResponse(r) => r.emit(&mut SdoFrame::new_unchecked(buf)),
             CoeRepr::SdoInfo(r) => r.emit(&mut SdoInfoFrame::new_unchecked(buf)),
@@ -154,7 +154,7 @@ mod tests {
 
     #[test]
     fn dispatch_by_service() {
-        // C.6 request and response: the same command specifier bits mean different things.
+        // The worked upload of spec-notes §coe.sdo: the same command specifier bits mean different things.
         let req = [0x00, 0x20, 0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0];
         assert!(matches!(
             parse(&req).unwrap(),

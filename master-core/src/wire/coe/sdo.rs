@@ -1,4 +1,4 @@
-//! The SDO frame (digest §6.2-§6.4): the view shared by requests and responses, the
+//! The SDO frame (ETG.1000.6, spec-notes §coe.sdo): the view shared by requests and responses, the
 //! command-byte bit layout, and the payload rules of initiate and segment frames.
 //!
 //! ```text
@@ -15,7 +15,7 @@
 //! the segment rule needs: with mailbox length 10 the segment carries `7 − unused` bytes
 //! (unused = command bits 1-3), otherwise `length − 3` bytes.
 //!
-//! Tolerated deviations (seeds/README.md; the gateway relies on them), accepted by parse but
+//! Tolerated deviations (spec-notes §coe.sdo-short; the gateway relies on them), accepted by parse but
 //! never produced by emit:
 //! - an initiate frame shorter than 10 bytes whose data field is not needed (upload request
 //!   of 8 bytes);
@@ -52,7 +52,7 @@ pub const SEGMENT_HEADER_LEN: usize = fields::SEGMENT.start;
 /// Command specifier of an abort in either direction (bits 5-7 of the command byte).
 const ABORT_SPECIFIER: u8 = 4;
 
-/// Command byte bits (digest §6.3).
+/// Command byte bits (ETG.1000.6, spec-notes §coe.sdo).
 pub(crate) mod cmd {
     /// Bits 5-7: client/server command specifier.
     pub const SPECIFIER_SHIFT: u8 = 5;
@@ -75,13 +75,13 @@ pub(crate) mod cmd {
 }
 
 /// Most data bytes an initiate (normal) frame carries in a mailbox of `mailbox_size` bytes
-/// (the SyncManager length): M − 16 = 6 mailbox + 2 CoE + 8 SDO header (§6.4).
+/// (the SyncManager length): M − 16 = 6 mailbox + 2 CoE + 8 SDO header (spec-notes §coe.sdo).
 pub const fn max_initiate_data(mailbox_size: usize) -> usize {
     mailbox_size.saturating_sub(crate::wire::mailbox::HEADER_LEN + SDO_INITIATE_LEN)
 }
 
 /// Most data bytes a segment frame carries in a mailbox of `mailbox_size` bytes:
-/// M − 9 = 6 mailbox + 2 CoE + 1 command byte (§6.4).
+/// M − 9 = 6 mailbox + 2 CoE + 1 command byte (ETG.1000.6, spec-notes §coe.sdo).
 pub const fn max_segment_data(mailbox_size: usize) -> usize {
     mailbox_size.saturating_sub(crate::wire::mailbox::HEADER_LEN + SEGMENT_HEADER_LEN)
 }
@@ -163,7 +163,7 @@ impl<T: AsRef<[u8]>> SdoFrame<T> {
     }
 
     /// Index, subindex and abort code of an abort frame, which has the same layout in both
-    /// directions (§6.3, command specifier 4).
+    /// directions (ETG.1000.6, spec-notes §coe.sdo, command specifier 4).
     pub fn abort_fields(&self) -> Result<(u16, u8, AbortCode)> {
         need("SDO abort", self.buffer.as_ref(), SDO_INITIATE_LEN)?;
         let code = AbortCode::from(self.data_field_u32().unwrap_or(0));
@@ -189,7 +189,7 @@ impl<T: AsRef<[u8]>> SdoFrame<T> {
         self.buffer.as_ref().get(fields::EXTRA).unwrap_or(&[])
     }
 
-    /// The data of a segment frame, by the 7-byte minimum rule (§6.3/§6.4).
+    /// The data of a segment frame, by the 7-byte minimum rule (ETG.1000.6, spec-notes §coe.sdo).
     pub fn segment_data(&self) -> &[u8] {
         segment_data_of(self.buffer.as_ref())
     }
@@ -353,10 +353,10 @@ mod tests {
 
     #[test]
     fn size_helpers_match_c9() {
-        // C.9: M = 24 → 8 bytes in the initiate frame, 15 per segment.
+        // ETG.1000.6, spec-notes §coe.sdo: M = 24 → 8 bytes in the initiate frame, 15 per segment.
         assert_eq!(max_initiate_data(24), 8);
         assert_eq!(max_segment_data(24), 15);
-        // 128-byte mailbox (C.4): 112 / 119.
+        // 128-byte mailbox (ETG.1000.4, spec-notes §esc.sm): 112 / 119.
         assert_eq!(max_initiate_data(128), 112);
         assert_eq!(max_segment_data(128), 119);
         assert_eq!(max_initiate_data(10), 0);
@@ -364,7 +364,7 @@ mod tests {
 
     #[test]
     fn segment_rule() {
-        // Length 10, unused 5 → 2 bytes (C.9 last segment).
+        // Length 10, unused 5 → 2 bytes (ETG.1000.6, spec-notes §coe.sdo last segment).
         let f = [0x00, 0x20, 0x0b, 0xd8, 0xd9, 0, 0, 0, 0, 0];
         assert_eq!(
             SdoFrame::new_checked(&f[..]).unwrap().segment_data(),

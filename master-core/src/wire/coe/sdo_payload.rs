@@ -1,4 +1,4 @@
-//! The data of an SDO initiate frame (digest §6.2-§6.4): expedited value, normal transfer
+//! The data of an SDO initiate frame (spec-notes §coe.sdo): expedited value, normal transfer
 //! with complete size, or normal transfer without size — shared by the initiate download
 //! request and the initiate upload response, which have the same command-bit layout.
 
@@ -43,7 +43,7 @@ impl<'a> SdoPayload<'a> {
                 need(what, bytes, SDO_DATA_FIELD_OFFSET + n)?;
                 Ok(SdoPayload::Expedited(data_field.get(..n).unwrap_or(&[])))
             }
-            // Expedited without size: the whole 4-byte field (§6.4).
+            // Expedited without size: the whole 4-byte field (ETG.1000.6, spec-notes §coe.sdo).
             (true, false) => {
                 need(what, bytes, SDO_INITIATE_LEN)?;
                 Ok(SdoPayload::Expedited(data_field))

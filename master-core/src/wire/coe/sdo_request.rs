@@ -1,4 +1,4 @@
-//! SDO requests, client → server (CoE service 2; digest §6.3 "Requests", §6.4).
+//! SDO requests, client → server (CoE service 2; ETG.1000.6, spec-notes §coe.sdo).
 
 use core::fmt;
 
@@ -266,7 +266,7 @@ pub(crate) mod tests {
         }
     }
 
-    // Digest C.6 request, as the first 16 bytes of the 128-byte SM0 image.
+    // The worked upload request (spec-notes §coe.sdo), as the first 16 bytes of the 128-byte SM0 image.
     static C6_REQUEST: [u8; 16] = [
         0x0a, 0x00, 0x00, 0x00, 0x00, 0x33, 0x00, 0x20, 0x40, 0x18, 0x10, 0x01, 0x00, 0x00, 0x00,
         0x00,
@@ -306,7 +306,7 @@ pub(crate) mod tests {
         assert!(out[16..].iter().all(|&b| b == 0xa5));
     }
 
-    // Digest C.7: 0x1C12 ← {0x1600}.
+    // ETG.1000.6, spec-notes §coe.pdo: 0x1C12 ← {0x1600}.
     static C7: [([u8; 10], u16, u8, &[u8]); 3] = [
         (
             [0x00, 0x20, 0x2f, 0x12, 0x1c, 0x00, 0, 0, 0, 0],
@@ -343,8 +343,8 @@ pub(crate) mod tests {
 
     #[test]
     fn seed_1c12_1601_assignment() {
-        // Seed 001: RxPDO 0x1601 = {0x6040:00 16 bit, 0x6060:00 8 bit}, assigned to SM2.
-        // Bytes by hand from §6.3: 1 byte → 0x2F, 2 bytes → 0x2B, 4 bytes → 0x23; LE values.
+        // spec-notes §capture: RxPDO 0x1601 = {0x6040:00 16 bit, 0x6060:00 8 bit}, assigned to SM2.
+        // Bytes by hand (spec-notes §coe.sdo): 1 byte → 0x2F, 2 bytes → 0x2B, 4 bytes → 0x23; LE values.
         let cases: [([u8; 10], SdoRequest<'static>); 5] = [
             (
                 [0x00, 0x20, 0x2f, 0x12, 0x1c, 0x00, 0x00, 0x00, 0x00, 0x00],

@@ -1,4 +1,4 @@
-//! SDO responses, server → client (CoE service 3; digest §6.3 "Responses", §6.4).
+//! SDO responses, server → client (CoE service 3; ETG.1000.6, spec-notes §coe.sdo).
 //!
 //! The same command byte means something else here than in a request (0x60 is an initiate
 //! download response here, an upload segment request there); the CoE service decides.
@@ -267,7 +267,7 @@ mod tests {
         }
     }
 
-    // Digest C.6 response read from SM1.
+    // The worked upload response (ETG.1000.6, spec-notes §coe.sdo), read from SM1.
     static C6_RESPONSE: [u8; 16] = [
         0x0a, 0x00, 0x00, 0x00, 0x00, 0x13, 0x00, 0x30, 0x43, 0x18, 0x10, 0x01, 0x02, 0x00, 0x00,
         0x00,

@@ -1,4 +1,4 @@
-//! The body of a Set address filter request (type 4), digest §9.4 — best effort.
+//! The body of a Set address filter request (type 4), ETG.1000.6, spec-notes §eoe — best effort.
 //!
 //! ```text
 //! u16 options: bits 0-3 MAC filter count, bits 4-5 MAC filter mask count, bit 7 no
@@ -6,7 +6,7 @@
 //! 16 × 6 bytes MAC filters, 4 × 6 bytes filter masks
 //! ```
 //!
-//! **Uncertain** (digest §9.4): the only source is Wireshark's struct, itself marked "may not
+//! **Uncertain** (spec-notes §eoe): the only source is Wireshark's struct, itself marked "may not
 //! be specified correctly"; it is unknown whether the options field is 2 or 4 bytes and
 //! whether unused slots are sent. We emit Wireshark's fixed layout (2 + 96 + 24 = 122 bytes)
 //! and parse either that (body ≥ 122 bytes: all slots read, so unused slots round-trip) or a

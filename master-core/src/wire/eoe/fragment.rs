@@ -1,4 +1,4 @@
-//! EoE fragment data (frame type 0) and the sender-side fragmenter (digest §9.2).
+//! EoE fragment data (frame type 0) and the sender-side fragmenter (ETG.1000.6, spec-notes §eoe).
 
 use core::fmt;
 
@@ -135,7 +135,7 @@ impl fmt::Display for FragmentRepr<'_> {
     }
 }
 
-/// Splits an Ethernet frame into EoE fragments for a receiver mailbox (digest §9.2, sender
+/// Splits an Ethernet frame into EoE fragments for a receiver mailbox (spec-notes §eoe, sender
 /// rules): a fragment carries at most `M − 10` bytes; every non-last fragment carries a
 /// multiple of 32 bytes (`((M − 10) / 32) × 32`, as IgH); fragment 0's size field is
 /// `ceil(len / 32)`, later offset fields are `bytes sent / 32`.

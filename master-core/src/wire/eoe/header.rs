@@ -1,4 +1,4 @@
-//! The 4-byte EoE header (digest §9.1) and its code points.
+//! The 4-byte EoE header (ETG.1000.6, spec-notes §eoe) and its code points.
 //!
 //! ```text
 //! byte 0  bits 0-3 frame type, bits 4-7 port
@@ -46,7 +46,7 @@ pub const MAX_PORT: u8 = 15;
 pub const OFFSET_UNIT: usize = 32;
 
 enum_with_unknown! {
-    /// EoE frame type (byte 0 bits 0-3, digest §9.1).
+    /// EoE frame type (byte 0 bits 0-3, ETG.1000.6, spec-notes §eoe).
     pub enum EoeFrameType(u8) {
         /// Ethernet frame fragment.
         Fragment = 0,
@@ -91,7 +91,7 @@ impl EoeFrameType {
 }
 
 enum_with_unknown! {
-    /// EoE result code of a response (bytes 2-3, digest §9.3).
+    /// EoE result code of a response (bytes 2-3, ETG.1000.6, spec-notes §eoe).
     pub enum EoeResult(u16) {
         /// Success.
         Success = 0x0000,
@@ -272,7 +272,7 @@ mod tests {
 
     #[test]
     fn c13_header_fields() {
-        // Digest C.13: `00 | 01 | 00 31`.
+        // ETG.1000.6, spec-notes §eoe: `00 | 01 | 00 31`.
         let bytes = [0x00, 0x01, 0x00, 0x31];
         let p = EoePacket::new_checked(&bytes[..]).unwrap();
         assert_eq!(p.frame_type(), EoeFrameType::Fragment);

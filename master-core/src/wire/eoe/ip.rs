@@ -1,5 +1,5 @@
 //! The IP parameter body of Set IP parameter requests (type 2) and Get IP parameter
-//! responses (type 7), digest §9.3.
+//! responses (type 7), ETG.1000.6, spec-notes §eoe.
 //!
 //! ```text
 //! u32 flags: bit 0 MAC, 1 IP, 2 subnet mask, 3 default gateway, 4 DNS server, 5 DNS name
@@ -110,7 +110,7 @@ impl<'a> IpParameters<'a> {
     /// Parses the body that follows the EoE header.
     ///
     /// The packed layout (SOEM/SOES) is the norm; a body of exactly 58 bytes with fewer than
-    /// all six flags is read in IgH's fixed layout instead (digest §9.3 — with all six flags
+    /// all six flags is read in IgH's fixed layout instead (spec-notes §eoe — with all six flags
     /// both layouts are the same bytes). Bytes after the packed fields are ignored. Flag
     /// bits above bit 5 are ignored (Wireshark names bit 16 "append timestamp"; no source
     /// sends it).

@@ -1,10 +1,10 @@
-//! EoE — Ethernet over EtherCAT (mailbox type 2, digest §9).
+//! EoE — Ethernet over EtherCAT (mailbox type 2, ETG.1000.6, spec-notes §eoe).
 //!
-//! - [`header`]: the 4-byte EoE header view, frame types and result codes (§9.1, §9.3);
-//! - [`fragment`]: Ethernet frame fragments (type 0) and the sender's [`Fragmenter`] (§9.2);
-//! - [`reassembly`]: the receiver's bounded [`Reassembler`] (§9.2);
-//! - [`ip`]: the Set IP request / Get IP response body (§9.3);
-//! - [`filter`]: the Set address filter request body (§9.4, best effort);
+//! - [`header`]: the 4-byte EoE header view, frame types and result codes (spec-notes §eoe);
+//! - [`fragment`]: Ethernet frame fragments (type 0) and the sender's [`Fragmenter`] (spec-notes §eoe);
+//! - [`reassembly`]: the receiver's bounded [`Reassembler`] (ETG.1000.6, spec-notes §eoe);
+//! - [`ip`]: the Set IP request / Get IP response body (ETG.1000.6, spec-notes §eoe);
+//! - [`filter`]: the Set address filter request body (ETG.1000.6, spec-notes §eoe, best effort);
 //! - here: [`EoeRepr`], one parsed EoE message of any frame type.
 //!
 //! All views cover the mailbox *data* (after the 6-byte mailbox header).
@@ -34,13 +34,13 @@ const TIMESTAMP_LEN: usize = 4;
 /// One parsed EoE message.
 ///
 /// For frame types other than 0 and 1 the flag byte (byte 1) is ignored on parse and written
-/// 0 on emit (digest C.14; bytes 2-3 are the result in responses and 0 in requests).
+/// 0 on emit (spec-notes §eoe; bytes 2-3 are the result in responses and 0 in requests).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum EoeRepr<'a> {
     /// Type 0: a fragment of an Ethernet frame.
     Fragment(FragmentRepr<'a>),
     /// Type 1: timestamp response. Of the fragment fields only the frame number is kept
-    /// (the others are written 0); which clock the timestamp uses is **Uncertain** (§9.5).
+    /// (the others are written 0); which clock the timestamp uses is **Uncertain** (spec-notes §eoe).
     Timestamp {
         /// Port.
         port: u8,

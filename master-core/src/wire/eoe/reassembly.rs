@@ -1,4 +1,4 @@
-//! Receiver-side reassembly of EoE fragments into Ethernet frames (digest §9.2).
+//! Receiver-side reassembly of EoE fragments into Ethernet frames (ETG.1000.6, spec-notes §eoe).
 
 use thiserror::Error;
 
@@ -86,7 +86,7 @@ struct InProgress {
 
 /// Reassembles the fragments of one Ethernet frame at a time, in a buffer of bounded size.
 ///
-/// Receiver rules (IgH/SOEM, digest §9.2): fragment 0 starts a new frame (silently dropping
+/// Receiver rules (IgH/SOEM, spec-notes §eoe): fragment 0 starts a new frame (silently dropping
 /// any unfinished one, as both do); every later fragment must have the same frame number, the
 /// next fragment number, offset × 32 equal to the bytes received, and must not overflow. On
 /// any violation the partial frame is dropped and the error returned. The size field of

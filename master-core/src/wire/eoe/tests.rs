@@ -5,6 +5,8 @@ use std::net::Ipv4Addr;
 use proptest::prelude::*;
 
 use super::*;
+
+use crate::wire::Emit;
 use crate::wire::mailbox::{Mailbox, MailboxHeader, MailboxType};
 
 /// A made-up Ethernet frame of `len` bytes: broadcast, a local MAC, EtherType 0x0800, then a
@@ -71,7 +73,7 @@ fn c13_single_fragment_mailbox() {
     assert_eq!(out, bytes);
 }
 
-// Digest C.14.
+// ETG.1000.6, spec-notes §eoe.
 static SET_IP: [u8; 22] = [
     0x10, 0x00, 0x00, 0x00, 0x00, 0x22, 0x02, 0x00, 0x00, 0x00, 0x06, 0x00, 0x00, 0x00, 0x0a, 0x01,
     0xa8, 0xc0, 0x00, 0xff, 0xff, 0xff,
@@ -105,7 +107,7 @@ fn c14_set_ip_packed() {
     assert_eq!(out, SET_IP);
 }
 
-/// Set IP with all six flags, worked out by hand from §9.3 (58-byte body).
+/// Set IP with all six flags, worked out by hand (ETG.1000.6, spec-notes §eoe; 58-byte body).
 fn all_flags_bytes() -> Vec<u8> {
     let mut b = vec![0x02, 0x00, 0x00, 0x00]; // EoE header, type 2
     b.extend_from_slice(&[0x3f, 0x00, 0x00, 0x00]); // flags
@@ -169,7 +171,7 @@ fn set_ip_fixed_layout_tolerated() {
             }
         }
     );
-    // Emit is packed: the C.14 bytes.
+    // Emit is packed: the worked example's bytes (spec-notes §eoe).
     assert_eq!(emit(&repr), &SET_IP[6..]);
 }
 
@@ -363,7 +365,7 @@ fn address_filter() {
     ));
 }
 
-/// Fragments `frame` for `mailbox_size`, checks the §9.2 sender rules on every fragment,
+/// Fragments `frame` for `mailbox_size`, checks the sender rules (spec-notes §eoe) on every fragment,
 /// sends each through emit/parse in a full mailbox and reassembles.
 fn fragment_and_reassemble(frame: &[u8], mailbox_size: usize, frame_number: u8) -> usize {
     let mut reassembler = Reassembler::default();
@@ -690,8 +692,7 @@ pub(crate) fn arb_eoe() -> impl Strategy<Value = EoeRepr<'static>> {
 proptest! {
     #[test]
     fn round_trip(repr in arb_eoe()) {
-        let mut buf = vec![0u8; repr.buffer_len()];
-        repr.emit(&mut EoePacket::new_unchecked(&mut buf[..])).unwrap();
+        let buf = repr.to_vec().unwrap();
         prop_assert_eq!(parse(&buf).unwrap(), repr);
     }
 

@@ -1,4 +1,4 @@
-//! The mailbox error reply (mailbox type 0, digest §5.4, ETG.1000.4 "mailbox error").
+//! The mailbox error reply (mailbox type 0, ETG.1000.4 "mailbox error", spec-notes §mbx.error).
 //!
 //! ```text
 //! mailbox data offset 0  u16  type   = 0x0001 (mailbox command "error")
@@ -25,7 +25,7 @@ pub const ERROR_REPLY_LEN: usize = fields::DETAIL.end;
 pub const ERROR_REPLY_TYPE: u16 = 0x0001;
 
 enum_with_unknown! {
-    /// Mailbox error code (the detail word, digest §5.4).
+    /// Mailbox error code (the detail word, ETG.1000.4, spec-notes §mbx.error).
     pub enum MailboxErrorCode(u16) {
         /// 0x0001: syntax of the 6-byte mailbox header is wrong.
         Syntax = 0x0001,
@@ -65,7 +65,7 @@ impl MailboxErrorCode {
         }
     }
 
-    /// The meaning of the code in words (§5.4).
+    /// The meaning of the code in words (ETG.1000.4, spec-notes §mbx.error).
     pub fn description(self) -> &'static str {
         match self {
             MailboxErrorCode::Syntax => "Syntax of the 6-byte mailbox header is wrong",
@@ -210,7 +210,7 @@ mod tests {
     use crate::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
     use proptest::prelude::*;
 
-    // Digest C.11 (and §5.4's example with slave counter 1): unsupported protocol.
+    // ETG.1000.4, spec-notes §mbx.error, with slave counter 1: unsupported protocol.
     static C11: [u8; 10] = [0x04, 0x00, 0x00, 0x00, 0x00, 0x10, 0x01, 0x00, 0x02, 0x00];
 
     #[test]

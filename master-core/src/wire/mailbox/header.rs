@@ -1,4 +1,4 @@
-//! The 6-byte mailbox header (digest §5.2, ETG.1000.4 mailbox header).
+//! The 6-byte mailbox header (ETG.1000.4 mailbox header, spec-notes §mbx.header).
 //!
 //! ```text
 //! offset 0  u16  length   bytes of mailbox data after this header
@@ -28,7 +28,7 @@ pub const HEADER_LEN: usize = fields::DATA.start;
 enum_with_unknown! {
     /// Mailbox protocol type (header byte 5, bits 0-3).
     pub enum MailboxType(u8) {
-        /// Mailbox error reply (§5.4).
+        /// Mailbox error reply (ETG.1000.4, spec-notes §mbx.error).
         Error = 0x0,
         /// ADS over EtherCAT.
         Aoe = 0x1,
@@ -200,7 +200,7 @@ pub struct MailboxHeader {
 impl MailboxHeader {
     /// Parses the header of a checked mailbox view.
     ///
-    /// The reserved bit is ignored on receive, as the digest recommends; a mailbox type that
+    /// The reserved bit is ignored on receive (spec-notes §mbx.header); a mailbox type that
     /// does not fit in 4 bits cannot occur.
     pub fn parse<T: AsRef<[u8]>>(mailbox: &Mailbox<T>) -> Result<Self> {
         mailbox.check_len()?;
@@ -268,7 +268,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    // Digest §5.2 worked example: length 10, address 0, CoE, counter 2.
+    // ETG.1000.4, spec-notes §mbx.header worked example: length 10, address 0, CoE, counter 2.
     static HEADER_BYTES: [u8; 6] = [0x0a, 0x00, 0x00, 0x00, 0x00, 0x23];
 
     fn repr() -> MailboxHeader {

@@ -169,20 +169,21 @@ impl fmt::Display for MailboxMessage<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
-    // Appendix C.6, response read from SM1 (with the rest of a 128-byte SM1 after it).
+    // spec-notes §coe.sdo, response read from SM1 (with the rest of a 128-byte SM1 after it).
     static C6_RESPONSE: [u8; 16] = [
         0x0a, 0x00, 0x00, 0x00, 0x00, 0x13, 0x00, 0x30, 0x43, 0x18, 0x10, 0x01, 0x02, 0x00, 0x00,
         0x00,
     ];
-    // Appendix C.11: mailbox error reply, unsupported protocol.
+    // ETG.1000.4, spec-notes §mbx.error: mailbox error reply, unsupported protocol.
     static C11: [u8; 10] = [0x04, 0x00, 0x00, 0x00, 0x00, 0x10, 0x01, 0x00, 0x02, 0x00];
-    // Appendix C.12: FoE ACK 0.
+    // ETG.1000.6, spec-notes §foe: FoE ACK 0.
     static C12_ACK: [u8; 12] = [
         0x06, 0x00, 0x00, 0x00, 0x00, 0x14, 0x04, 0x00, 0x00, 0x00, 0x00, 0x00,
     ];
-    // Appendix C.15: SoE "no IDN" error reply.
+    // ETG.1000.6, spec-notes §soe: SoE "no IDN" error reply.
     static C15_ERROR: [u8; 12] = [
         0x06, 0x00, 0x00, 0x00, 0x00, 0x15, 0x12, 0x40, 0x18, 0x00, 0x01, 0x10,
     ];
@@ -269,8 +270,7 @@ mod tests {
             bytes[5] = ty | (counter << 4);
             bytes[HEADER_LEN..].copy_from_slice(&data);
             if let Ok(message) = MailboxMessage::parse(&bytes) {
-                let mut out = vec![0u8; message.buffer_len()];
-                message.emit(&mut out).unwrap();
+                let out = message.to_vec().unwrap();
                 let again = MailboxMessage::parse(&out).unwrap();
                 prop_assert_eq!(again.payload, message.payload);
             }

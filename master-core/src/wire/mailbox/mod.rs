@@ -1,4 +1,4 @@
-//! The mailbox layer (digest §5): header, error reply, and messages decoded by protocol type.
+//! The mailbox layer (spec-notes §mbx.header): header, error reply, and messages decoded by protocol type.
 
 pub mod error_reply;
 pub mod header;

@@ -1,10 +1,10 @@
-//! Named ESC register addresses (digest §2.1–§2.13).
+//! Named ESC register addresses (ETG.1000.4 §6, spec-notes §esc.info and the topics after it).
 //!
 //! Byte addresses in the ESC's 64 KiB address space; everything below [`PROCESS_RAM`] is a
 //! register. Only the registers a master (or an emulated ESC) actually touches are named.
 
-// §2.1 Information block.
-/// ESC type (u8). Type at 0x0000, revision at 0x0001 (Appendix D: Wireshark swaps them).
+// Information block (ETG.1000.4, spec-notes §esc.info).
+/// ESC type (u8). Type at 0x0000, revision at 0x0001 (spec-notes §esc.info: Wireshark swaps them).
 pub const TYPE: u16 = 0x0000;
 /// ESC revision (u8).
 pub const REVISION: u16 = 0x0001;
@@ -21,7 +21,7 @@ pub const PORT_DESCRIPTOR: u16 = 0x0007;
 /// ESC features supported (u16).
 pub const FEATURES: u16 = 0x0008;
 
-// §2.2 Addressing, write protection, reset.
+// Addressing, write protection, reset (ETG.1000.4, spec-notes §esc.address).
 /// Configured station address (u16), used by FPxx commands.
 pub const STATION_ADDRESS: u16 = 0x0010;
 /// Configured station alias (u16), loaded from SII word 4.
@@ -41,7 +41,7 @@ pub const ESC_RESET_PDI: u16 = 0x0041;
 /// The three bytes written one per datagram to [`ESC_RESET_ECAT`] to reset an ESC.
 pub const ESC_RESET_SEQUENCE: [u8; 3] = [b'R', b'E', b'S'];
 
-// §2.3 Data link.
+// Data link (ETG.1000.4, spec-notes §esc.dl).
 /// DL control (u32).
 pub const DL_CONTROL: u16 = 0x0100;
 /// DL control byte 1: loop settings of ports 0-3 (SOEM writes 0 = all auto).
@@ -53,7 +53,7 @@ pub const PHYSICAL_RW_OFFSET: u16 = 0x0108;
 /// DL status (u16).
 pub const DL_STATUS: u16 = 0x0110;
 
-// §2.4 Application layer.
+// Application layer (ETG.1000.6, spec-notes §al).
 /// AL control (u16), written by the master.
 pub const AL_CONTROL: u16 = 0x0120;
 /// AL status (u16).
@@ -65,7 +65,7 @@ pub const RUN_LED_OVERRIDE: u16 = 0x0138;
 /// ERR LED override (u8).
 pub const ERR_LED_OVERRIDE: u16 = 0x0139;
 
-// §2.5 PDI and ESC configuration.
+// PDI and ESC configuration (ETG.1000.4, spec-notes §esc.info).
 /// PDI control (u8), loaded from SII word 0 low byte.
 pub const PDI_CONTROL: u16 = 0x0140;
 /// ESC configuration (u8), loaded from SII word 0 high byte.
@@ -79,7 +79,7 @@ pub const SYNC_LATCH_CONFIG: u16 = 0x0151;
 /// Extended PDI configuration (u16), from SII word 3.
 pub const PDI_CONFIG_EXT: u16 = 0x0152;
 
-// §2.6 Events.
+// Events (ETG.1000.4, spec-notes §esc.events).
 /// ECAT event mask (u16).
 pub const ECAT_EVENT_MASK: u16 = 0x0200;
 /// AL event mask (u32).
@@ -89,7 +89,7 @@ pub const ECAT_EVENT_REQUEST: u16 = 0x0210;
 /// AL event request (u32).
 pub const AL_EVENT_REQUEST: u16 = 0x0220;
 
-// §2.7 Error counters.
+// Error counters (ETG.1000.4, spec-notes §esc.errors).
 /// Start of the error counter block (0x0300–0x0313, see [`super::error_counters`]).
 pub const ERROR_COUNTERS: u16 = 0x0300;
 /// Invalid frame counter of port `n` is at this + 2n; RX error counter at this + 2n + 1.
@@ -105,7 +105,7 @@ pub const PDI_ERROR_CODE: u16 = 0x030E;
 /// Lost link counter of port `n` is at this + n.
 pub const LOST_LINK_COUNTERS: u16 = 0x0310;
 
-// §2.8 Watchdogs.
+// Watchdogs (ETG.1000.4, spec-notes §esc.watchdog).
 /// Watchdog divider (u16); tick = (value + 2) × 40 ns.
 pub const WATCHDOG_DIVIDER: u16 = 0x0400;
 /// PDI watchdog time (u16, ticks).
@@ -119,7 +119,7 @@ pub const WATCHDOG_COUNTER_PROCESS_DATA: u16 = 0x0442;
 /// PDI watchdog expiry counter (u8).
 pub const WATCHDOG_COUNTER_PDI: u16 = 0x0443;
 
-// §2.9 SII (EEPROM) interface.
+// SII (EEPROM) interface (ETG.1000.4, spec-notes §esc.sii-if).
 /// EEPROM configuration (u8): bit 0 PDI owns the EEPROM, bit 1 force ECAT access.
 pub const EEPROM_CONFIG: u16 = 0x0500;
 /// EEPROM PDI access state (u8).
@@ -131,11 +131,11 @@ pub const EEPROM_ADDRESS: u16 = 0x0504;
 /// EEPROM data (4 or 8 bytes read, 2 bytes written).
 pub const EEPROM_DATA: u16 = 0x0508;
 
-// §2.10 MII management.
+// MII management (ETG.1000.4 §6).
 /// MII management control/status (u16).
 pub const MII_CONTROL: u16 = 0x0510;
 
-// §2.11 / §2.12 FMMUs and SyncManagers.
+// FMMUs and SyncManagers (ETG.1000.4, spec-notes §esc.fmmu, §esc.sm).
 /// FMMU 0; FMMU n is at this + 16·n.
 pub const FMMU_BASE: u16 = 0x0600;
 /// Size of one FMMU register set.
@@ -149,7 +149,7 @@ pub const SM_STRIDE: u16 = 8;
 /// Number of SyncManager register sets the address space has room for.
 pub const SM_MAX: u8 = 16;
 
-// §2.13 Distributed clocks.
+// Distributed clocks (ETG.1000.4, spec-notes §esc.dc).
 /// Receive time port 0 (u32); writing here latches all port receive times.
 pub const DC_RECEIVE_TIME_PORT0: u16 = 0x0900;
 /// Receive time port 1 (u32).
@@ -219,7 +219,7 @@ pub const DC_PDI_BUFFER_START_TIME: u16 = 0x09F8;
 /// PDI buffer change event time (u32).
 pub const DC_PDI_BUFFER_CHANGE_TIME: u16 = 0x09FC;
 
-// §2.14
+// Other areas (ETG.1000.4, spec-notes §esc.info).
 /// First byte of process data RAM; everything below is a register.
 pub const PROCESS_RAM: u16 = 0x1000;
 
@@ -242,7 +242,7 @@ pub const fn sync_manager(n: u8) -> Option<u16> {
 }
 
 /// Address of the status byte of SyncManager `n` (used for mapping the SM1 "mailbox full"
-/// bit with an FMMU, e.g. 0x080D, Appendix C.18).
+/// bit with an FMMU, e.g. 0x080D, spec-notes §capture).
 pub const fn sync_manager_status(n: u8) -> Option<u16> {
     match sync_manager(n) {
         Some(base) => Some(base + 5),
@@ -264,7 +264,7 @@ mod tests {
         assert_eq!(sync_manager(1), Some(0x0808));
         assert_eq!(sync_manager(15), Some(0x0878));
         assert_eq!(sync_manager(16), None);
-        // Appendix C.18 maps the SM1 status byte at 0x080D.
+        // The worked FMMU example (spec-notes §esc.fmmu) maps the SM1 status byte at 0x080D.
         assert_eq!(sync_manager_status(1), Some(0x080D));
     }
 }

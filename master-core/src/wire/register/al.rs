@@ -1,5 +1,5 @@
 //! AL control 0x0120, AL status 0x0130 and the 6-byte status read 0x0130–0x0135
-//! (digest §2.4, §3.1, Appendix C.5).
+//! (ETG.1000.6, spec-notes §al).
 //!
 //! ```text
 //! AL control / AL status (u16): bits 0-3 state, bit 4 error ack / error indication,
@@ -29,7 +29,7 @@ const ERROR_BIT: u16 = 0x0010;
 const ID_BIT: u16 = 0x0020;
 
 enum_with_unknown! {
-    /// EtherCAT state machine state (digest §3.1), the low nibble of AL control/status.
+    /// EtherCAT state machine state (spec-notes §al), the low nibble of AL control/status.
     ///
     /// A BRD of 0x0130 returns the OR of several slaves' states, which is why values like
     /// 0x3 (INIT | PREOP) or 0x6 appear as `Unknown`.
@@ -95,7 +95,7 @@ fn write_u16(what: &'static str, buf: &mut [u8], value: u16) -> Result<()> {
     Ok(())
 }
 
-/// AL control register 0x0120 (u16), written by the master (digest §2.4).
+/// AL control register 0x0120 (u16), written by the master (ETG.1000.6, spec-notes §al).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct AlControl {
     /// Requested state.
@@ -174,7 +174,7 @@ impl fmt::Display for AlControl {
     }
 }
 
-/// AL status register 0x0130 (u16), written by the slave (digest §2.4).
+/// AL status register 0x0130 (u16), written by the slave (ETG.1000.6, spec-notes §al).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct AlStatus {
     /// Current state.
@@ -249,7 +249,7 @@ impl fmt::Display for AlStatus {
 pub const AL_STATUS_BLOCK_LEN: usize = fields::CODE.end;
 
 /// View of the 6 bytes 0x0130–0x0135: AL status, a reserved word, AL status code
-/// (digest §3.3 step 2, Appendix C.5).
+/// (ETG.1000.6, spec-notes §al, master procedure).
 #[derive(Debug, Clone)]
 pub struct AlStatusBlock<T: AsRef<[u8]>> {
     buffer: T,
@@ -378,7 +378,7 @@ mod tests {
 
     #[test]
     fn c5_control_bytes() {
-        // Appendix C.5: request PREOP = `02 00`; acknowledge + PREOP = `12 00`.
+        // ETG.1000.6, spec-notes §al: request PREOP = `02 00`; acknowledge + PREOP = `12 00`.
         let mut buf = [0xa5u8; 2];
         AlControl::request(AlState::PreOp).emit(&mut buf).unwrap();
         assert_eq!(buf, [0x02, 0x00]);
@@ -390,7 +390,7 @@ mod tests {
             AlControl::parse(&[0x12, 0x00]).unwrap(),
             AlControl::acknowledge(AlState::PreOp)
         );
-        // SOEM's broadcast "INIT + ack" (§2.15) is 0x0011.
+        // SOEM's broadcast "INIT + ack" (ETG.1000.4, spec-notes §esc.reset) is 0x0011.
         assert_eq!(AlControl::acknowledge(AlState::Init).encode(), Ok(0x0011));
     }
 

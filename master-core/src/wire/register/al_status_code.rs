@@ -1,11 +1,11 @@
-//! AL status codes, register 0x0134 (digest §3.4).
+//! AL status codes, register 0x0134 (ETG.1000.6, spec-notes §al.codes).
 
 use core::fmt;
 
 use crate::wire::macros::enum_with_unknown;
 
 enum_with_unknown! {
-    /// Why a slave refused a state change or left a state (AL status code, digest §3.4).
+    /// Why a slave refused a state change or left a state (AL status code, spec-notes §al.codes).
     ///
     /// 0x8000–0xFFFF are vendor specific and stay `Unknown(code)`; see
     /// [`AlStatusCode::is_vendor_specific`].
@@ -147,9 +147,9 @@ impl AlStatusCode {
         u16::from(self) >= 0x8000
     }
 
-    /// The meaning of the code, in the words of the digest's table (§3.4).
+    /// The meaning of the code, in the words of the ETG.1000.6 table (spec-notes §al.codes).
     ///
-    /// 0x002E is named by both of its readings (Appendix D: "display both").
+    /// 0x002E is named by both of its readings (spec-notes §al.codes).
     pub fn description(self) -> &'static str {
         use AlStatusCode::*;
         match self {
@@ -236,7 +236,7 @@ impl fmt::Display for AlStatusCode {
 mod tests {
     use super::*;
 
-    /// Every code of the table in digest §3.4, with its text.
+    /// Every code of the ETG.1000.6 table (spec-notes §al.codes), with its text.
     const TABLE: &[(u16, &str)] = &[
         (0x0000, "No error"),
         (0x0001, "Unspecified error"),

@@ -1,4 +1,4 @@
-//! Distributed-clock registers 0x0900–0x09FF: typed helpers (digest §2.13, §13.1–§13.2).
+//! Distributed-clock registers 0x0900–0x09FF: typed helpers (ETG.1000.4, spec-notes §esc.dc, §dc).
 //!
 //! Most DC registers are plain integers read or written at the addresses in
 //! [`super::address`]; only the ones with structure get a type here.
@@ -25,11 +25,11 @@ pub const SPEED_COUNTER_START_DEFAULT: u16 = 0x1000;
 /// Value SOEM writes to 0x0934 as a u16: time filter depth 0, speed filter depth 12.
 pub const FILTER_DEPTHS_SOEM: u16 = 0x0C00;
 
-/// Seconds from the Unix epoch to the EtherCAT epoch 2000-01-01 00:00:00 (§13.1).
+/// Seconds from the Unix epoch to the EtherCAT epoch 2000-01-01 00:00:00 (spec-notes §dc).
 pub const ECAT_EPOCH_UNIX_SECS: u64 = 946_684_800;
 
 /// Reads a DC time register that is 64 bits wide on 64-bit DC and 32 bits wide otherwise
-/// (0x0910, 0x0918, 0x0920, 0x0990; §13.1): 8 bytes if present, else 4 zero-extended.
+/// (0x0910, 0x0918, 0x0920, 0x0990; spec-notes §dc): 8 bytes if present, else 4 zero-extended.
 pub fn read_time(buf: &[u8]) -> Result<u64> {
     if buf.len() >= 8 {
         Ok(field::u64_le(buf, 0))
@@ -40,7 +40,7 @@ pub fn read_time(buf: &[u8]) -> Result<u64> {
 }
 
 /// System time offset 0x0920 (treated as signed, as ethercrab does) and system time delay
-/// 0x0928, written together as 12 bytes from 0x0920 (§13.2 step 5).
+/// 0x0928, written together as 12 bytes from 0x0920 (ETG.1000.4, spec-notes §dc step 5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct OffsetDelay {
     /// 0x0920: local time + offset = system time (ns).
@@ -74,10 +74,10 @@ impl OffsetDelay {
 /// Bit 31 of 0x092C: the sign of the system time difference.
 const DIFF_SIGN: u32 = 1 << 31;
 
-/// System time difference 0x092C (u32, sign/magnitude, §2.13).
+/// System time difference 0x092C (u32, sign/magnitude, ETG.1000.4, spec-notes §esc.dc).
 ///
 /// Bit 31 set means the local copy is ahead of (≥) the received reference time, following
-/// the digest (which follows KickCAT); bits 0-30 are the saturated magnitude in ns.
+/// KickCAT (spec-notes §esc.dc); bits 0-30 are the saturated magnitude in ns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct SystemTimeDifference {
     /// Bit 31: local system time ≥ received reference time.
@@ -172,7 +172,7 @@ impl PortReceiveTimes {
         Ok(())
     }
 
-    /// `T(to) − T(from)` with 32-bit wrapping arithmetic (§13.2); `None` for a port ≥ 4.
+    /// `T(to) − T(from)` with 32-bit wrapping arithmetic (spec-notes §dc); `None` for a port ≥ 4.
     pub fn span(&self, from: usize, to: usize) -> Option<u32> {
         Some(self.0.get(to)?.wrapping_sub(*self.0.get(from)?))
     }

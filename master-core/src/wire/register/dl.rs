@@ -1,4 +1,4 @@
-//! DL control 0x0100 (u32) and DL status 0x0110 (u16) (digest §2.3).
+//! DL control 0x0100 (u32) and DL status 0x0110 (u16) (ETG.1000.4, spec-notes §esc.dl).
 
 use core::fmt;
 
@@ -26,7 +26,7 @@ mod bits {
     pub const PORT_SHIFT: u16 = 8;
 }
 
-/// Loop setting of one port in DL control (2 bits, digest §2.3).
+/// Loop setting of one port in DL control (2 bits, ETG.1000.4, spec-notes §esc.dl).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum LoopMode {
     /// 00: open when link is up, close when it is lost.
@@ -172,7 +172,7 @@ impl fmt::Display for DlControl {
     }
 }
 
-/// State of one port in DL status (digest §2.3).
+/// State of one port in DL status (ETG.1000.4, spec-notes §esc.dl).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct PortStatus {
     /// Physical link detected (bits 4-7).
@@ -306,7 +306,7 @@ mod tests {
 
     #[test]
     fn soem_reset_writes() {
-        // §2.15: SOEM writes 0x00 to 0x0101 (all loops auto) and 0x00 to 0x0103 (alias off).
+        // spec-notes §esc.reset: SOEM writes 0x00 to 0x0101 (all loops auto) and 0x00 to 0x0103 (alias off).
         let c = DlControl::parse(&[0x01, 0x00, 0x00, 0x00]).unwrap();
         assert!(c.forwarding_destroy);
         assert_eq!(c.loop_modes, [LoopMode::Auto; 4]);

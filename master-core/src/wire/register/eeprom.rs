@@ -1,4 +1,4 @@
-//! SII (EEPROM) interface 0x0500–0x050F (digest §2.9, Appendix C.3).
+//! SII (EEPROM) interface 0x0500–0x050F (ETG.1000.4, spec-notes §esc.sii-if).
 //!
 //! ```text
 //! 0x0502 u16 control/status: bit 0 write enable, 5 emulation, 6 8-byte reads, 7 2 address
@@ -99,7 +99,7 @@ impl EepromControl {
     /// Size of the register.
     pub const LEN: usize = 2;
 
-    /// A control word carrying only `command` (write enable set for a write, §2.9).
+    /// A control word carrying only `command` (write enable set for a write, spec-notes §esc.sii-if).
     pub const fn command(command: EepromCommand) -> Self {
         EepromControl {
             write_enable: matches!(command, EepromCommand::Write),
@@ -331,7 +331,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    // Appendix C.3: SII read of word 0x0008.
+    // ETG.1000.4, spec-notes §esc.sii-if: SII read of word 0x0008.
     static C3_READ: [u8; 6] = [0x00, 0x01, 0x08, 0x00, 0x00, 0x00];
 
     #[test]
@@ -349,7 +349,7 @@ mod tests {
 
     #[test]
     fn c3_data_read() {
-        // Appendix C.3: 8 bytes from word 8 of an EL2004 = vendor 2, product 0x07D43052.
+        // spec-notes §esc.sii-if: 8 bytes from word 8 of an EL2004 = vendor 2, product 0x07D43052.
         let data = [0x02, 0x00, 0x00, 0x00, 0x52, 0x30, 0xd4, 0x07];
         let words: Vec<u16> = data_words(&data).collect();
         assert_eq!(words, [0x0002, 0x0000, 0x3052, 0x07D4]);
@@ -357,7 +357,7 @@ mod tests {
 
     #[test]
     fn write_request_is_0x0201() {
-        // §2.9: control = 0x0201 (write enable + write command).
+        // ETG.1000.4, spec-notes §esc.sii-if: control = 0x0201 (write enable + write command).
         let mut buf = [0xa5u8; 6];
         EepromRequestRepr::write(0x0004)
             .emit(&mut EepromRequest::new_unchecked(&mut buf[..]))

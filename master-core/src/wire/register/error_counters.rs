@@ -1,4 +1,4 @@
-//! Error counter block 0x0300–0x0313 (digest §2.7).
+//! Error counter block 0x0300–0x0313 (ETG.1000.4, spec-notes §esc.errors).
 //!
 //! ```text
 //! 0x00 + 2n u8 invalid frame counter port n | 0x01 + 2n u8 RX error counter port n
@@ -105,7 +105,7 @@ impl<T: AsRef<[u8]> + AsMut<[u8]>> ErrorCounters<T> {
     }
 }
 
-/// Parsed error counters (digest §2.7).
+/// Parsed error counters (ETG.1000.4, spec-notes §esc.errors).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct ErrorCountersRepr {
     /// Invalid frame (CRC) counters per port.

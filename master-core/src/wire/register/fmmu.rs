@@ -1,4 +1,4 @@
-//! FMMU register set, 16 bytes per FMMU at 0x0600 + 16·n (digest §2.11, Appendix C.18).
+//! FMMU register set, 16 bytes per FMMU at 0x0600 + 16·n (ETG.1000.4, spec-notes §esc.fmmu).
 //!
 //! ```text
 //! 0x0 u32 logical start | 0x4 u16 length | 0x6 u8 logical start bit | 0x7 u8 logical stop bit
@@ -192,7 +192,7 @@ impl FmmuRepr {
         }
     }
 
-    /// Mapped bits: (length − 1) × 8 + (stop − start + 1) (§2.11); 0 for an empty or
+    /// Mapped bits: (length − 1) × 8 + (stop − start + 1) (spec-notes §esc.fmmu); 0 for an empty or
     /// contradictory mapping.
     pub fn bit_count(&self) -> u32 {
         (u32::from(self.length) * 8)
@@ -274,7 +274,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    // Appendix C.18.
+    // The worked example (ETG.1000.4, spec-notes §esc.fmmu).
     static C18_FMMU0: [u8; 16] = [
         0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x07, 0x00, 0x11, 0x00, 0x02, 0x01, 0x00, 0x00,
         0x00,

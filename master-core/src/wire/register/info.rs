@@ -1,10 +1,10 @@
-//! ESC information block 0x0000–0x0009 (digest §2.1).
+//! ESC information block 0x0000–0x0009 (ETG.1000.4, spec-notes §esc.info).
 //!
 //! ```text
 //! 0 u8 type | 1 u8 revision | 2 u16 build | 4 u8 #FMMU | 5 u8 #SM | 6 u8 RAM KiB
 //! 7 u8 port descriptor (2 bits per port) | 8 u16 features
 //! ```
-//! Type is at 0x0000 and revision at 0x0001 (Appendix D; Wireshark has them swapped).
+//! Type is at 0x0000 and revision at 0x0001 (spec-notes §esc.info; Wireshark has them swapped).
 
 use core::fmt;
 
@@ -73,7 +73,7 @@ impl PortType {
 }
 
 /// ESC features supported, register 0x0008 (u16). The raw value is kept; accessors name
-/// the bits of the §2.1 table.
+/// the bits of the ETG.1000.4 table (spec-notes §esc.info).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct EscFeatures(pub u16);
 
@@ -324,7 +324,7 @@ mod tests {
 
     #[test]
     fn worked_example() {
-        // KickCAT's emulator per §2.1: type 0x04, build 0x0301, features 0x01CC; port
+        // KickCAT's emulator (spec-notes §esc.info): type 0x04, build 0x0301, features 0x01CC; port
         // descriptor 0x0F = ports 0 and 1 MII. Other fields chosen by hand.
         let bytes = [0x04, 0x01, 0x01, 0x03, 0x08, 0x08, 0x08, 0x0F, 0xCC, 0x01];
         let r = EscInfoRepr::parse(&EscInfo::new_checked(&bytes[..]).unwrap()).unwrap();

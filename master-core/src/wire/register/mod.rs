@@ -1,4 +1,4 @@
-//! ESC registers (digest §2, §3): addresses and typed views of the registers a master reads
+//! ESC registers (spec-notes §esc.info, §al): addresses and typed views of the registers a master reads
 //! and writes, and an emulated ESC provides.
 //!
 //! One file per register group: [`address`] names every address; [`info`] the information

@@ -1,10 +1,10 @@
-//! SyncManager register set, 8 bytes per SM at 0x0800 + 8·n (digest §2.12, Appendix C.4).
+//! SyncManager register set, 8 bytes per SM at 0x0800 + 8·n (ETG.1000.4, spec-notes §esc.sm).
 //!
 //! ```text
 //! 0 u16 physical start | 2 u16 length | 4 u8 control | 5 u8 status | 6 u8 activate
 //! 7 u8 PDI control
 //! ```
-//! The same control byte layout is used by the SII SYNCM category (§4.7).
+//! The same control byte layout is used by the SII SYNCM category (spec-notes §sii.categories).
 
 use core::fmt;
 
@@ -175,7 +175,7 @@ impl SmStatus {
 pub struct SmActivate {
     /// Bit 0: SyncManager enabled.
     pub enable: bool,
-    /// Bit 1: mailbox repeat request (toggled by the master, §5.6).
+    /// Bit 1: mailbox repeat request (toggled by the master, ETG.1000.4, spec-notes §mbx.repeat).
     pub repeat_request: bool,
     /// Bit 6: DC latch event on ECAT access.
     pub latch_ecat: bool,
@@ -460,7 +460,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    // Appendix C.4: SM0 at 0x1000 len 128, SM1 at 0x1080 len 128.
+    // ETG.1000.4, spec-notes §esc.sm: SM0 at 0x1000 len 128, SM1 at 0x1080 len 128.
     static C4: [u8; 16] = [
         0x00, 0x10, 0x80, 0x00, 0x26, 0x00, 0x01, 0x00, 0x80, 0x10, 0x80, 0x00, 0x22, 0x00, 0x01,
         0x00,
@@ -495,7 +495,7 @@ mod tests {
 
     #[test]
     fn typical_control_bytes() {
-        // §2.12: 0x26, 0x22, 0x64, 0x20.
+        // ETG.1000.4, spec-notes §esc.sm: 0x26, 0x22, 0x64, 0x20.
         assert_eq!(SmControl::MAILBOX_OUT.encode(), Ok(0x26));
         assert_eq!(SmControl::MAILBOX_IN.encode(), Ok(0x22));
         assert_eq!(SmControl::OUTPUTS.encode(), Ok(0x64));

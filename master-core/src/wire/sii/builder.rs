@@ -1,4 +1,4 @@
-//! `SiiBuilder`: emits a complete, valid SII image (digest §4) — used by the simulator to
+//! `SiiBuilder`: emits a complete, valid SII image (spec-notes §sii) — used by the simulator to
 //! give its slaves an EEPROM.
 
 use super::category::{CATEGORY_HEADER_LEN, Category, CategoryRepr, CategoryType};
@@ -10,6 +10,7 @@ use super::image::SiiImage;
 use super::pdo::{Pdo, PdoCategoryRepr};
 use super::strings::StringsRepr;
 use super::syncm::{SyncmCategoryRepr, SyncmEntry};
+use crate::wire::Emit;
 use crate::wire::error::{Result, WireError};
 
 /// Default minimum EEPROM size: 2 KiB (size word 0x000F, like simple Beckhoff terminals).
@@ -107,29 +108,25 @@ impl SiiBuilder {
             let repr = StringsRepr {
                 strings: self.strings.iter().map(|s| &s[..]).collect(),
             };
-            let mut data = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut data)?;
+            let data = repr.to_vec()?;
             cats.push((CategoryType::Strings, data));
         }
         if let Some(general) = &self.general {
-            let mut data = vec![0u8; general.buffer_len()];
-            general.emit(&mut data)?;
+            let data = general.to_vec()?;
             cats.push((CategoryType::General, data));
         }
         if !self.fmmu.is_empty() {
             let repr = FmmuCategoryRepr {
                 usages: self.fmmu.clone(),
             };
-            let mut data = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut data)?;
+            let data = repr.to_vec()?;
             cats.push((CategoryType::Fmmu, data));
         }
         if !self.syncm.is_empty() {
             let repr = SyncmCategoryRepr {
                 entries: self.syncm.clone(),
             };
-            let mut data = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut data)?;
+            let data = repr.to_vec()?;
             cats.push((CategoryType::Syncm, data));
         }
         for (ty, pdos) in [
@@ -138,8 +135,7 @@ impl SiiBuilder {
         ] {
             if !pdos.is_empty() {
                 let repr = PdoCategoryRepr { pdos: pdos.clone() };
-                let mut data = vec![0u8; repr.buffer_len()];
-                repr.emit(&mut data)?;
+                let data = repr.to_vec()?;
                 cats.push((ty, data));
             }
         }
@@ -147,8 +143,7 @@ impl SiiBuilder {
             let repr = DcCategoryRepr {
                 entries: self.dc.clone(),
             };
-            let mut data = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut data)?;
+            let data = repr.to_vec()?;
             cats.push((CategoryType::Dc, data));
         }
         for (ty, data) in &self.extra {
@@ -210,9 +205,9 @@ fn too_many_strings() -> WireError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wire::sii::fixed::{MailboxArea, MailboxProtocols};
+    use crate::wire::sii::fixed::{MailboxProtocols, SiiMailboxArea};
     use crate::wire::sii::general::{CoeDetails, PhysicalPorts};
-    use crate::wire::sii::pdo::{PdoEntry, PdoFlags};
+    use crate::wire::sii::pdo::{PdoFlags, SiiPdoEntry};
     use crate::wire::sii::syncm::{SyncmEnable, SyncmType};
     use proptest::prelude::*;
 
@@ -270,7 +265,7 @@ mod tests {
             dc_sync: 0,
             name_idx: 0,
             flags: PdoFlags(0x0030),
-            entries: vec![PdoEntry {
+            entries: vec![SiiPdoEntry {
                 index: 0x1D09,
                 subindex: 0x98,
                 name_idx: start,
@@ -285,7 +280,7 @@ mod tests {
             dc_sync: 0,
             name_idx: out0,
             flags: PdoFlags(0),
-            entries: vec![PdoEntry {
+            entries: vec![SiiPdoEntry {
                 index: 0x7000,
                 subindex: 1,
                 name_idx: out0,
@@ -333,7 +328,7 @@ mod tests {
 
     #[test]
     fn hand_made_image() {
-        // EL2004-like fixed area (§4.1/§4.2) + GENERAL (§4.5 bytes) + END, laid out by hand.
+        // EL2004-like fixed area (spec-notes §sii.fixed) + GENERAL (§sii.categories) + END, laid out by hand.
         let mut image = vec![0u8; 128];
         image[..16].copy_from_slice(&[
             0x04, 0x01, 0x00, 0x00, 0x00, 0x00, 0x0f, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
@@ -404,19 +399,19 @@ mod tests {
                 product_code: id[1],
                 revision: id[2],
                 serial: id[3],
-                std_rx_mailbox: MailboxArea {
+                std_rx_mailbox: SiiMailboxArea {
                     offset: mb[0],
                     size: mb[1],
                 },
-                std_tx_mailbox: MailboxArea {
+                std_tx_mailbox: SiiMailboxArea {
                     offset: mb[2],
                     size: mb[3],
                 },
-                boot_rx_mailbox: MailboxArea {
+                boot_rx_mailbox: SiiMailboxArea {
                     offset: mb[4],
                     size: mb[5],
                 },
-                boot_tx_mailbox: MailboxArea {
+                boot_tx_mailbox: SiiMailboxArea {
                     offset: mb[6],
                     size: mb[7],
                 },

@@ -1,4 +1,4 @@
-//! The SII category list from word 0x40 (digest §4.3).
+//! The SII category list from word 0x40 (ETG.2010, spec-notes §sii.categories).
 //!
 //! ```text
 //! u16 type | u16 size (words of data) | size × 2 bytes of data | next category ...
@@ -22,7 +22,7 @@ mod fields {
 pub const CATEGORY_HEADER_LEN: usize = fields::DATA.start;
 
 enum_with_unknown! {
-    /// Category type (digest §4.3).
+    /// Category type (ETG.2010, spec-notes §sii.categories).
     pub enum CategoryType(u16) {
         /// 0: no operation, skip.
         Nop = 0,
@@ -73,7 +73,7 @@ impl CategoryType {
         }
     }
 
-    /// Whether the type is in the vendor/device specific range 0x0800–0xFFFE (§4.3; the
+    /// Whether the type is in the vendor/device specific range 0x0800–0xFFFE (spec-notes §sii.categories; the
     /// sources disagree on the lower bound, this is the wider reading).
     pub fn is_vendor_specific(self) -> bool {
         matches!(u16::from(self), 0x0800..=0xFFFE)
@@ -259,7 +259,7 @@ impl<'a> Iterator for CategoryIter<'a> {
         if self.done {
             return None;
         }
-        // Fewer than two bytes left: the image ended without END (allowed, §4.3).
+        // Fewer than two bytes left: the image ended without END (allowed, spec-notes §sii.categories).
         if self.rest.len() < 2 {
             self.done = true;
             return None;
@@ -286,11 +286,12 @@ impl<'a> Iterator for CategoryIter<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
     #[test]
     fn walks_and_skips() {
-        // FMMU (2 words) `01 01 02 ff` as in the EL2262 dump (§4.6), a vendor category
+        // FMMU (2 words) `01 01 02 ff` as in the EL2262 dump (spec-notes §sii.categories), a vendor category
         // 0x0800 with 1 word, then END.
         let area = [
             0x28, 0x00, 0x02, 0x00, 0x01, 0x01, 0x02, 0xff, // FMMU
@@ -356,8 +357,7 @@ mod tests {
         fn round_trip(ty in 0u16..0xFFFF, words in proptest::collection::vec(any::<u16>(), 0..20)) {
             let data: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
             let repr = CategoryRepr { category_type: CategoryType::from(ty), data: &data };
-            let mut buf = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut Category::new_unchecked(&mut buf[..])).unwrap();
+            let buf = repr.to_vec().unwrap();
             let view = Category::new_checked(&buf[..]).unwrap();
             prop_assert_eq!(CategoryRepr::parse(&view).unwrap(), repr);
             let walked: Vec<_> = CategoryIter::new(&buf).collect::<Result<_>>().unwrap();

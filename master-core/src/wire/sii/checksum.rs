@@ -1,4 +1,4 @@
-//! The SII checksum, word 7 (digest §4.2).
+//! The SII checksum, word 7 (ETG.2010, spec-notes §sii.fixed).
 //!
 //! CRC-8, polynomial 0x07, initial value 0xFF, MSB first, no reflection, no final XOR, over
 //! the 14 bytes of words 0-6. The result is the low byte of word 7; the high byte is 0.
@@ -7,7 +7,7 @@ use crc::{Algorithm, Crc};
 
 use crate::wire::error::{Result, need};
 
-/// The CRC-8 variant of the SII fixed area (digest §4.2).
+/// The CRC-8 variant of the SII fixed area (ETG.2010, spec-notes §sii.fixed).
 ///
 /// `check` is the CRC of the ASCII string "123456789", as the catalogue convention requires;
 /// `residue` is 0 because there is no final XOR.
@@ -29,7 +29,7 @@ pub const CHECKSUM_SPAN: usize = 14;
 /// Byte offset of the checksum (low byte of word 7).
 pub const CHECKSUM_OFFSET: usize = 14;
 
-/// CRC-8 (§4.2) of arbitrary bytes.
+/// CRC-8 (ETG.2010, spec-notes §sii.fixed) of arbitrary bytes.
 pub fn crc8(bytes: &[u8]) -> u8 {
     CRC.checksum(bytes)
 }
@@ -52,7 +52,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// Words 0-6 of three real dumps and their checksums (digest §4.2).
+    /// Words 0-6 of three real dumps and their checksums (ETG.2010, spec-notes §sii.fixed).
     const DUMPS: [([u8; 14], u8); 3] = [
         // EL2004
         (

@@ -1,4 +1,4 @@
-//! DC category, type 60: 24 bytes per operation mode (digest §4.9, KickCAT's layout).
+//! DC category, type 60: 24 bytes per operation mode (spec-notes §sii.categories, KickCAT's layout).
 //!
 //! ```text
 //! 0x00 u32 SYNC0 cycle time | 0x04 u32 SYNC0 shift | 0x08 u32 SYNC1 shift
@@ -146,9 +146,10 @@ impl DcCategoryRepr {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
-    // An EL2262-like element (§4.9): cycle/shift 0, SYNC1 factor −1, AssignActivate 0x0730,
+    // An EL2262-like element (spec-notes §sii.categories): cycle/shift 0, SYNC1 factor −1, AssignActivate 0x0730,
     // SYNC0 factor −8, name index 7 ("DcSync2", index chosen by hand), description 0.
     static ENTRY: [u8; 24] = [
         0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // times
@@ -199,8 +200,7 @@ pub(crate) mod tests {
         #[test]
         fn round_trip(entries in proptest::collection::vec(arb_entry(), 0..5)) {
             let r = DcCategoryRepr { entries };
-            let mut buf = vec![0u8; r.buffer_len()];
-            r.emit(&mut buf).unwrap();
+            let buf = r.to_vec().unwrap();
             prop_assert_eq!(DcCategoryRepr::parse(&buf).unwrap(), r);
         }
 

@@ -1,8 +1,8 @@
-//! The SII fixed area, words 0x00–0x3F = bytes 0–127 (digest §4.1).
+//! The SII fixed area, words 0x00–0x3F = bytes 0–127 (ETG.2010, spec-notes §sii.fixed).
 //!
 //! ```text
 //! word 0x00 PDI control        0x01 PDI config       0x02 SYNC impulse   0x03 PDI config 2
-//! word 0x04 station alias      0x05-0x06 reserved    0x07 checksum (§4.2)
+//! word 0x04 station alias      0x05-0x06 reserved    0x07 checksum (spec-notes §sii.fixed)
 //! word 0x08 vendor (u32)       0x0A product (u32)    0x0C revision (u32) 0x0E serial (u32)
 //! word 0x10 execution delay    0x11 port 0 delay     0x12 port 1 delay   0x13 reserved
 //! word 0x14/0x15 bootstrap rx mailbox offset/size    0x16/0x17 bootstrap tx mailbox
@@ -51,7 +51,7 @@ pub const CATEGORY_START_WORD: u16 = 0x40;
 /// Word address of the station alias.
 pub const ALIAS_WORD: u16 = 4;
 
-/// Mailbox protocols supported, word 0x1C (§4.1). Only the low byte is used.
+/// Mailbox protocols supported, word 0x1C (spec-notes §sii.fixed). Only the low byte is used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct MailboxProtocols(pub u16);
 
@@ -154,14 +154,14 @@ impl fmt::Display for MailboxProtocols {
 
 /// A mailbox area (offset + size in bytes) from the fixed area.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct MailboxArea {
+pub struct SiiMailboxArea {
     /// Physical start address (the SM start).
     pub offset: u16,
     /// Size in bytes (the SM length).
     pub size: u16,
 }
 
-impl MailboxArea {
+impl SiiMailboxArea {
     /// Whether the area is configured (non-zero size).
     pub fn is_present(&self) -> bool {
         self.size != 0
@@ -205,8 +205,8 @@ impl<T: AsRef<[u8]>> SiiFixed<T> {
         field::u32_le(self.buffer.as_ref(), f.start)
     }
 
-    fn area_at(&self, f: Field) -> MailboxArea {
-        MailboxArea {
+    fn area_at(&self, f: Field) -> SiiMailboxArea {
+        SiiMailboxArea {
             offset: field::u16_le(self.buffer.as_ref(), f.start),
             size: field::u16_le(self.buffer.as_ref(), f.start + 2),
         }
@@ -236,7 +236,7 @@ impl<T: AsRef<[u8]>> SiiFixed<T> {
     pub fn checksum_word(&self) -> u16 {
         self.u16_at(fields::CHECKSUM)
     }
-    /// Whether the stored checksum matches words 0-6 (§4.2).
+    /// Whether the stored checksum matches words 0-6 (ETG.2010, spec-notes §sii.fixed).
     pub fn checksum_ok(&self) -> bool {
         checksum::checksum_ok(self.buffer.as_ref()).unwrap_or(false)
     }
@@ -269,19 +269,19 @@ impl<T: AsRef<[u8]>> SiiFixed<T> {
         self.u16_at(fields::PORT1_DELAY)
     }
     /// Words 0x14/0x15: bootstrap receive mailbox (master → slave).
-    pub fn boot_rx_mailbox(&self) -> MailboxArea {
+    pub fn boot_rx_mailbox(&self) -> SiiMailboxArea {
         self.area_at(fields::BOOT_RX_MAILBOX)
     }
     /// Words 0x16/0x17: bootstrap send mailbox (slave → master).
-    pub fn boot_tx_mailbox(&self) -> MailboxArea {
+    pub fn boot_tx_mailbox(&self) -> SiiMailboxArea {
         self.area_at(fields::BOOT_TX_MAILBOX)
     }
     /// Words 0x18/0x19: standard receive mailbox (SM0).
-    pub fn std_rx_mailbox(&self) -> MailboxArea {
+    pub fn std_rx_mailbox(&self) -> SiiMailboxArea {
         self.area_at(fields::STD_RX_MAILBOX)
     }
     /// Words 0x1A/0x1B: standard send mailbox (SM1).
-    pub fn std_tx_mailbox(&self) -> MailboxArea {
+    pub fn std_tx_mailbox(&self) -> SiiMailboxArea {
         self.area_at(fields::STD_TX_MAILBOX)
     }
     /// Word 0x1C: mailbox protocols.
@@ -307,7 +307,7 @@ impl<T: AsRef<[u8]> + AsMut<[u8]>> SiiFixed<T> {
         field::set_u32_le(self.buffer.as_mut(), f.start, v)
     }
 
-    fn set_area_at(&mut self, f: Field, a: MailboxArea) {
+    fn set_area_at(&mut self, f: Field, a: SiiMailboxArea) {
         field::set_u16_le(self.buffer.as_mut(), f.start, a.offset);
         field::set_u16_le(self.buffer.as_mut(), f.start + 2, a.size);
     }
@@ -357,13 +357,13 @@ pub struct SiiFixedRepr {
     /// Port 1 delay.
     pub port1_delay: u16,
     /// Bootstrap receive mailbox (master → slave).
-    pub boot_rx_mailbox: MailboxArea,
+    pub boot_rx_mailbox: SiiMailboxArea,
     /// Bootstrap send mailbox (slave → master).
-    pub boot_tx_mailbox: MailboxArea,
+    pub boot_tx_mailbox: SiiMailboxArea,
     /// Standard receive mailbox (SM0, master → slave).
-    pub std_rx_mailbox: MailboxArea,
+    pub std_rx_mailbox: SiiMailboxArea,
     /// Standard send mailbox (SM1, slave → master).
-    pub std_tx_mailbox: MailboxArea,
+    pub std_tx_mailbox: SiiMailboxArea,
     /// Mailbox protocols.
     pub mailbox_protocols: MailboxProtocols,
     /// EEPROM size word: (value + 1) Kbit.
@@ -482,7 +482,7 @@ impl fmt::Display for SiiFixedRepr {
 }
 
 /// Sets the station alias in an SII image (word 4) and recomputes the checksum byte
-/// (low byte of word 7), as IgH's `ethercat alias` does (seed 004): only bytes 8, 9 and
+/// (low byte of word 7), as IgH's `ethercat alias` does (spec-notes §sii.alias): only bytes 8, 9 and
 /// 14 change, so a master writes back words 4 and 7 (or words 0-7).
 pub fn set_alias(image: &mut [u8], alias: u16) -> Result<()> {
     need("SII image", image, CHECKSUM_OFFSET + 2)?;
@@ -497,16 +497,16 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// The first 16 bytes of the EL2004 dump (§4.1, §4.2) and its identity (Appendix C.3).
+    /// The first 16 bytes of the EL2004 dump (spec-notes §sii.fixed) and its identity (spec-notes §esc.sii-if).
     fn el2004() -> Vec<u8> {
         let mut image = vec![0u8; FIXED_LEN];
         image[..16].copy_from_slice(&[
             0x04, 0x01, 0x00, 0x00, 0x00, 0x00, 0x0f, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
             0xd8, 0x00,
         ]);
-        // Words 8-9: vendor 2; words 0x0A-0x0B: product 0x07D43052 (C.3).
+        // Words 8-9: vendor 2; words 0x0A-0x0B: product 0x07D43052 (spec-notes §esc.sii-if).
         image[16..24].copy_from_slice(&[0x02, 0x00, 0x00, 0x00, 0x52, 0x30, 0xd4, 0x07]);
-        // Size word 0x000F (2 KiB), version 1 (§4.1 "simple terminals").
+        // Size word 0x000F (2 KiB), version 1 (ETG.2010, spec-notes §sii.fixed "simple terminals").
         image[124..128].copy_from_slice(&[0x0f, 0x00, 0x01, 0x00]);
         image
     }
@@ -543,7 +543,7 @@ mod tests {
     fn alias_rewrite() {
         // EL2004 words 0-7 with alias 0x1001 written over them: only bytes 8, 9 and 14
         // change. CRC of `04 01 00 00 00 00 0f 00 01 10 00 00 00 00` worked out with the
-        // bitwise algorithm of §4.2 (outside this crate): 0xC3.
+        // bitwise algorithm of ETG.2010, spec-notes §sii.fixed (outside this crate): 0xC3.
         let mut image = el2004();
         set_alias(&mut image, 0x1001).unwrap();
         let mut expected = el2004();
@@ -573,8 +573,8 @@ mod tests {
         assert!(SiiFixed::new_checked(&[0u8; 127][..]).is_err());
     }
 
-    pub(crate) fn arb_area() -> impl Strategy<Value = MailboxArea> {
-        (any::<u16>(), any::<u16>()).prop_map(|(offset, size)| MailboxArea { offset, size })
+    pub(crate) fn arb_area() -> impl Strategy<Value = SiiMailboxArea> {
+        (any::<u16>(), any::<u16>()).prop_map(|(offset, size)| SiiMailboxArea { offset, size })
     }
 
     pub(crate) fn arb_fixed() -> impl Strategy<Value = SiiFixedRepr> {

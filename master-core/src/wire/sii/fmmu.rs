@@ -1,6 +1,6 @@
-//! FMMU category, type 40: one usage byte per FMMU (digest §4.6).
+//! FMMU category, type 40: one usage byte per FMMU (ETG.2010, spec-notes §sii.categories).
 //!
-//! Note the encoding differs from the FMMU type register (§2.11): here 1 = outputs and
+//! Note the encoding differs from the FMMU type register (spec-notes §esc.fmmu): here 1 = outputs and
 //! 2 = inputs.
 
 use core::fmt;
@@ -94,11 +94,12 @@ impl fmt::Display for FmmuCategoryRepr {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
     #[test]
     fn el2262() {
-        // §4.6: `01 01 02 ff` = outputs, outputs, inputs, unused.
+        // ETG.2010, spec-notes §sii.categories: `01 01 02 ff` = outputs, outputs, inputs, unused.
         let data = [0x01, 0x01, 0x02, 0xff];
         let r = FmmuCategoryRepr::parse(&data).unwrap();
         assert_eq!(
@@ -136,8 +137,7 @@ mod tests {
             let mut bytes = bytes;
             if bytes.len() % 2 == 1 { bytes.push(0xFF); }
             let r = FmmuCategoryRepr::parse(&bytes).unwrap();
-            let mut out = vec![0u8; r.buffer_len()];
-            r.emit(&mut out).unwrap();
+            let out = r.to_vec().unwrap();
             prop_assert_eq!(&out, &bytes);
             prop_assert_eq!(FmmuCategoryRepr::parse(&out).unwrap(), r);
         }

@@ -1,4 +1,4 @@
-//! GENERAL category, type 30: 32 bytes (digest §4.5, Appendix D).
+//! GENERAL category, type 30: 32 bytes (ETG.2010, spec-notes §sii.categories).
 //!
 //! ```text
 //! 0x00 u8 group idx | 0x01 u8 image idx | 0x02 u8 order idx | 0x03 u8 name idx
@@ -9,7 +9,7 @@
 //! 0x14 12 bytes reserved
 //! ```
 //! The physical-port word is at 0x10 (KickCAT; consistent with the EK1100 hardware), not at
-//! 0x0E as ethercrab reads it (Appendix D).
+//! 0x0E as ethercrab reads it (spec-notes §sii.categories).
 
 use core::fmt;
 
@@ -86,7 +86,7 @@ impl GeneralFlags {
     pub fn not_lrw(self) -> bool {
         self.0 & 0x02 != 0
     }
-    /// Bit 2: supports the mailbox repeat procedure (MBoxDataLinkLayer, §5.6).
+    /// Bit 2: supports the mailbox repeat procedure (MBoxDataLinkLayer, spec-notes §mbx.repeat).
     pub fn mailbox_data_link_layer(self) -> bool {
         self.0 & 0x04 != 0
     }
@@ -160,7 +160,7 @@ pub struct GeneralRepr {
     pub flags: GeneralFlags,
     /// Current on EBus in mA; negative = the device feeds current.
     pub ebus_current_ma: i16,
-    /// Byte 0x0E: group index duplicate (meaning unclear, §4.5); kept raw.
+    /// Byte 0x0E: group index duplicate (meaning unclear, spec-notes §sii.categories); kept raw.
     pub group_idx_dup: u8,
     /// Physical ports.
     pub physical_ports: PhysicalPorts,
@@ -242,7 +242,7 @@ pub(crate) mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// GENERAL bytes 0x00–0x11 of three dumps (§4.5), padded with zeros to 32 bytes.
+    /// GENERAL bytes 0x00–0x11 of three dumps (spec-notes §sii.categories), padded with zeros to 32 bytes.
     fn dump(head: [u8; 18]) -> [u8; 32] {
         let mut d = [0u8; 32];
         d[..18].copy_from_slice(&head);

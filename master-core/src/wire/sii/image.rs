@@ -1,4 +1,4 @@
-//! A whole SII image: the fixed area plus the typed categories (digest §4).
+//! A whole SII image: the fixed area plus the typed categories (ETG.2010, spec-notes §sii).
 
 use core::fmt;
 

@@ -1,4 +1,4 @@
-//! The SII / EEPROM image (digest §4).
+//! The SII / EEPROM image (ETG.2010, spec-notes §sii).
 //!
 //! [`checksum`] computes word 7; [`fixed`] is words 0x00–0x3F; [`category`] walks the
 //! category list from word 0x40; [`strings`], [`general`], [`fmmu`], [`syncm`], [`pdo`] and
@@ -19,5 +19,5 @@ pub mod syncm;
 
 pub use builder::SiiBuilder;
 pub use category::{Category, CategoryIter, CategoryRepr, CategoryType};
-pub use fixed::{MailboxArea, MailboxProtocols, SiiFixed, SiiFixedRepr, set_alias};
+pub use fixed::{MailboxProtocols, SiiFixed, SiiFixedRepr, SiiMailboxArea, set_alias};
 pub use image::{SiiCategory, SiiImage};

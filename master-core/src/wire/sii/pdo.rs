@@ -1,4 +1,4 @@
-//! TXPDO (type 50) and RXPDO (type 51) categories (digest §4.8).
+//! TXPDO (type 50) and RXPDO (type 51) categories (ETG.2010, spec-notes §sii.categories).
 //!
 //! ```text
 //! PDO header (8): 0 u16 index | 2 u8 entry count | 3 u8 SM | 4 u8 DC sync | 5 u8 name idx
@@ -79,7 +79,7 @@ impl PdoFlags {
 
 /// One PDO entry (a mapped object, or a gap when `index` is 0).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct PdoEntry {
+pub struct SiiPdoEntry {
     /// Object index; 0 = padding gap.
     pub index: u16,
     /// Subindex.
@@ -94,14 +94,14 @@ pub struct PdoEntry {
     pub flags: u16,
 }
 
-impl PdoEntry {
+impl SiiPdoEntry {
     /// Whether this entry is a gap (index 0).
     pub fn is_gap(&self) -> bool {
         self.index == 0
     }
 
     fn parse(data: &[u8]) -> Self {
-        PdoEntry {
+        SiiPdoEntry {
             index: field::u16_le(data, fields::ENTRY_INDEX.start),
             subindex: data[fields::ENTRY_SUBINDEX],
             name_idx: data[fields::ENTRY_NAME],
@@ -121,7 +121,7 @@ impl PdoEntry {
     }
 }
 
-impl fmt::Display for PdoEntry {
+impl fmt::Display for SiiPdoEntry {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if self.is_gap() {
             write!(f, "gap {} bits", self.bit_length)
@@ -149,7 +149,7 @@ pub struct Pdo {
     /// Flags.
     pub flags: PdoFlags,
     /// Entries (the count byte is derived from this on emit).
-    pub entries: Vec<PdoEntry>,
+    pub entries: Vec<SiiPdoEntry>,
 }
 
 impl Pdo {
@@ -216,7 +216,7 @@ impl PdoCategoryRepr {
                 flags: PdoFlags(field::u16_le(this, fields::PDO_FLAGS.start)),
                 entries: this[PDO_HEADER_LEN..]
                     .chunks_exact(PDO_ENTRY_LEN)
-                    .map(PdoEntry::parse)
+                    .map(SiiPdoEntry::parse)
                     .collect(),
             });
             rest = tail;
@@ -263,7 +263,7 @@ impl PdoCategoryRepr {
         Ok(())
     }
 
-    /// Total bits of the PDOs assigned to SyncManager `sm` (its process-data size, §4.8).
+    /// Total bits of the PDOs assigned to SyncManager `sm` (its process-data size, spec-notes §sii.categories).
     pub fn bits_for_sm(&self, sm: u8) -> u32 {
         self.pdos
             .iter()
@@ -276,9 +276,10 @@ impl PdoCategoryRepr {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
-    // §4.8, EL2262 TXPDO: 0x1702, 1 entry, SM 2, DC sync 0, flags 0x0030, with entry
+    // spec-notes §sii.categories, EL2262 TXPDO: 0x1702, 1 entry, SM 2, DC sync 0, flags 0x0030, with entry
     // 0x1D09:0x98, UNSIGNED32 (0x07), 32 bits. String indices (5, 6) chosen by hand.
     static TXPDO: [u8; 16] = [
         0x02, 0x17, 0x01, 0x02, 0x00, 0x05, 0x30, 0x00, // header
@@ -306,7 +307,7 @@ pub(crate) mod tests {
         );
         assert_eq!(
             pdo.entries,
-            [PdoEntry {
+            [SiiPdoEntry {
                 index: 0x1D09,
                 subindex: 0x98,
                 name_idx: 6,
@@ -359,7 +360,7 @@ pub(crate) mod tests {
         assert_eq!(unassigned.assigned_sm(), None);
         let big = PdoCategoryRepr {
             pdos: vec![Pdo {
-                entries: vec![PdoEntry::default(); 256],
+                entries: vec![SiiPdoEntry::default(); 256],
                 ..Default::default()
             }],
         };
@@ -368,13 +369,13 @@ pub(crate) mod tests {
         assert!(buf.iter().all(|&b| b == 0xa5));
     }
 
-    pub(crate) fn arb_entry() -> impl Strategy<Value = PdoEntry> {
+    pub(crate) fn arb_entry() -> impl Strategy<Value = SiiPdoEntry> {
         (
             any::<u16>(),
             proptest::array::uniform4(any::<u8>()),
             any::<u16>(),
         )
-            .prop_map(|(index, b, flags)| PdoEntry {
+            .prop_map(|(index, b, flags)| SiiPdoEntry {
                 index,
                 subindex: b[0],
                 name_idx: b[1],
@@ -405,8 +406,7 @@ pub(crate) mod tests {
         #[test]
         fn round_trip(pdos in proptest::collection::vec(arb_pdo(), 0..4)) {
             let r = PdoCategoryRepr { pdos };
-            let mut buf = vec![0u8; r.buffer_len()];
-            r.emit(&mut buf).unwrap();
+            let buf = r.to_vec().unwrap();
             prop_assert_eq!(PdoCategoryRepr::parse(&buf).unwrap(), r);
         }
 

@@ -1,4 +1,4 @@
-//! STRINGS category, type 10 (digest §4.4).
+//! STRINGS category, type 10 (ETG.2010, spec-notes §sii.categories).
 //!
 //! ```text
 //! u8 count N | N × (u8 length L | L bytes, no terminator) | pad to an even byte count
@@ -101,9 +101,10 @@ impl fmt::Display for StringsRepr<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
-    // Two strings "EL2004" and "DcSync" (names from §4.5/§4.9), laid out by hand:
+    // Two strings "EL2004" and "DcSync" (names from spec-notes §sii.categories), laid out by hand:
     // count 2, len 6 "EL2004", len 6 "DcSync", 1 pad byte → 16 bytes.
     static DATA: [u8; 16] = [
         0x02, 0x06, b'E', b'L', b'2', b'0', b'0', b'4', 0x06, b'D', b'c', b'S', b'y', b'n', b'c',
@@ -148,8 +149,7 @@ mod tests {
         #[test]
         fn round_trip(strings in proptest::collection::vec(proptest::collection::vec(any::<u8>(), 0..20), 0..10)) {
             let repr = StringsRepr { strings: strings.iter().map(|s| &s[..]).collect() };
-            let mut buf = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut buf).unwrap();
+            let buf = repr.to_vec().unwrap();
             prop_assert_eq!(buf.len() % 2, 0);
             prop_assert_eq!(StringsRepr::parse(&buf).unwrap(), repr);
         }

@@ -1,4 +1,4 @@
-//! SYNCM category, type 41: 8 bytes per SyncManager (digest §4.7).
+//! SYNCM category, type 41: 8 bytes per SyncManager (ETG.2010, spec-notes §sii.categories).
 //!
 //! ```text
 //! 0 u16 physical start | 2 u16 default length | 4 u8 control (0x0804 layout)
@@ -219,9 +219,10 @@ impl SyncmCategoryRepr {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::wire::Emit;
     use proptest::prelude::*;
 
-    // §4.7, EL2262: an output SM and a virtual input SM.
+    // ETG.2010, spec-notes §sii.categories, EL2262: an output SM and a virtual input SM.
     static EL2262: [u8; 16] = [
         0x00, 0x10, 0x00, 0x00, 0x64, 0x00, 0x09, 0x03, 0x98, 0x09, 0x00, 0x00, 0x00, 0x00, 0x04,
         0x04,
@@ -292,8 +293,7 @@ pub(crate) mod tests {
         #[test]
         fn round_trip(entries in proptest::collection::vec(arb_entry(), 0..8)) {
             let r = SyncmCategoryRepr { entries };
-            let mut buf = vec![0u8; r.buffer_len()];
-            r.emit(&mut buf).unwrap();
+            let buf = r.to_vec().unwrap();
             prop_assert_eq!(SyncmCategoryRepr::parse(&buf).unwrap(), r);
         }
 

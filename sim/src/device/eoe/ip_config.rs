@@ -1,4 +1,4 @@
-//! The IP settings a master gives an EoE slave with Set IP parameter (digest §9.3).
+//! The IP settings a master gives an EoE slave with Set IP parameter (ETG.1000.6, spec-notes §eoe).
 
 use std::net::Ipv4Addr;
 

@@ -1,4 +1,4 @@
-//! The EoE side of a simulated slave (mailbox type 2, digest §9).
+//! The EoE side of a simulated slave (mailbox type 2, ETG.1000.6, spec-notes §eoe).
 //!
 //! - [`ip_config`]: what Set IP parameter stored;
 //! - [`endpoint`]: the slave's own IPv4 host (ARP and ICMP echo, built with etherparse);
@@ -24,11 +24,11 @@ pub mod ip_config;
 use std::any::Any;
 use std::collections::VecDeque;
 
-use master_core::wire::WireError;
 use master_core::wire::eoe::{
     EoeFrameType, EoePacket, EoeRepr, EoeResult, Fragmenter, Reassembler,
 };
 use master_core::wire::mailbox::{self, MailboxErrorCode, MailboxHeader, MailboxType};
+use master_core::wire::{Emit, WireError};
 
 use crate::device::mailbox::{MailboxService, ReplySink};
 use crate::device::{DeviceContext, OutboxFull};
@@ -79,9 +79,7 @@ impl Default for EoeService {
 
 /// Builds an EoE message with the codec.
 fn build(repr: &EoeRepr<'_>) -> Result<Vec<u8>, WireError> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut EoePacket::new_unchecked(&mut out[..]))?;
-    Ok(out)
+    repr.to_vec()
 }
 
 impl EoeService {

@@ -1,5 +1,5 @@
 //! The BUSY phases of an FoE write: how a simulated slave pretends to erase and program
-//! flash (digest §8.2 step 7).
+//! flash (ETG.1000.6, spec-notes §foe, BUSY).
 
 /// When and how long the slave answers BUSY during a write.
 #[derive(Debug, Clone, PartialEq, Eq)]

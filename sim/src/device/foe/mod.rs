@@ -1,4 +1,4 @@
-//! The FoE server of a simulated slave (mailbox type 4, digest §8, slave rules §8.5).
+//! The FoE server of a simulated slave (mailbox type 4, spec-notes §foe, with its slave rules).
 //!
 //! - [`store`]: the files ([`FileStore`], a shared handle);
 //! - [`busy`]: the configurable BUSY phases of a write ([`BusyPhase`]);
@@ -18,7 +18,7 @@
 //!
 //! **BUSY** ([`BusyPhase`]): to emulate erasing and programming flash, the slave can answer
 //! a WRQ, and the last DATA packet, with BUSY (done/entire progress and a text) a configured
-//! number of times before the ACK. The master re-sends the packet it sent (§8.2 step 7); each
+//! number of times before the ACK. The master re-sends the packet it sent (spec-notes §foe, BUSY); each
 //! repetition gets the next BUSY until the phase is over and the ACK comes. During the WRQ's
 //! phase a DATA 1 also counts as the repetition (IgH answers BUSY by sending the data packet
 //! it was about to send), and is processed once the phase is over.
@@ -33,9 +33,9 @@ pub mod store;
 
 use std::any::Any;
 
-use master_core::wire::WireError;
 use master_core::wire::foe::{self, FoeError, FoePacket, FoeRepr};
 use master_core::wire::mailbox::{MailboxHeader, MailboxType};
+use master_core::wire::{Emit, WireError};
 
 use crate::device::DeviceContext;
 use crate::device::mailbox::{MailboxService, ReplySink};
@@ -97,9 +97,7 @@ impl Default for FoeService {
 
 /// Builds an FoE message with the codec.
 fn build(repr: &FoeRepr<'_>) -> Result<Vec<u8>, WireError> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut FoePacket::new_unchecked(&mut out[..]))?;
-    Ok(out)
+    repr.to_vec()
 }
 
 fn send(replies: &mut ReplySink, repr: &FoeRepr<'_>) {

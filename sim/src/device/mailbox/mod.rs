@@ -1,19 +1,19 @@
-//! The slave's mailbox layer (digest §5): what a slave's firmware does with a message the
+//! The slave's mailbox layer (spec-notes §mbx.header): what a slave's firmware does with a message the
 //! master wrote into SM0, before any protocol sees it.
 //!
 //! [`MailboxStack`] is a [`Device`] that
 //!
-//! 1. validates the 6-byte header (§5.4, §5.7 — the codes follow SOES where the digest leaves
+//! 1. validates the 6-byte header (spec-notes §mbx.error — the codes follow SOES where the standard leaves
 //!    a choice):
 //!    - fewer than 6 bytes → 0x0006 `MBXERR_SIZETOOSHORT` (there is no header to read);
 //!    - length 0, or length > SM0 length − 6 → 0x0005 `MBXERR_INVALIDHEADER`;
 //!    - length beyond the bytes actually delivered → 0x0008 `MBXERR_INVALIDSIZE`;
-//! 2. applies the counter rule (§5.3): a non-zero counter equal to the last accepted one is a
+//! 2. applies the counter rule (spec-notes §mbx.counter): a non-zero counter equal to the last accepted one is a
 //!    repetition and is discarded without a reply; counter 0 is always accepted;
 //! 3. checks the channel (≠ 0 → 0x0003 `MBXERR_INVALIDCHANNEL`) and the type (0 → 0x0005 as
 //!    SOES does; no registered service → 0x0002 `MBXERR_UNSUPPORTEDPROTOCOL`);
 //! 4. dispatches the data to the [`MailboxService`] registered for the type;
-//! 5. wraps every reply in a header: its length, the request's address echoed (§5.2
+//! 5. wraps every reply in a header: its length, the request's address echoed (spec-notes §mbx.header
 //!    recommendation; unsolicited messages carry 0), channel and priority 0, the slave's own
 //!    counter 1..7 (incremented per posted message, never 0), and the type. A reply larger
 //!    than SM1 can hold is a bug in the service: the master gets a mailbox error 0x0007
@@ -54,11 +54,11 @@ use master_core::wire::register::al_status_code::AlStatusCode;
 use crate::device::{Device, DeviceContext, Outbox};
 
 pub use service::{MailboxService, ReplySink};
-pub use stats::{MailboxCounters, MailboxStats};
+pub use stats::{MailboxCounters, MailboxStackStats};
 
 use service::{MIN_TX_MAILBOX, PendingReply, error_reply_data};
 
-/// The bit of `mailbox_type` in the SII "mailbox protocols supported" word 0x1C (digest §4.1):
+/// The bit of `mailbox_type` in the SII "mailbox protocols supported" word 0x1C (spec-notes §sii.fixed):
 /// AoE 0x01, EoE 0x02, CoE 0x04, FoE 0x08, SoE 0x10, VoE 0x20; 0 for anything else.
 pub fn protocol_bit(mailbox_type: MailboxType) -> u16 {
     match mailbox_type {
@@ -83,7 +83,7 @@ pub struct MailboxStack {
     backlog: VecDeque<(Vec<u8>, Instant)>,
     backlog_capacity: usize,
     response_delay: Duration,
-    stats: Arc<MailboxStats>,
+    stats: Arc<MailboxStackStats>,
 }
 
 impl Default for MailboxStack {
@@ -133,7 +133,7 @@ impl MailboxStack {
             backlog: VecDeque::new(),
             backlog_capacity: capacity,
             response_delay: Duration::ZERO,
-            stats: Arc::new(MailboxStats::default()),
+            stats: Arc::new(MailboxStackStats::default()),
         }
     }
 
@@ -187,7 +187,7 @@ impl MailboxStack {
     }
 
     /// The live counters (a shared handle that stays valid while the stack is boxed away).
-    pub fn stats(&self) -> Arc<MailboxStats> {
+    pub fn stats(&self) -> Arc<MailboxStackStats> {
         Arc::clone(&self.stats)
     }
 

@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Live counters of one [`super::MailboxStack`].
 #[derive(Debug, Default)]
-pub struct MailboxStats {
+pub struct MailboxStackStats {
     received: AtomicU64,
     replies_posted: AtomicU64,
     errors: AtomicU64,
@@ -14,7 +14,7 @@ pub struct MailboxStats {
     service_faults: AtomicU64,
 }
 
-/// A snapshot of [`MailboxStats`].
+/// A snapshot of [`MailboxStackStats`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct MailboxCounters {
     /// Messages handed to the layer by the ESC (valid or not, duplicates included).
@@ -32,7 +32,7 @@ pub struct MailboxCounters {
     pub service_faults: u64,
 }
 
-impl MailboxStats {
+impl MailboxStackStats {
     /// Reads every counter.
     pub fn snapshot(&self) -> MailboxCounters {
         let get = |c: &AtomicU64| c.load(Ordering::Relaxed);

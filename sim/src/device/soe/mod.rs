@@ -1,4 +1,4 @@
-//! The SoE server of a simulated servo drive (mailbox type 5, digest §7).
+//! The SoE server of a simulated servo drive (mailbox type 5, ETG.1000.6, spec-notes §soe).
 //!
 //! - [`idn`]: one IDN's elements, their encoding and the write checks;
 //! - [`defaults`]: the parameter set a drive starts with (S-0-0032, IDN lists such as
@@ -14,7 +14,7 @@
 //! elements, fragments-left not one less than before) starts a new sequence; the abandoned
 //! one is counted ([`SoeService::abandoned_writes`]).
 //!
-//! Errors follow §7.5: unknown IDN 0x1001, missing element 0x2001/0x4001/0x5001/0x6001/
+//! Errors follow spec-notes §soe: unknown IDN 0x1001, missing element 0x2001/0x4001/0x5001/0x6001/
 //! 0x8001, drive not present 0x800A, no element 0x800C, value read-only 0x7004,
 //! write-protected in this state 0x7005, too short/long 0x7002/0x7003, below/above the
 //! limits 0x7006/0x7007, other elements read-only 0x2004.., 0x8004. A request with the error
@@ -27,6 +27,7 @@ pub mod idn;
 use std::any::Any;
 use std::collections::BTreeMap;
 
+use master_core::wire::Emit;
 use master_core::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
 use master_core::wire::soe::{
     self, ElementFlags, Idn, IdnOrFragments, SoeError, SoeOpcode, SoePacket, SoeRepr,
@@ -232,9 +233,7 @@ fn refresh_idn_list(table: &mut BTreeMap<u16, IdnEntry>) {
 
 /// Emits a response with the codec.
 fn build(repr: &SoeRepr<'_>) -> Result<Vec<u8>, master_core::wire::WireError> {
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut SoePacket::new_unchecked(&mut out[..]))?;
-    Ok(out)
+    repr.to_vec()
 }
 
 fn respond(

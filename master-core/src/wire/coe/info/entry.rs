@@ -1,4 +1,4 @@
-//! Get Entry Description service data (digest §6.8 "Get Entry Description").
+//! Get Entry Description service data (ETG.1000.6, spec-notes §coe.info "Get Entry Description").
 //!
 //! ```text
 //! request:  u16 index, u8 subindex, u8 value info
@@ -8,7 +8,7 @@
 //! Default/minimum/maximum have ⌈bit length / 8⌉ bytes each and are present only when the
 //! value-info bit asks for them.
 //!
-//! **Unit type width** is uncertain (digest §6.8, Appendix D: Wireshark reads 2 bytes, newer
+//! **Unit type width** is uncertain (spec-notes §coe.info: Wireshark reads 2 bytes, newer
 //! documents 4). We use 4 bytes ([`UNIT_TYPE_LEN`]), following the newer documents and the
 //! UNSIGNED32 of CiA 301 physical units; master and simulator agree through this codec, and
 //! the master avoids requesting the unit type from real slaves.
@@ -36,7 +36,7 @@ pub const ENTRY_RESPONSE_FIXED_LEN: usize = fields::ACCESS.end;
 /// Width of the unit type field (see the module documentation).
 pub const UNIT_TYPE_LEN: usize = 4;
 
-/// Value-info byte: which optional parts an entry description carries (§6.8).
+/// Value-info byte: which optional parts an entry description carries (spec-notes §coe.info).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct ValueInfo(pub u8);
 

@@ -1,4 +1,4 @@
-//! SDO Information service (CoE service 8, digest §6.8; ETG.1000.6 SDO Information).
+//! SDO Information service (CoE service 8; ETG.1000.6 SDO Information, spec-notes §coe.info).
 //!
 //! ```text
 //! mailbox data offset 0  u16  CoE header `00 80`
@@ -41,7 +41,7 @@ const INCOMPLETE: u8 = 0x80;
 const OPCODE_MASK: u8 = 0x7F;
 
 enum_with_unknown! {
-    /// SDO Information opcode (7 bits, §6.8).
+    /// SDO Information opcode (7 bits, ETG.1000.6, spec-notes §coe.info).
     pub enum SdoInfoOpcode(u8) {
         /// 1: Get OD List request.
         OdListRequest = 1,
@@ -185,7 +185,7 @@ pub enum SdoInfoService<'a> {
     },
     /// Get Entry Description response.
     EntryDescriptionResponse(EntryDescription<'a>),
-    /// SDO Info Error: an abort code (§6.6 table).
+    /// SDO Info Error: an abort code (ETG.1000.6, spec-notes §coe.abort table).
     Error {
         /// Why.
         code: AbortCode,

@@ -1,4 +1,4 @@
-//! Get Object Description response data (digest §6.8 "Get Object Description").
+//! Get Object Description response data (spec-notes §coe.info "Get Object Description").
 //!
 //! ```text
 //! u16 index, u16 data type, u8 max subindex, u8 object code, name (ASCII, rest of message)

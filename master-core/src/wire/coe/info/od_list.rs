@@ -1,4 +1,4 @@
-//! Get OD List service data (digest §6.8 "Get OD List", ETG.1000.6 SDO Information).
+//! Get OD List service data (ETG.1000.6 SDO Information "Get OD List", spec-notes §coe.info).
 
 use core::fmt;
 
@@ -6,7 +6,7 @@ use crate::wire::field;
 use crate::wire::macros::enum_with_unknown;
 
 enum_with_unknown! {
-    /// Which list of objects is requested (u16; ETG.1000.6 list types 0-5, Appendix D).
+    /// Which list of objects is requested (u16; ETG.1000.6 list types 0-5, spec-notes §coe.info).
     pub enum OdListType(u16) {
         /// 0: the number of objects in each of lists 1-5 (five u16 counts).
         Lengths = 0,

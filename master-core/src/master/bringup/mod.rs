@@ -1,0 +1,17 @@
+//! Bringing slaves up and keeping them up: the scan of the whole segment (`scan`), one
+//! slave's configuration and walk through the AL states (`configure`), the register reset
+//! before it (`reset`), the SII EEPROM interface (`eeprom`), AL state requests (`al`),
+//! distributed clocks (`dc`, its settings and results in `dc_settings`), the mailbox engine kept in step with the slaves' states
+//! (`mailboxes`), and the topology watch that repeats the bring-up for a slave that comes
+//! back (`watch`).
+
+pub(super) mod al;
+mod api;
+pub(super) mod configure;
+pub(super) mod dc;
+pub(super) mod dc_settings;
+pub(super) mod eeprom;
+pub(super) mod mailboxes;
+pub(super) mod reset;
+pub(super) mod scan;
+pub(super) mod watch;
