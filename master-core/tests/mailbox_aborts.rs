@@ -212,7 +212,10 @@ async fn the_sim_sends_the_abort_bytes_the_switches_ask_for() {
     let download = [0x00, 0x20, 0x2b, 0x01, 0x20, 0x00, 1, 2, 0, 0];
     let answer = store.raw(MailboxType::Coe, &download).await.unwrap();
     assert_eq!(answer.message()[HEADER_LEN..][..3], [0x00, 0x20, 0x8b]);
-    assert_eq!(answer.message()[HEADER_LEN + 6..], 0x0607_0010u32.to_le_bytes());
+    assert_eq!(
+        answer.message()[HEADER_LEN + 6..],
+        0x0607_0010u32.to_le_bytes()
+    );
 }
 
 #[tokio::test]
@@ -225,7 +228,11 @@ async fn an_abort_of_a_segment_reaches_the_raw_path() {
         .raw(MailboxType::Coe, &upload_request(0x2000, 0))
         .await
         .unwrap();
-    assert_eq!(first.message()[HEADER_LEN + 2], 0x41, "a normal upload response");
+    assert_eq!(
+        first.message()[HEADER_LEN + 2],
+        0x41,
+        "a normal upload response"
+    );
     let wrong_toggle = [0x00, 0x20, 0x70, 0, 0, 0, 0, 0, 0, 0];
     let answer = store.raw(MailboxType::Coe, &wrong_toggle).await.unwrap();
     let frame = SdoFrame::new_checked(&answer.message()[HEADER_LEN..]).unwrap();

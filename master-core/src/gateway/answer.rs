@@ -17,9 +17,10 @@
 //! it), the failure is only counted. Requests in the compatibility layout get the codes
 //! of `compat::errors` instead.
 
-use crate::wire::coe::info::{SdoInfoFrame, SdoInfoRepr, SdoInfoService};
+use crate::wire::Emit;
+use crate::wire::coe::info::{SdoInfoRepr, SdoInfoService};
 use crate::wire::coe::{AbortCode, CoeFrame, CoeService, SdoFrame, sdo_abort};
-use crate::wire::foe::{FoeError, FoePacket, FoeRepr};
+use crate::wire::foe::{FoeError, FoeRepr};
 use crate::wire::mailbox::{MailboxErrorCode, MailboxType, error_reply};
 use crate::wire::soe::{IdnOrFragments, SoeError, SoeOpcode, SoePacket, SoeRepr};
 
@@ -74,9 +75,9 @@ pub(crate) fn answer(
         _ => {}
     }
     match mailbox_type {
-        MailboxType::Coe => Some(coe_answer(request, coe_code(fault))),
+        MailboxType::Coe => coe_answer(request, coe_code(fault)),
         MailboxType::Soe => soe_answer(request, soe_code(fault)?),
-        MailboxType::Foe => Some(foe_answer(foe_code(fault))),
+        MailboxType::Foe => foe_answer(foe_code(fault)),
         _ => match fault {
             Fault::UnknownAddress | Fault::Unsupported | Fault::NotRunning => {
                 Some(mailbox_error(MailboxErrorCode::UnsupportedProtocol))
@@ -124,28 +125,26 @@ pub(crate) fn mailbox_error(code: MailboxErrorCode) -> (MailboxType, Vec<u8>) {
 
 /// The CoE answer with `code` to `request`: an SDO Information error for an SDO Information
 /// request, else an SDO abort naming the request's index and subindex.
-pub(crate) fn coe_answer(request: &[u8], code: AbortCode) -> (MailboxType, Vec<u8>) {
+pub(crate) fn coe_answer(request: &[u8], code: AbortCode) -> Option<(MailboxType, Vec<u8>)> {
     let service = CoeFrame::new_checked(request)
         .map(|f| f.service())
         .unwrap_or(CoeService::SdoRequest);
     if service == CoeService::SdoInfo {
-        return (MailboxType::Coe, sdo_info_error(code));
+        return Some((MailboxType::Coe, sdo_info_error(code)?));
     }
     let (index, subindex) = SdoFrame::new_checked(request)
         .map(|f| (f.index(), f.subindex()))
         .unwrap_or((0, 0));
-    (MailboxType::Coe, sdo_abort(index, subindex, code))
+    Some((MailboxType::Coe, sdo_abort(index, subindex, code)))
 }
 
-fn sdo_info_error(code: AbortCode) -> Vec<u8> {
+fn sdo_info_error(code: AbortCode) -> Option<Vec<u8>> {
     let repr = SdoInfoRepr {
         incomplete: false,
         fragments_left: 0,
         service: SdoInfoService::Error { code },
     };
-    let mut data = vec![0u8; repr.buffer_len()];
-    let _ = repr.emit(&mut SdoInfoFrame::new_unchecked(&mut data[..]));
-    data
+    repr.to_vec().ok()
 }
 
 /// The SoE answer with `code` to `request`: the response of the request's kind with the
@@ -166,25 +165,20 @@ pub(crate) fn soe_answer(request: &[u8], code: SoeError) -> Option<(MailboxType,
         error: Some(code),
         data: &[],
     };
-    let mut data = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut SoePacket::new_unchecked(&mut data[..]))
-        .ok()?;
-    Some((MailboxType::Soe, data))
+    Some((MailboxType::Soe, repr.to_vec().ok()?))
 }
 
 /// An FoE ERROR with `code` and `text`.
-pub(crate) fn foe_answer((code, text): (FoeError, &[u8])) -> (MailboxType, Vec<u8>) {
+pub(crate) fn foe_answer((code, text): (FoeError, &[u8])) -> Option<(MailboxType, Vec<u8>)> {
     let repr = FoeRepr::Error { code, text };
-    let mut data = vec![0u8; repr.buffer_len()];
-    // The buffer has exactly the room the ERROR needs.
-    let _ = repr.emit(&mut FoePacket::new_unchecked(&mut data[..]));
-    (MailboxType::Foe, data)
+    Some((MailboxType::Foe, repr.to_vec().ok()?))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::wire::coe::{SdoRequest, SdoResponse};
+    use crate::wire::foe::FoePacket;
     use crate::wire::mailbox::{ErrorReply, ErrorReplyRepr};
 
     fn upload(index: u16, subindex: u8) -> Vec<u8> {
@@ -193,10 +187,7 @@ mod tests {
             subindex,
             complete_access: false,
         };
-        let mut data = vec![0u8; req.buffer_len()];
-        req.emit(&mut SdoFrame::new_unchecked(&mut data[..]))
-            .unwrap();
-        data
+        req.to_vec().unwrap()
     }
 
     #[test]

@@ -10,8 +10,8 @@ use crate::mailbox::{MailboxError, RawReply, SlaveMailbox};
 use crate::wire::mailbox::MailboxType;
 
 use super::answer::Fault;
-use super::transfer::{self, Expect, Sizes};
 use super::session::Sessions;
+use super::transfer::{self, Expect, Sizes};
 
 /// Most messages a slave may send for one request (SDO Information lists of large
 /// dictionaries come in a few dozen fragments).

@@ -15,8 +15,8 @@ use super::access;
 use super::answer::{Fault, answer};
 use super::compat::{self, Layout};
 use super::normalize;
-use super::transfer::{self, Expect, Sizes, Transfer};
 use super::reply;
+use super::transfer::{self, Expect, Sizes, Transfer};
 
 const FAULTS: [Fault; 8] = [
     Fault::UnknownAddress,
@@ -108,6 +108,7 @@ pub fn request(datagram: &[u8]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use crate::wire::mailbox::MailboxHeader;
     use proptest::prelude::*;
 
@@ -130,8 +131,7 @@ mod tests {
                 },
                 data: &data,
             };
-            let mut datagram = vec![0u8; repr.buffer_len()];
-            repr.emit(&mut GatewayMessage::new_unchecked(&mut datagram[..])).unwrap();
+            let datagram = repr.to_vec().unwrap();
             prop_assert!(request(&datagram));
             for len in 0..datagram.len() {
                 prop_assert!(!request(&datagram[..len]));

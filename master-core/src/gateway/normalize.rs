@@ -5,6 +5,7 @@
 
 use std::borrow::Cow;
 
+use crate::wire::Emit;
 use crate::wire::coe::sdo::SDO_INITIATE_LEN;
 use crate::wire::coe::{CoeFrame, CoeService, SdoFrame, SdoPayload, SdoRequest};
 
@@ -28,9 +29,8 @@ pub(crate) fn coe_request(data: &[u8]) -> Cow<'_, [u8]> {
         ) => r,
         _ => return Cow::Borrowed(data),
     };
-    let mut out = vec![0u8; request.buffer_len()];
-    match request.emit(&mut SdoFrame::new_unchecked(&mut out[..])) {
-        Ok(()) => Cow::Owned(out),
+    match request.to_vec() {
+        Ok(out) => Cow::Owned(out),
         Err(_) => Cow::Borrowed(data),
     }
 }

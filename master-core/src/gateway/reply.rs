@@ -2,8 +2,9 @@
 //! field set to the address the client asked (the slave writes its own, or none), in the
 //! layout the request came in (`compat`).
 
-use crate::wire::gateway::{GatewayMessage, GatewayRepr};
 use crate::mailbox::RawReply;
+use crate::wire::Emit;
+use crate::wire::gateway::GatewayRepr;
 use crate::wire::mailbox::{MailboxHeader, MailboxType};
 
 use super::compat::{self, Layout};
@@ -43,10 +44,7 @@ pub(crate) fn made(
 
 fn encode(header: MailboxHeader, data: &[u8]) -> Option<Vec<u8>> {
     let repr = GatewayRepr { header, data };
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
-        .ok()?;
-    Some(out)
+    repr.to_vec().ok()
 }
 
 #[cfg(test)]

@@ -199,12 +199,10 @@ fn soe_follows(data: &[u8]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
 
     fn foe(repr: FoeRepr<'_>) -> Vec<u8> {
-        let mut data = vec![0u8; repr.buffer_len()];
-        repr.emit(&mut FoePacket::new_unchecked(&mut data[..]))
-            .unwrap();
-        data
+        repr.to_vec().unwrap()
     }
 
     const SIZES: Sizes = Sizes {

@@ -80,7 +80,10 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
     for (label, value) in [
         (FailureReason::Malformed.name(), malformed),
         (FailureReason::UnknownAddress.name(), unknown_address),
-        (FailureReason::UnsupportedProtocol.name(), unsupported_protocol),
+        (
+            FailureReason::UnsupportedProtocol.name(),
+            unsupported_protocol,
+        ),
         (FailureReason::Timeout.name(), timeout),
         (FailureReason::Denied.name(), denied),
         (FailureReason::Busy.name(), busy),

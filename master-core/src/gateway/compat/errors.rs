@@ -31,9 +31,9 @@ pub(crate) fn answer(
     fault: Fault,
 ) -> Option<(MailboxType, Vec<u8>)> {
     match ty {
-        MailboxType::Coe => Some(coe_answer(request, AbortCode::from(coe(fault)))),
+        MailboxType::Coe => coe_answer(request, AbortCode::from(coe(fault))),
         MailboxType::Soe => soe_answer(request, SoeError::from(soe(fault))),
-        MailboxType::Foe => Some(foe_answer((FoeError::from(foe(fault)), b""))),
+        MailboxType::Foe => foe_answer((FoeError::from(foe(fault)), b"")),
         _ => Some(code_error(other(fault))),
     }
 }

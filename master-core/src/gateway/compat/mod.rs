@@ -17,6 +17,7 @@ mod errors;
 mod foe;
 mod soe;
 
+use crate::wire::Emit;
 use crate::wire::gateway::{ECAT_HEADER_LEN, GatewayMessage, GatewayRepr};
 use crate::wire::mailbox::{MailboxHeader, MailboxType};
 
@@ -147,9 +148,7 @@ pub(crate) fn encode(
         header,
         data: &data,
     };
-    let mut out = vec![0u8; repr.buffer_len()];
-    repr.emit(&mut GatewayMessage::new_unchecked(&mut out[..]))
-        .ok()?;
+    let mut out = repr.to_vec().ok()?;
     *out.get_mut(ECAT_HEADER_LEN + TYPE_BYTE)? = code << 4;
     Some(out)
 }

@@ -5,7 +5,8 @@
 
 use core::fmt;
 
-use crate::wire::coe::{SdoFrame, SdoResponse};
+use crate::wire::Emit;
+use crate::wire::coe::SdoResponse;
 use crate::wire::macros::enum_with_unknown;
 
 enum_with_unknown! {
@@ -200,10 +201,9 @@ pub fn sdo_abort(index: u16, subindex: u8, code: AbortCode) -> Vec<u8> {
         subindex,
         code,
     };
-    let mut data = vec![0u8; response.buffer_len()];
-    // The buffer has exactly the room an abort needs, and an abort has no field to refuse.
-    let _ = response.emit(&mut SdoFrame::new_unchecked(&mut data[..]));
-    data
+    // `to_vec` sizes the buffer and an abort has no field `emit` could refuse: never the
+    // empty default.
+    response.to_vec().unwrap_or_default()
 }
 
 impl fmt::Display for AbortCode {

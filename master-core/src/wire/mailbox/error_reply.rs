@@ -8,6 +8,7 @@
 
 use core::fmt;
 
+use crate::wire::Emit;
 use crate::wire::error::{Result, WireError, need, room};
 use crate::wire::field::{self, Field};
 use crate::wire::macros::enum_with_unknown;
@@ -192,10 +193,8 @@ impl ErrorReplyRepr {
 /// [`MailboxType::Error`](crate::wire::mailbox::MailboxType::Error)).
 pub fn error_reply(code: MailboxErrorCode) -> Vec<u8> {
     let repr = ErrorReplyRepr { detail: code };
-    let mut data = vec![0u8; repr.buffer_len()];
-    // The buffer has exactly the room the reply needs.
-    let _ = repr.emit(&mut ErrorReply::new_unchecked(&mut data[..]));
-    data
+    // `to_vec` sizes the buffer and every code fits: never the empty default.
+    repr.to_vec().unwrap_or_default()
 }
 
 impl fmt::Display for ErrorReplyRepr {
