@@ -111,11 +111,12 @@ async fn task(
             // SoE: a write and read of its own IDN, and a constant one.
             3 => {
                 let drive = &slaves[&DRIVES[(n / 8) % 2]];
+                // S-0-0047 (4 bytes) and the default drive's S-0-0032 (4 bytes there).
                 let idn = Idn::from_raw(if n / 8 < 2 { 47 } else { 32 });
                 let data = if idn.raw() == 47 {
                     (n as i32 * 1000 + round as i32).to_le_bytes().to_vec()
                 } else {
-                    ((n * 10 + round) as u16).to_le_bytes().to_vec()
+                    ((n * 10 + round) as u32).to_le_bytes().to_vec()
                 };
                 drive
                     .soe_write(0, idn, ElementFlags::VALUE, &data)

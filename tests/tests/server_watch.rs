@@ -51,7 +51,11 @@ fn watched_values_follow_the_slave() {
         .find(|o| o.index == 0x2001)
         .and_then(|o| o.value.as_ref()?.as_integer())
         .expect("0x2001 has a value");
-    let temperature = &topology.slaves[0].idns[0];
+    let temperature = topology.slaves[0]
+        .idns
+        .iter()
+        .find(|i| i.name == "Motor temperature")
+        .expect("the drive has P-0-0100");
     let idn = format!("P-0-{:04}", temperature.idn & 0x0fff);
     let dir = std::env::temp_dir().join(format!("ecatd-watch-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
