@@ -20,6 +20,7 @@ use crate::mailbox::engine::hook::SideTraffic;
 use crate::mailbox::engine::job::{BoxFuture, call};
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
+use crate::wire::Emit;
 use crate::wire::eoe::fragment::MAX_FRAME_LEN;
 use crate::wire::eoe::{AddressFilter, EoePacket, EoeRepr, EoeResult, IpParameters};
 use crate::wire::mailbox::MailboxType;
@@ -89,12 +90,8 @@ async fn eoe_request<T>(
     request: &EoeRepr<'_>,
     mut accept: impl FnMut(&EoeRepr<'_>) -> Option<Result<T>>,
 ) -> Result<T> {
-    x.send(MailboxType::Eoe, |buf| {
-        request
-            .emit(&mut EoePacket::new_unchecked(&mut *buf))
-            .map(|()| request.buffer_len())
-    })
-    .await?;
+    x.send(MailboxType::Eoe, |buf| request.emit_into(buf))
+        .await?;
     loop {
         let reply = x.receive(MailboxType::Eoe).await?;
         let data = reply.data()?;

@@ -68,18 +68,13 @@ impl Reassembly for EoeRx {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use crate::wire::eoe::{EoeRepr, Fragmenter};
 
     fn fragments(frame: &[u8], frame_number: u8) -> Vec<Vec<u8>> {
         Fragmenter::new(frame, 64, frame_number)
             .unwrap()
-            .map(|f| {
-                let repr = EoeRepr::Fragment(f);
-                let mut out = vec![0u8; repr.buffer_len()];
-                repr.emit(&mut EoePacket::new_unchecked(&mut out[..]))
-                    .unwrap();
-                out
-            })
+            .map(|f| EoeRepr::Fragment(f).to_vec().unwrap())
             .collect()
     }
 

@@ -10,7 +10,8 @@ use crate::mailbox::engine::hook::Background;
 use crate::mailbox::engine::job::BoxFuture;
 use crate::mailbox::engine::stats::{add, inc};
 use crate::mailbox::error::{MailboxError, Result};
-use crate::wire::eoe::{EoePacket, EoeRepr, Fragmenter};
+use crate::wire::Emit;
+use crate::wire::eoe::{EoeRepr, Fragmenter};
 use crate::wire::mailbox::MailboxType;
 
 /// A frame queued for sending, and who to tell when it is out.
@@ -65,10 +66,7 @@ impl EoeTx {
                 let last = fragment.last;
                 let repr = EoeRepr::Fragment(fragment);
                 let sent = exchange
-                    .send(MailboxType::Eoe, |buf| {
-                        repr.emit(&mut EoePacket::new_unchecked(&mut *buf))
-                            .map(|()| repr.buffer_len())
-                    })
+                    .send(MailboxType::Eoe, |buf| repr.emit_into(buf))
                     .await;
                 match sent {
                     Ok(()) if !last => {
