@@ -25,6 +25,22 @@ const RANKS: &[(&str, u8)] = &[
 /// `master_od`'s use of the gateway's encoders, ended when they moved to `wire`).
 const ALLOWED: &[(&str, &str, &str)] = &[];
 
+/// The mailbox's modules from the bottom up: the engine carries messages and knows none of
+/// the protocol clients on top of it (EoE plugs in through `engine::hook`); the clients
+/// share a rank and do not know each other.
+const MAILBOX_RANKS: &[(&str, u8)] = &[
+    ("config", 0),
+    ("error", 0),
+    ("matching", 0),
+    ("engine", 1),
+    ("coe", 2),
+    ("eoe", 2),
+    ("foe", 2),
+    ("raw", 2),
+    ("soe", 2),
+    ("voe", 2),
+];
+
 fn rank(module: &str) -> Option<u8> {
     RANKS.iter().find(|(m, _)| *m == module).map(|(_, r)| *r)
 }
@@ -175,6 +191,134 @@ fn violations(arrows: &[Arrow]) -> Vec<String> {
 
 fn src() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
+}
+
+/// The mailbox modules `source` names, for a file under `mailbox/` whose module path is
+/// `path`: `crate::mailbox::x` paths, and `super::` chains that climb to the mailbox root.
+fn mailbox_uses(path: &[String], source: &str) -> Vec<(String, usize)> {
+    let mut found = Vec::new();
+    for (number, line) in source.lines().enumerate() {
+        let code = code_of(line);
+        let mut rest = code;
+        while let Some(at) = rest.find("crate::mailbox::") {
+            let tail = &rest[at + "crate::mailbox::".len()..];
+            let name = ident_at(tail);
+            if !name.is_empty() {
+                found.push((name.to_string(), number + 1));
+            }
+            rest = tail;
+        }
+        let mut rest = code;
+        while let Some(at) = rest.find("super::") {
+            let before = rest[..at].chars().next_back();
+            let mut tail = &rest[at..];
+            if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_' || c == ':') {
+                rest = &tail["super::".len()..];
+                continue;
+            }
+            let mut climbs = 0;
+            while let Some(next) = tail.strip_prefix("super::") {
+                climbs += 1;
+                tail = next;
+            }
+            // From `mailbox/a/b.rs` (path mailbox, a, b) two climbs reach the mailbox root.
+            if climbs + 1 == path.len() {
+                let name = ident_at(tail);
+                if !name.is_empty() {
+                    found.push((name.to_string(), number + 1));
+                }
+            }
+            rest = tail;
+        }
+    }
+    found
+}
+
+/// Uses of one mailbox module by another that point up or sideways.
+fn mailbox_violations(src: &Path) -> Vec<String> {
+    let rank = |module: &str| {
+        MAILBOX_RANKS
+            .iter()
+            .find(|(m, _)| *m == module)
+            .map(|(_, r)| *r)
+    };
+    let mut files = Vec::new();
+    rust_files(&src.join("mailbox"), &mut files);
+    let mut bad = Vec::new();
+    for file in files {
+        let path = module_path(src, &file);
+        let Some(from) = path.get(1).cloned() else {
+            continue;
+        };
+        let source = fs::read_to_string(&file).expect("readable source");
+        for (to, line) in mailbox_uses(&path, &source) {
+            if let (Some(f), Some(t)) = (rank(&from), rank(&to))
+                && to != from
+                && t >= f
+            {
+                let file = file.strip_prefix(src).unwrap().display();
+                bad.push(format!("{file}:{line}: mailbox::{from} uses mailbox::{to}"));
+            }
+        }
+    }
+    bad
+}
+
+#[test]
+fn every_mailbox_module_has_a_rank() {
+    let lib = fs::read_to_string(src().join("mailbox/mod.rs")).expect("mailbox/mod.rs");
+    let modules: BTreeSet<&str> = lib
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("mod "))
+        .map(|l| l.trim_end_matches(';'))
+        .collect();
+    let ranked: BTreeSet<&str> = MAILBOX_RANKS.iter().map(|(m, _)| *m).collect();
+    assert_eq!(
+        modules, ranked,
+        "mailbox/mod.rs's modules and its layer table differ"
+    );
+}
+
+#[test]
+fn the_mailbox_engine_knows_no_protocol_client() {
+    let bad = mailbox_violations(&src());
+    assert!(
+        bad.is_empty(),
+        "upward dependencies in the mailbox:\n{}",
+        bad.join("\n")
+    );
+}
+
+#[test]
+fn an_engine_use_of_eoe_is_reported() {
+    let path: Vec<String> = ["mailbox", "engine", "owner"].map(String::from).to_vec();
+    let source = "use crate::mailbox::eoe::EoeTx; // crate::mailbox::coe\n\
+                  use super::super::eoe::rx::EoeRx;\n\
+                  use super::hook::Background;\n\
+                  use crate::mailbox::error::Result;\n";
+    assert_eq!(
+        mailbox_uses(&path, source),
+        vec![
+            ("eoe".to_string(), 1),
+            ("eoe".to_string(), 2),
+            ("error".to_string(), 4)
+        ]
+    );
+    // And the check over the real tree sees these lines as violations: a copy of the tree
+    // with the old import put back fails.
+    let dir = std::env::temp_dir().join(format!("layering-{}", std::process::id()));
+    let engine = dir.join("mailbox/engine");
+    fs::create_dir_all(&engine).expect("temporary tree");
+    fs::write(engine.join("owner.rs"), source).expect("temporary source");
+    let bad = mailbox_violations(&dir);
+    fs::remove_dir_all(&dir).expect("temporary tree removed");
+    assert_eq!(
+        bad,
+        [
+            "mailbox/engine/owner.rs:1: mailbox::engine uses mailbox::eoe",
+            "mailbox/engine/owner.rs:2: mailbox::engine uses mailbox::eoe"
+        ]
+    );
 }
 
 #[test]

@@ -13,6 +13,7 @@ use crate::mailbox::engine::job::{BoxFuture, call_for};
 use crate::mailbox::engine::report::Subject;
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
+use crate::wire::Emit;
 use crate::wire::foe::{self, FoeError, FoePacket, FoeRepr};
 use crate::wire::mailbox::MailboxType;
 
@@ -64,11 +65,7 @@ impl FoeOptions {
 }
 
 async fn send_foe(x: &mut Exchange, repr: &FoeRepr<'_>) -> Result<()> {
-    x.send(MailboxType::Foe, |buf| {
-        repr.emit(&mut FoePacket::new_unchecked(&mut *buf))
-            .map(|()| repr.buffer_len())
-    })
-    .await
+    x.send(MailboxType::Foe, |buf| repr.emit_into(buf)).await
 }
 
 /// The next FoE message from the slave, owned.

@@ -65,3 +65,10 @@ pub use error::{MailboxError, Result};
 pub use foe::{FoeOptions, FoeProgress};
 pub use raw::RawReply;
 pub use voe::VoeMessage;
+
+/// The side traffic each slave's owner task carries beside the requests: EoE. Chosen here,
+/// where the engine and the protocols meet, so the engine knows only its hooks
+/// ([`engine::hook`]) and the dependency points from the protocol to the engine.
+fn side_traffic(config: &MailboxConfig) -> engine::hook::SideTraffic {
+    eoe::side_traffic(config)
+}

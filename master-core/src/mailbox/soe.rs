@@ -6,15 +6,12 @@ use crate::mailbox::engine::job::{BoxFuture, call_for};
 use crate::mailbox::engine::report::Subject;
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
+use crate::wire::Emit;
 use crate::wire::mailbox::MailboxType;
 use crate::wire::soe::{self, ElementFlags, Idn, IdnOrFragments, SoeOpcode, SoePacket, SoeRepr};
 
 async fn send_soe(x: &mut Exchange, repr: &SoeRepr<'_>) -> Result<()> {
-    x.send(MailboxType::Soe, |buf| {
-        repr.emit(&mut SoePacket::new_unchecked(&mut *buf))
-            .map(|()| repr.buffer_len())
-    })
-    .await
+    x.send(MailboxType::Soe, |buf| repr.emit_into(buf)).await
 }
 
 fn check_drive(drive: u8) -> Result<()> {

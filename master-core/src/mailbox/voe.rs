@@ -3,6 +3,7 @@
 use crate::mailbox::engine::job::{BoxFuture, call};
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::Result;
+use crate::wire::Emit;
 use crate::wire::mailbox::MailboxType;
 use crate::wire::voe::{VoePacket, VoeRepr};
 
@@ -28,12 +29,8 @@ impl SlaveMailbox {
                     vendor_type,
                     data: &data,
                 };
-                x.send(MailboxType::Voe, |buf| {
-                    request
-                        .emit(&mut VoePacket::new_unchecked(&mut *buf))
-                        .map(|()| request.buffer_len())
-                })
-                .await?;
+                x.send(MailboxType::Voe, |buf| request.emit_into(buf))
+                    .await?;
                 loop {
                     let reply = x.receive(MailboxType::Voe).await?;
                     let parsed =

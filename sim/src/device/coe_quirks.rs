@@ -9,6 +9,7 @@
 //! - complete access refused with abort 0x08000000 (a stack built without it);
 //! - every wrong-length download aborted with 0x06070010 (SOES), not 0x06070012/0x06070013.
 
+use master_core::wire::Emit;
 use master_core::wire::coe::AbortCode;
 use master_core::wire::coe::sdo::SdoFrame;
 use master_core::wire::coe::sdo_response::SdoResponse;
@@ -62,11 +63,7 @@ impl CoeQuirks {
             subindex: frame.subindex(),
             code: AbortCode::GeneralError,
         };
-        let mut out = vec![0u8; abort.buffer_len()];
-        abort
-            .emit(&mut SdoFrame::new_unchecked(&mut out[..]))
-            .ok()?;
-        Some(out)
+        abort.to_vec().ok()
     }
 
     /// Rewrites one reply (CoE mailbox data) of the server to `request` the way this

@@ -10,7 +10,9 @@
 
 mod build;
 mod default;
+mod dictionary;
 mod model;
+mod sii;
 mod soe;
 
 pub use build::{BuildError, Built, SlaveHandles, build, build_with_handles};

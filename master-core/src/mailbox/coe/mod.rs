@@ -12,14 +12,11 @@ pub use info::{EntryInfo, ObjectInfo};
 
 use crate::mailbox::engine::exchange::Exchange;
 use crate::mailbox::error::Result;
-use crate::wire::coe::{CoeFrame, CoeRepr};
+use crate::wire::Emit;
+use crate::wire::coe::CoeRepr;
 use crate::wire::mailbox::MailboxType;
 
 /// Sends one CoE message built by `repr`.
 pub(crate) async fn send_coe(x: &mut Exchange, repr: &CoeRepr<'_>) -> Result<()> {
-    x.send(MailboxType::Coe, |buf| {
-        repr.emit(&mut CoeFrame::new_unchecked(&mut *buf))
-            .map(|()| repr.buffer_len())
-    })
-    .await
+    x.send(MailboxType::Coe, |buf| repr.emit_into(buf)).await
 }

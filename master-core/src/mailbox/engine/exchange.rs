@@ -24,7 +24,6 @@ use std::time::Instant;
 
 use crate::bus::{BusError, BusHandle, DatagramData, DatagramRequest, DatagramResult, Pending};
 use crate::mailbox::config::MailboxConfig;
-use crate::mailbox::eoe::rx::{EoeRx, Pushed};
 use crate::mailbox::error::{MailboxError, Result};
 use crate::wire::WireError;
 use crate::wire::mailbox::{
@@ -34,6 +33,7 @@ use crate::wire::mailbox::{
 use super::counter::Counters;
 use super::demux::{Route, Want, route};
 use super::events::{EoeFrame, SoeNotification};
+use super::hook::{Pushed, Reassembly};
 use super::repeat::request_repeat;
 use super::report;
 use super::slave::SlaveShared;
@@ -92,7 +92,8 @@ pub(crate) struct Exchange {
     tx: Vec<u8>,
     rx: Vec<u8>,
     stash: VecDeque<Vec<u8>>,
-    eoe_rx: EoeRx,
+    /// The receiver of EoE fragments (the side traffic's, spec-notes §mbx.demux).
+    eoe_rx: Box<dyn Reassembly>,
     deadline: Instant,
     cancelled: Option<Arc<AtomicBool>>,
     /// A read of SM1 sent right behind the last write, with what it was sent for; it must
@@ -101,10 +102,9 @@ pub(crate) struct Exchange {
 }
 
 impl Exchange {
-    pub fn new(shared: Arc<SlaveShared>, bus: BusHandle) -> Exchange {
+    pub fn new(shared: Arc<SlaveShared>, bus: BusHandle, eoe_rx: Box<dyn Reassembly>) -> Exchange {
         let write = usize::from(shared.config.write.len);
         let read = usize::from(shared.config.read.len);
-        let eoe_timeout = shared.engine.eoe_fragment_timeout;
         let counters =
             Counters::continuing_after(shared.last_tx.load(std::sync::atomic::Ordering::Relaxed));
         Exchange {
@@ -114,7 +114,7 @@ impl Exchange {
             tx: vec![0; write],
             rx: Vec::with_capacity(read),
             stash: VecDeque::with_capacity(STASH_LEN),
-            eoe_rx: EoeRx::new(eoe_timeout),
+            eoe_rx,
             deadline: Instant::now(),
             cancelled: None,
             ahead: None,

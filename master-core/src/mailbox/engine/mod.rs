@@ -7,6 +7,7 @@
 //! - [`exchange`]: writing SM0, reading SM1, routing what was read;
 //! - [`counter`], [`repeat`]: the guards against retried writes and lost reads;
 //! - [`demux`]: where each message from a slave goes;
+//! - [`hook`]: how the side traffic (EoE) plugs in, without the engine knowing it;
 //! - [`events`], [`stats`]: unsolicited messages and counters;
 //! - [`report`]: log lines for failures, rate-limited per slave.
 
@@ -14,6 +15,7 @@ pub(crate) mod counter;
 pub(crate) mod demux;
 pub(crate) mod events;
 pub(crate) mod exchange;
+pub(crate) mod hook;
 pub(crate) mod job;
 pub(crate) mod owner;
 pub(crate) mod repeat;
@@ -131,13 +133,13 @@ impl MailboxEngine {
             });
         let engine = self.inner.config;
         let (requests, requests_rx) = mpsc::channel(engine.queue_len.max(1));
-        let (eoe_tx, eoe_rx) = mpsc::channel(engine.eoe_tx_queue_len.max(1));
+        let side = super::side_traffic(&engine);
         let (stop, stop_rx) = watch::channel(false);
         let shared = Arc::new(SlaveShared {
             config,
             engine,
             requests,
-            eoe_tx,
+            side_queue: side.queue,
             events: Events::new(engine.emergency_history, engine.event_capacity),
             stats: stats::Stats::default(),
             mail: Notify::new(),
@@ -147,7 +149,8 @@ impl MailboxEngine {
         });
         let inputs = owner::Inputs {
             requests: requests_rx,
-            eoe: eoe_rx,
+            background: side.background,
+            reassembly: side.reassembly,
             stop: stop_rx,
             engine_stop: self.inner.stop.subscribe(),
         };

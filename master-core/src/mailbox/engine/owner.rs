@@ -9,9 +9,9 @@ use std::time::Instant;
 use tokio::sync::{mpsc, watch};
 
 use crate::bus::BusHandle;
-use crate::mailbox::eoe::{EoeSend, EoeTx};
 
 use super::exchange::Exchange;
+use super::hook::{Background, Reassembly};
 use super::job::Job;
 use super::slave::SlaveShared;
 use super::stats::inc;
@@ -19,23 +19,32 @@ use super::stats::inc;
 /// What the owner task receives.
 pub(crate) struct Inputs {
     pub requests: mpsc::Receiver<Job>,
-    pub eoe: mpsc::Receiver<EoeSend>,
+    /// The side traffic sent while no request waits (EoE frames).
+    pub background: Box<dyn Background>,
+    /// Where the messages routed to the side traffic go (EoE fragments).
+    pub reassembly: Box<dyn Reassembly>,
     pub stop: watch::Receiver<bool>,
     pub engine_stop: watch::Receiver<bool>,
 }
 
 /// Runs until the slave is removed or the engine stops. Requests still queued then are
 /// dropped, which their callers see as [`MailboxError::Shutdown`](crate::mailbox::MailboxError::Shutdown).
-pub(crate) async fn run(shared: Arc<SlaveShared>, bus: BusHandle, mut inputs: Inputs) {
-    let mut exchange = Exchange::new(Arc::clone(&shared), bus);
-    let mut eoe = EoeTx::default();
+pub(crate) async fn run(shared: Arc<SlaveShared>, bus: BusHandle, inputs: Inputs) {
+    let Inputs {
+        mut requests,
+        background: mut side,
+        reassembly,
+        mut stop,
+        mut engine_stop,
+    } = inputs;
+    let mut exchange = Exchange::new(Arc::clone(&shared), bus, reassembly);
     let idle_poll = shared.engine.idle_poll;
     let mut next_poll = Instant::now();
     loop {
-        if *inputs.stop.borrow() || *inputs.engine_stop.borrow() {
+        if *stop.borrow() || *engine_stop.borrow() {
             break;
         }
-        match inputs.requests.try_recv() {
+        match requests.try_recv() {
             Ok(job) => {
                 run_job(&mut exchange, job).await;
                 continue;
@@ -43,14 +52,12 @@ pub(crate) async fn run(shared: Arc<SlaveShared>, bus: BusHandle, mut inputs: In
             Err(mpsc::error::TryRecvError::Disconnected) => break,
             Err(mpsc::error::TryRecvError::Empty) => {}
         }
-        if !eoe.busy()
-            && let Ok(send) = inputs.eoe.try_recv()
-        {
-            eoe.start(send);
+        if !side.busy() {
+            side.try_start();
         }
-        if eoe.busy() {
+        if side.busy() {
             // One fragment, then the request queue is looked at again.
-            eoe.step(&mut exchange).await;
+            side.step(&mut exchange).await;
             continue;
         }
         let now = Instant::now();
@@ -65,23 +72,21 @@ pub(crate) async fn run(shared: Arc<SlaveShared>, bus: BusHandle, mut inputs: In
         let sleep = tokio::time::sleep_until(next_poll.into());
         tokio::select! {
             biased;
-            changed = inputs.stop.changed() => if changed.is_err() { break },
-            changed = inputs.engine_stop.changed() => if changed.is_err() { break },
-            job = inputs.requests.recv() => match job {
+            changed = stop.changed() => if changed.is_err() { break },
+            changed = engine_stop.changed() => if changed.is_err() { break },
+            job = requests.recv() => match job {
                 Some(job) => run_job(&mut exchange, job).await,
                 None => break,
             },
-            send = inputs.eoe.recv(), if !eoe.busy() => if let Some(send) = send {
-                eoe.start(send);
-            },
+            () = side.start_next(), if !side.busy() => {},
             () = shared.mail.notified() => {
                 let _ = exchange.poll_idle().await;
             },
             () = sleep, if idle_poll.is_some() => {}
         }
     }
-    inputs.requests.close();
-    inputs.eoe.close();
+    requests.close();
+    side.close();
 }
 
 async fn run_job(exchange: &mut Exchange, job: Job) {

@@ -1,5 +1,6 @@
 //! What the engine and the handles share about one slave, and the public handle.
 
+use std::any::Any;
 use std::sync::Arc;
 use std::sync::atomic::AtomicU8;
 use std::time::Duration;
@@ -12,14 +13,15 @@ use super::events::{Emergency, EoeFrame, Events, SoeNotification};
 use super::job::Job;
 use super::report::LogLimit;
 use super::stats::{MailboxStats, Stats};
-use crate::mailbox::eoe::EoeSend;
 
 /// Shared between the slave's owner task and every handle.
 pub(crate) struct SlaveShared {
     pub config: SlaveMailboxConfig,
     pub engine: MailboxConfig,
     pub requests: mpsc::Sender<Job>,
-    pub eoe_tx: mpsc::Sender<EoeSend>,
+    /// The sending end of the side traffic's queue (EoE frames), of a type its protocol
+    /// module knows ([`SideTraffic::queue`](super::hook::SideTraffic::queue)).
+    pub side_queue: Box<dyn Any + Send + Sync>,
     pub events: Events,
     pub stats: Stats,
     /// Wakes the owner to read the send mailbox now (a "mailbox full" seen elsewhere).

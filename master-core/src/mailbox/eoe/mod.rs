@@ -12,17 +12,33 @@ pub(crate) mod tx;
 
 use std::net::Ipv4Addr;
 
-use tokio::sync::oneshot;
+use tokio::sync::{mpsc, oneshot};
 
+use crate::mailbox::config::MailboxConfig;
 use crate::mailbox::engine::exchange::Exchange;
+use crate::mailbox::engine::hook::SideTraffic;
 use crate::mailbox::engine::job::{BoxFuture, call};
 use crate::mailbox::engine::slave::SlaveMailbox;
 use crate::mailbox::error::{MailboxError, Result};
+use crate::wire::Emit;
 use crate::wire::eoe::fragment::MAX_FRAME_LEN;
 use crate::wire::eoe::{AddressFilter, EoePacket, EoeRepr, EoeResult, IpParameters};
 use crate::wire::mailbox::MailboxType;
 
-pub(crate) use tx::{EoeSend, EoeTx};
+use rx::EoeRx;
+use tx::{EoeSend, EoeTx};
+
+/// One slave's EoE side traffic for the engine: the bounded queue of frames to send
+/// ([`MailboxConfig::eoe_tx_queue_len`]), its sender and the fragment receiver
+/// ([`MailboxConfig::eoe_fragment_timeout`]).
+pub(crate) fn side_traffic(config: &MailboxConfig) -> SideTraffic {
+    let (queue, frames) = mpsc::channel::<EoeSend>(config.eoe_tx_queue_len.max(1));
+    SideTraffic {
+        queue: Box::new(queue),
+        background: Box::new(EoeTx::new(frames)),
+        reassembly: Box::new(EoeRx::new(config.eoe_fragment_timeout)),
+    }
+}
 
 /// IP settings of an EoE slave (ETG.1000.6, spec-notes §eoe); `None` = not set / not reported.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -74,12 +90,8 @@ async fn eoe_request<T>(
     request: &EoeRepr<'_>,
     mut accept: impl FnMut(&EoeRepr<'_>) -> Option<Result<T>>,
 ) -> Result<T> {
-    x.send(MailboxType::Eoe, |buf| {
-        request
-            .emit(&mut EoePacket::new_unchecked(&mut *buf))
-            .map(|()| request.buffer_len())
-    })
-    .await?;
+    x.send(MailboxType::Eoe, |buf| request.emit_into(buf))
+        .await?;
     loop {
         let reply = x.receive(MailboxType::Eoe).await?;
         let data = reply.data()?;
@@ -126,7 +138,14 @@ impl SlaveMailbox {
             port: 0,
             done,
         };
-        shared.eoe_tx.try_send(send).map_err(|err| match err {
+        // The engine keeps the queue made by `side_traffic`; another type cannot be there.
+        let Some(queue) = shared.side_queue.downcast_ref::<mpsc::Sender<EoeSend>>() else {
+            return Err(MailboxError::Unsupported {
+                station,
+                protocol: MailboxType::Eoe,
+            });
+        };
+        queue.try_send(send).map_err(|err| match err {
             tokio::sync::mpsc::error::TrySendError::Full(_) => MailboxError::QueueFull(station),
             tokio::sync::mpsc::error::TrySendError::Closed(_) => MailboxError::Shutdown,
         })?;

@@ -3,6 +3,7 @@
 
 use std::time::{Duration, Instant};
 
+use crate::mailbox::engine::hook::{Pushed, Reassembly};
 use crate::wire::eoe::{EoeFrameType, EoePacket, FragmentRepr, Reassembler};
 
 /// Reassembly state of one slave.
@@ -11,19 +12,6 @@ pub(crate) struct EoeRx {
     reassembler: Reassembler,
     last_fragment: Instant,
     timeout: Duration,
-}
-
-/// What one fragment did.
-#[derive(Debug, PartialEq, Eq)]
-pub(crate) enum Pushed {
-    /// A frame is complete.
-    Frame(Vec<u8>),
-    /// More fragments are needed.
-    Partial,
-    /// The fragment was refused; the partial frame (if any) was dropped.
-    Dropped,
-    /// Not a fragment (a timestamp response).
-    Ignored,
 }
 
 impl EoeRx {
@@ -66,21 +54,27 @@ impl EoeRx {
     }
 }
 
+/// The engine routes EoE fragments here through its hook.
+impl Reassembly for EoeRx {
+    fn expire(&mut self, now: Instant) -> bool {
+        EoeRx::expire(self, now)
+    }
+
+    fn push(&mut self, data: &[u8], now: Instant) -> Pushed {
+        EoeRx::push(self, data, now)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::Emit;
     use crate::wire::eoe::{EoeRepr, Fragmenter};
 
     fn fragments(frame: &[u8], frame_number: u8) -> Vec<Vec<u8>> {
         Fragmenter::new(frame, 64, frame_number)
             .unwrap()
-            .map(|f| {
-                let repr = EoeRepr::Fragment(f);
-                let mut out = vec![0u8; repr.buffer_len()];
-                repr.emit(&mut EoePacket::new_unchecked(&mut out[..]))
-                    .unwrap();
-                out
-            })
+            .map(|f| EoeRepr::Fragment(f).to_vec().unwrap())
             .collect()
     }
 

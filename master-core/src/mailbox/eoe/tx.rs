@@ -3,12 +3,15 @@
 
 use std::time::Instant;
 
-use tokio::sync::oneshot;
+use tokio::sync::{mpsc, oneshot};
 
 use crate::mailbox::engine::exchange::Exchange;
+use crate::mailbox::engine::hook::Background;
+use crate::mailbox::engine::job::BoxFuture;
 use crate::mailbox::engine::stats::{add, inc};
 use crate::mailbox::error::{MailboxError, Result};
-use crate::wire::eoe::{EoePacket, EoeRepr, Fragmenter};
+use crate::wire::Emit;
+use crate::wire::eoe::{EoeRepr, Fragmenter};
 use crate::wire::mailbox::MailboxType;
 
 /// A frame queued for sending, and who to tell when it is out.
@@ -18,14 +21,24 @@ pub(crate) struct EoeSend {
     pub done: oneshot::Sender<Result<()>>,
 }
 
-/// The frame being sent and the EoE frame number (4 bits, per slave).
-#[derive(Default)]
+/// The queue of frames to send, the frame being sent and the EoE frame number (4 bits,
+/// per slave).
 pub(crate) struct EoeTx {
+    queue: mpsc::Receiver<EoeSend>,
     current: Option<(EoeSend, usize)>,
     frame_number: u8,
 }
 
 impl EoeTx {
+    /// A sender taking its frames from `queue`, starting at frame number 0.
+    pub fn new(queue: mpsc::Receiver<EoeSend>) -> EoeTx {
+        EoeTx {
+            queue,
+            current: None,
+            frame_number: 0,
+        }
+    }
+
     /// Whether a frame is being sent.
     pub fn busy(&self) -> bool {
         self.current.is_some()
@@ -53,10 +66,7 @@ impl EoeTx {
                 let last = fragment.last;
                 let repr = EoeRepr::Fragment(fragment);
                 let sent = exchange
-                    .send(MailboxType::Eoe, |buf| {
-                        repr.emit(&mut EoePacket::new_unchecked(&mut *buf))
-                            .map(|()| repr.buffer_len())
-                    })
+                    .send(MailboxType::Eoe, |buf| repr.emit_into(buf))
                     .await;
                 match sent {
                     Ok(()) if !last => {
@@ -75,5 +85,35 @@ impl EoeTx {
             add(&exchange.stats().eoe_bytes_out, send.frame.len());
         }
         let _ = send.done.send(result);
+    }
+}
+
+/// The owner task drives EoE sending through the engine's hook.
+impl Background for EoeTx {
+    fn busy(&self) -> bool {
+        EoeTx::busy(self)
+    }
+
+    fn try_start(&mut self) {
+        if let Ok(send) = self.queue.try_recv() {
+            self.start(send);
+        }
+    }
+
+    fn start_next(&mut self) -> BoxFuture<'_, ()> {
+        // Cancel-safe: a frame is taken from the queue only when `recv` completes.
+        Box::pin(async move {
+            if let Some(send) = self.queue.recv().await {
+                self.start(send);
+            }
+        })
+    }
+
+    fn step<'a>(&'a mut self, exchange: &'a mut Exchange) -> BoxFuture<'a, ()> {
+        Box::pin(EoeTx::step(self, exchange))
+    }
+
+    fn close(&mut self) {
+        self.queue.close();
     }
 }

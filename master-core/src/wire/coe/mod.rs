@@ -145,6 +145,7 @@ impl fmt::Display for CoeRepr<'_> {
 mod tests {
     use super::header::tests::arb_coe_header;
     use super::*;
+    use crate::wire::Emit;
     use crate::wire::mailbox::{Mailbox, MailboxType};
     use proptest::prelude::*;
 
@@ -252,9 +253,8 @@ mod tests {
             data in proptest::collection::vec(any::<u8>(), 0..20),
         ) {
             let repr = CoeRepr::Other { header, data: &data };
-            let mut out = vec![0u8; repr.buffer_len()];
-            match repr.emit(&mut CoeFrame::new_unchecked(&mut out[..])) {
-                Ok(()) => prop_assert_eq!(parse(&out).unwrap(), repr),
+            match repr.to_vec() {
+                Ok(out) => prop_assert_eq!(parse(&out).unwrap(), repr),
                 Err(_) => prop_assert!(matches!(
                     header.service,
                     CoeService::Emergency
@@ -270,8 +270,7 @@ mod tests {
         fn reparse_is_stable(bytes in proptest::collection::vec(any::<u8>(), 0..40)) {
             if let Ok(repr) = parse(&bytes) {
                 let _ = repr.to_string();
-                let mut out = vec![0u8; repr.buffer_len()];
-                repr.emit(&mut CoeFrame::new_unchecked(&mut out[..])).unwrap();
+                let out = repr.to_vec().unwrap();
                 prop_assert_eq!(parse(&out).unwrap(), repr);
             }
         }
@@ -286,8 +285,7 @@ mod tests {
             bytes.extend_from_slice(&tail);
             if let Ok(repr) = parse(&bytes) {
                 let _ = repr.to_string();
-                let mut out = vec![0u8; repr.buffer_len()];
-                repr.emit(&mut CoeFrame::new_unchecked(&mut out[..])).unwrap();
+                let out = repr.to_vec().unwrap();
                 prop_assert_eq!(parse(&out).unwrap(), repr);
             }
         }

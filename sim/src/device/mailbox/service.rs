@@ -7,9 +7,9 @@
 
 use std::any::Any;
 
-use master_core::wire::WireError;
-use master_core::wire::mailbox::{ErrorReply, ErrorReplyRepr, HEADER_LEN, MailboxErrorCode};
+use master_core::wire::mailbox::{ErrorReplyRepr, HEADER_LEN, MailboxErrorCode};
 use master_core::wire::mailbox::{MailboxHeader, MailboxType};
+use master_core::wire::{Emit, WireError};
 
 use crate::device::{DeviceContext, OutboxFull};
 
@@ -168,11 +168,8 @@ pub(crate) fn code_for(error: &WireError) -> MailboxErrorCode {
 
 /// The 4 data bytes of a mailbox error reply, built with the codec.
 pub(crate) fn error_reply_data(code: MailboxErrorCode) -> Vec<u8> {
-    let repr = ErrorReplyRepr { detail: code };
-    let mut data = vec![0u8; repr.buffer_len()];
-    // The buffer has exactly buffer_len() bytes, the one condition emit checks.
-    let _ = repr.emit(&mut ErrorReply::new_unchecked(&mut data[..]));
-    data
+    // Exactly its length: the one condition the emit checks, so never the empty default.
+    ErrorReplyRepr { detail: code }.to_vec().unwrap_or_default()
 }
 
 /// Smallest SM1 that can carry a mailbox error reply.
