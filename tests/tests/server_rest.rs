@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use serde_json::Value;
 use server_support::gateway_client::GatewayClient;
-use server_support::{Ecatd, curl};
+use server_support::{Ecatd, curl, curl_as_browser};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
@@ -411,4 +411,74 @@ fn openapi_document_validates_and_lists_every_route() {
         String::from_utf8_lossy(&output.stdout),
         String::from_utf8_lossy(&output.stderr)
     );
+}
+
+#[test]
+fn browser_forms_and_foreign_hosts_are_refused() {
+    let ecatd = Ecatd::start(&[]);
+    let stop = format!("{}/api/v1/gateway/stop", ecatd.http);
+    let slaves = format!("{}/api/v1/slaves", ecatd.http);
+    // A cross-origin web form: urlencoded body, a foreign Origin, no custom header.
+    let (status, body) = curl_as_browser(&[
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "Content-Type: application/x-www-form-urlencoded",
+        "-H",
+        "Origin: http://evil.example",
+        "-d",
+        "a=b",
+        &stop,
+    ]);
+    assert_eq!(status, 403, "{body}");
+    assert!(body.contains("cross-origin"), "{body}");
+    // The same form from the page's own origin is still a form: refused.
+    let own_origin = format!("Origin: {}", ecatd.http);
+    let (status, body) = curl_as_browser(&[
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "Content-Type: application/x-www-form-urlencoded",
+        "-H",
+        &own_origin,
+        "-d",
+        "a=b",
+        &stop,
+    ]);
+    assert_eq!(status, 403, "{body}");
+    assert!(body.contains("X-Ecat-Client"), "{body}");
+    // DNS rebinding: a foreign Host, on a write and on a read.
+    for method in ["POST", "GET"] {
+        let (status, body) = curl_as_browser(&[
+            "-s",
+            "-X",
+            method,
+            "-H",
+            "Host: evil.example",
+            "-H",
+            "Content-Type: application/json",
+            &slaves,
+        ]);
+        assert_eq!(status, 421, "{method}: {body}");
+        assert!(body.contains("evil.example"), "{body}");
+    }
+    // Nothing was stopped: the gateway still runs.
+    let (_, gateway) = get(&ecatd, "/api/v1/gateway");
+    assert_eq!(gateway["running"], true, "{gateway}");
+    // A same-origin JSON request works without the custom header.
+    let (status, body) = curl_as_browser(&[
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "Content-Type: application/json",
+        "-H",
+        &own_origin,
+        &stop,
+    ]);
+    assert_eq!(status, 200, "{body}");
+    let (_, gateway) = get(&ecatd, "/api/v1/gateway");
+    assert_eq!(gateway["running"], false, "{gateway}");
 }

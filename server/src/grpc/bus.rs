@@ -79,6 +79,8 @@ impl BusService for Bus {
                 Err(BroadcastStreamRecvError::Lagged(missed)) => event(&EventView::lagged(missed)),
             })
         });
+        // Ends at shutdown, so that the server's graceful stop does not wait for it.
+        let stream = futures_util::StreamExt::take_until(stream, self.core.stopped());
         Ok(Response::new(Box::pin(stream)))
     }
 

@@ -47,6 +47,8 @@ pub struct Core {
     events: Arc<std::sync::OnceLock<events::EventHub>>,
     /// Where the mailbox requests are recorded (shared with the metrics, which own it).
     calls: Arc<MailboxCalls>,
+    /// Set once at shutdown: every event stream ends when it is.
+    stopping: Arc<tokio::sync::watch::Sender<bool>>,
 }
 
 /// What the gRPC and REST layers give the core for each request: the slave name and the
@@ -63,6 +65,7 @@ impl Core {
             gateway: Arc::default(),
             events: Arc::default(),
             calls,
+            stopping: Arc::new(tokio::sync::watch::Sender::new(false)),
         }
     }
 
@@ -97,6 +100,21 @@ impl Core {
     /// Marks the service ready (after the first scan) or not (shutting down).
     pub fn set_ready(&self, ready: bool) {
         self.ready.store(ready, Ordering::Release);
+    }
+
+    /// Starts the shutdown: the service is no longer ready and every event stream ends
+    /// (a server's graceful shutdown would wait for them forever).
+    pub fn stop_streams(&self) {
+        self.set_ready(false);
+        self.stopping.send_replace(true);
+    }
+
+    /// Completes once [`Core::stop_streams`] was called (at once if it already was).
+    pub fn stopped(&self) -> impl std::future::Future<Output = ()> + Send + use<> {
+        let mut rx = self.stopping.subscribe();
+        async move {
+            let _ = rx.wait_for(|stopping| *stopping).await;
+        }
     }
 
     /// Whether the first scan is done and the service is not shutting down.
