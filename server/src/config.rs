@@ -94,7 +94,7 @@ pub struct Args {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum SafeState {
-    /// INIT: no mailbox, no process data (ETG.1000.6 §6.4.1).
+    /// INIT: no mailbox, no process data (ETG.1000.6 §6.4).
     #[default]
     Init,
     /// SAFEOP: inputs still exchanged, outputs in their safe state.

@@ -66,8 +66,9 @@ fn bad_configuration_is_refused() {
 const SHUTDOWN: Duration = Duration::from_secs(5);
 const MARGIN: Duration = Duration::from_secs(3);
 
-/// AL status INIT (ETG.1000.6 §5.3.2, Table 9), no error indication.
-const INIT: u16 = 0x0001;
+/// AL status INIT and SAFEOP, no error indication (ETG.1000.6 §5.3.2, spec-notes §al).
+const INIT: (u16, &str) = (0x0001, "INIT");
+const SAFEOP: (u16, &str) = (0x0004, "SAFEOP");
 
 /// A streaming client whose stdout is read to its end on a thread; killed on drop.
 struct Streaming {
@@ -137,15 +138,15 @@ impl Drop for Streaming {
 }
 
 /// Sends SIGTERM, checks that ecatd exits 0 within the shutdown budget and that every slave
-/// is in INIT afterwards: on veth read back from the segment, with the in-process simulator
-/// as ecatd confirmed it by broadcast read (its own log).
-fn terminate_and_check_init(ecatd: &mut Ecatd, slaves: usize) {
+/// is in the given state (AL status, name) afterwards: on veth read back from the segment, with the
+/// in-process simulator as ecatd confirmed it by broadcast read (its own log).
+fn terminate_and_check(ecatd: &mut Ecatd, slaves: usize, (status, name): (u16, &str)) {
     let sent = Instant::now();
-    let status = ecatd.terminate(SHUTDOWN + MARGIN);
+    let exit = ecatd.terminate(SHUTDOWN + MARGIN);
     let took = sent.elapsed();
     let log = ecatd.log();
-    let status = status.unwrap_or_else(|| panic!("ecatd did not exit in time:\n{log}"));
-    assert_eq!(status.code(), Some(0), "{log}");
+    let exit = exit.unwrap_or_else(|| panic!("ecatd did not exit in time:\n{log}"));
+    assert_eq!(exit.code(), Some(0), "{log}");
     assert!(took < SHUTDOWN + MARGIN, "{took:?}\n{log}");
     let shutting = log.find("shutting down").expect("a shutdown line");
     let safe = log
@@ -155,7 +156,7 @@ fn terminate_and_check_init(ecatd: &mut Ecatd, slaves: usize) {
     assert!(shutting < safe && safe < stopped, "{log}");
     assert!(log.contains("SIGTERM"), "{log}");
     if let Some(states) = ecatd.segment_al_states() {
-        assert_eq!(states, vec![INIT; slaves], "AL status by position\n{log}");
+        assert_eq!(states, vec![status; slaves], "AL status by position\n{log}");
     } else {
         let line = log
             .lines()
@@ -163,7 +164,7 @@ fn terminate_and_check_init(ecatd: &mut Ecatd, slaves: usize) {
             .unwrap();
         let v: serde_json::Value = serde_json::from_str(line).unwrap();
         assert_eq!(v["fields"]["slaves"], slaves, "{line}");
-        assert_eq!(v["fields"]["state"], "INIT", "{line}");
+        assert_eq!(v["fields"]["state"], name, "{line}");
     }
 }
 
@@ -184,7 +185,7 @@ fn sigterm_with_open_event_streams_reaches_init() {
     );
     sse.wait_for("HTTP/1.1 200");
     grpc.wait_for("Response headers received");
-    terminate_and_check_init(&mut ecatd, slaves);
+    terminate_and_check(&mut ecatd, slaves, INIT);
     // ecatd closed both streams (the clients ended on their own, not by its exit alone).
     let deadline = Instant::now() + MARGIN;
     assert!(sse.ended_by(deadline), "the SSE stream is still open");
@@ -212,11 +213,18 @@ fn sigterm_during_the_start_up_scan_reaches_init() {
     let file = std::env::temp_dir().join(format!("ecatd-slow-scan-{}.toml", std::process::id()));
     std::fs::write(&file, slow).unwrap();
     let mut ecatd = Ecatd::start_listening(&["--simulate", file.to_str().unwrap()], &[]);
-    terminate_and_check_init(&mut ecatd, slaves);
+    terminate_and_check(&mut ecatd, slaves, INIT);
     std::fs::remove_file(&file).unwrap();
     let log = ecatd.log();
     assert!(
         !log.contains("\"ready\"") && !log.contains("segment scanned"),
         "the signal came after the scan; make it slower:\n{log}"
     );
+}
+
+#[test]
+fn sigterm_with_safe_state_safeop_leaves_the_slaves_in_safeop() {
+    let mut ecatd = Ecatd::start(&["--safe-state", "safeop"]);
+    let slaves = sim::topology::Topology::default_segment().slaves.len();
+    terminate_and_check(&mut ecatd, slaves, SAFEOP);
 }

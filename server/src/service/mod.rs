@@ -20,7 +20,6 @@ use master_core::gateway::{MailboxGateway, MailboxGatewayStats};
 use master_core::mailbox::{FoeOptions, FoeProgress, MailboxError, SlaveMailbox, VoeMessage};
 use master_core::master::Master;
 use master_core::wire::coe::info::OdListType;
-use master_core::wire::register::AlState;
 use master_core::wire::soe::{ElementFlags, Idn};
 use tokio::sync::broadcast;
 
@@ -482,16 +481,6 @@ impl Core {
             )
             .await?;
         Ok(ip::from_settings(&settings))
-    }
-
-    /// Brings every slave to `state` (shutdown: a safe state); failures are logged.
-    pub async fn all_to(&self, state: AlState) {
-        for slave in self.master.slaves() {
-            let address = master_core::master::SlaveAddress::Position(slave.position);
-            if let Err(err) = self.master.request_state(address, state).await {
-                tracing::warn!(position = slave.position, %err, "slave did not reach the safe state");
-            }
-        }
     }
 }
 

@@ -2,8 +2,8 @@
 //! control write, then broadcast reads of AL status until no slave is above the target.
 //!
 //! A BRD of AL status (0x0130) returns the OR of every slave's status and counts them in its
-//! working counter (ETG.1000.4 §5.4.2, broadcast read); since each AL state is one bit
-//! (ETG.1000.6 §5.3.2, Table 9: INIT 1, PREOP 2, SAFEOP 4, OP 8; BOOT 3), "no bit of a
+//! working counter (ETG.1000.4 §5.4.3, spec-notes §commands); since each AL state is one bit
+//! (ETG.1000.6 §5.3.2, spec-notes §al: INIT 1, PREOP 2, BOOT 3, SAFEOP 4, OP 8), "no bit of a
 //! state above the target" in the OR means every slave that answered is at or below it.
 
 use std::sync::Arc;
@@ -54,29 +54,41 @@ impl Master {
                 record.info.requested_state = state;
             }
         }
-        let ctx = Arc::clone(&self.ctx);
-        let bus = &ctx.bus;
         let stations: Vec<u16> = self.slaves().iter().map(|s| s.station).collect();
-        let mut report = SafeStateReport {
-            slaves: 0,
-            confirmed: false,
-        };
-        loop {
-            if let Some((count, or)) = status_or(bus).await {
-                report.slaves = count;
-                report.confirmed = or & above == 0;
-                if report.confirmed {
-                    return Ok(report);
-                }
-                // Repeated until confirmed: a lost write or a slave that came back is told
-                // again.
-                request(bus, state, or, &stations).await;
+        let ctx = Arc::clone(&self.ctx);
+        // On the master's runtime, as every bus exchange: any executor may await this.
+        self.run(async move { Ok(drive(&ctx.bus, state, above, &stations, deadline).await) })
+            .await
+    }
+}
+
+/// Requests `state` and reads AL status until no slave shows a bit of `above` or `deadline`.
+async fn drive(
+    bus: &BusHandle,
+    state: AlState,
+    above: u16,
+    stations: &[u16],
+    deadline: Instant,
+) -> SafeStateReport {
+    let mut report = SafeStateReport {
+        slaves: 0,
+        confirmed: false,
+    };
+    loop {
+        if let Some((count, or)) = status_or(bus).await {
+            report.slaves = count;
+            report.confirmed = or & above == 0;
+            if report.confirmed {
+                return report;
             }
-            if Instant::now() + POLL >= deadline {
-                return Ok(report);
-            }
-            tokio::time::sleep(POLL).await;
+            // Repeated until confirmed: a lost write or a slave that came back is told
+            // again.
+            request(bus, state, or, stations).await;
         }
+        if Instant::now() + POLL >= deadline {
+            return report;
+        }
+        tokio::time::sleep(POLL).await;
     }
 }
 
