@@ -46,7 +46,7 @@ impl AllowedHosts {
         {
             return true;
         }
-        name.ends_with(".localhost") || self.0.iter().any(|allowed| *allowed == name)
+        name.ends_with(".localhost") || self.0.contains(&name)
     }
 }
 
@@ -87,7 +87,7 @@ pub async fn guard(State(hosts): State<AllowedHosts>, request: Request, next: Ne
     if let Some(origin) = headers.get(header::ORIGIN) {
         let origin = origin.to_str().unwrap_or("");
         let origin_host = origin.split_once("://").map_or("", |(_, rest)| rest);
-        if host_name(origin_host).to_ascii_lowercase() != host_name(host).to_ascii_lowercase() {
+        if !host_name(origin_host).eq_ignore_ascii_case(host_name(host)) {
             return refuse(
                 StatusCode::FORBIDDEN,
                 format!("cross-origin request from {origin:?} refused"),
