@@ -130,7 +130,7 @@ impl BusService for Bus {
         require_write(&request, "write_sii")?;
         let r = request.get_ref();
         self.core
-            .write_sii(&r.slave, narrow(r.word, "word")?, &r.data)
+            .write_sii(&r.slave, narrow(r.word, "word")?, &r.data, r.force)
             .await
             .map_err(status)?;
         Ok(Response::new(pb::WriteSiiResponse {}))

@@ -10,6 +10,7 @@ pub mod error;
 pub mod events;
 pub mod gateway;
 pub mod ip;
+mod sii_checksum;
 pub mod value;
 pub mod view;
 
@@ -215,21 +216,33 @@ impl Core {
         Ok(self.master.read_sii(parse_slave(slave)?).await?)
     }
 
-    /// Writes SII words from `word` on; `data` is little-endian bytes, an even number.
-    pub async fn write_sii(&self, slave: &str, word: u16, data: &[u8]) -> Result<()> {
+    /// Writes SII words from `word` on; `data` is little-endian bytes, an even number. A
+    /// write into words 0-7 keeps the checksum valid (ETG.2010, spec-notes §sii.fixed):
+    /// recomputed and written to word 7 when the write leaves word 7 out, refused (nothing
+    /// written) when it writes a word 7 that does not match; `force` writes as given.
+    pub async fn write_sii(&self, slave: &str, word: u16, data: &[u8], force: bool) -> Result<()> {
         if data.is_empty() || !data.len().is_multiple_of(2) {
             return Err(ApiError::invalid(
                 "SII data must be a non-empty even number of bytes",
             ));
         }
+        let address = parse_slave(slave)?;
         let words: Vec<u16> = data
             .chunks_exact(2)
             .map(|w| u16::from_le_bytes([w[0], w[1]]))
             .collect();
-        Ok(self
-            .master
-            .write_sii(parse_slave(slave)?, word, &words)
-            .await?)
+        let checksum = if force {
+            None
+        } else {
+            sii_checksum::keep_valid(&self.master, address, word, &words).await?
+        };
+        self.master.write_sii(address, word, &words).await?;
+        if let Some(word7) = checksum {
+            self.master
+                .write_sii(address, sii_checksum::CHECKSUM_WORD, &[word7])
+                .await?;
+        }
+        Ok(())
     }
 
     /// Sets the station alias; returns the alias register read back.
