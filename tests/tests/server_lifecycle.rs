@@ -228,3 +228,72 @@ fn sigterm_with_safe_state_safeop_leaves_the_slaves_in_safeop() {
     let slaves = sim::topology::Topology::default_segment().slaves.len();
     terminate_and_check(&mut ecatd, slaves, SAFEOP);
 }
+
+#[test]
+fn a_second_sigterm_exits_at_once() {
+    // Mailbox replies 2 s late: a rescan takes seconds, and the shutdown waits for it (a
+    // third of a 60 s budget) unless a second signal cuts it short.
+    let slow = sim::topology::Topology::default_segment()
+        .to_toml()
+        .unwrap()
+        .replace(
+            "hop_delay_ns = 150\n",
+            "hop_delay_ns = 150\nresponse_delay_us = 2000000\n",
+        );
+    let dir = std::env::temp_dir();
+    let topology = dir.join(format!("ecatd-second-signal-{}.toml", std::process::id()));
+    let config = dir.join(format!(
+        "ecatd-second-signal-{}.conf.toml",
+        std::process::id()
+    ));
+    std::fs::write(&topology, slow).unwrap();
+    std::fs::write(&config, "shutdown_timeout_ms = 60000\n").unwrap();
+    let mut ecatd = Ecatd::start_with(
+        &["--simulate", topology.to_str().unwrap()],
+        &["--config", config.to_str().unwrap()],
+    );
+    let mut rescan = Streaming::start(Command::new("curl").args([
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "X-Ecat-Client: tests",
+        &format!("{}/api/v1/rescan", ecatd.http),
+    ]));
+    // The rescan is under way once the slaves it found before are gone or leave OP.
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let (status, body) =
+            server_support::curl(&["-s", &format!("{}/api/v1/slaves", ecatd.http)]);
+        let slaves: serde_json::Value = serde_json::from_str(&body).unwrap_or_default();
+        let list = slaves["slaves"].as_array().or(slaves.as_array()).cloned();
+        if status == 200
+            && list.is_some_and(|l| l.is_empty() || l.iter().any(|s| s["state"] != "OP"))
+        {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the rescan did not start: {body}"
+        );
+        // Poll interval of the state check; the loop ends on the condition or the deadline.
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let pid = ecatd.pid() as libc::pid_t;
+    // SAFETY: `kill` on our own child's pid, which has not been reaped yet.
+    unsafe { libc::kill(pid, libc::SIGTERM) };
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !ecatd.log().contains("shutting down") {
+        assert!(Instant::now() < deadline, "no shutdown:\n{}", ecatd.log());
+        // Poll interval of the log check; the loop ends on the line or the deadline.
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(!rescan.ended_by(Instant::now()), "the rescan ended already");
+    let exit = ecatd.terminate(MARGIN);
+    let log = ecatd.log();
+    let exit = exit.unwrap_or_else(|| panic!("ecatd did not exit at once:\n{log}"));
+    assert_eq!(exit.code(), Some(143), "{log}");
+    assert!(log.contains("second signal"), "{log}");
+    std::fs::remove_file(&topology).unwrap();
+    std::fs::remove_file(&config).unwrap();
+}
