@@ -73,9 +73,42 @@ pub struct Args {
         requires = "tls_cert"
     )]
     pub tls_key: Option<PathBuf>,
+    /// The state every slave is brought to on SIGINT/SIGTERM: init (default) or safeop.
+    #[arg(long, env = "ECATD_SAFE_STATE", value_name = "STATE")]
+    pub safe_state: Option<SafeState>,
+    /// Host names (or addresses) the HTTP API answers to besides loopback and the
+    /// listener's own address; repeat for several (DNS rebinding protection).
+    #[arg(
+        long = "allowed-host",
+        env = "ECATD_ALLOWED_HOSTS",
+        value_name = "HOST",
+        value_delimiter = ','
+    )]
+    pub allowed_hosts: Vec<String>,
     /// Print the effective configuration as TOML and exit.
     #[arg(long)]
     pub print_config: bool,
+}
+
+/// The state ecatd leaves the slaves in when it stops.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum SafeState {
+    /// INIT: no mailbox, no process data (ETG.1000.6 §6.4).
+    #[default]
+    Init,
+    /// SAFEOP: inputs still exchanged, outputs in their safe state.
+    Safeop,
+}
+
+impl SafeState {
+    /// The AL state.
+    pub fn al_state(self) -> master_core::wire::register::AlState {
+        match self {
+            SafeState::Init => master_core::wire::register::AlState::Init,
+            SafeState::Safeop => master_core::wire::register::AlState::SafeOp,
+        }
+    }
 }
 
 /// Log output format.
@@ -309,6 +342,12 @@ pub struct Config {
     pub tls: Option<TlsSettings>,
     /// Watched values (`[[watch]]` tables), exported as gauges.
     pub watch: Vec<crate::watch::WatchSpec>,
+    /// The state the slaves are left in on SIGINT/SIGTERM.
+    pub safe_state: SafeState,
+    /// The whole shutdown's time limit, signal to exit, in milliseconds.
+    pub shutdown_timeout_ms: u64,
+    /// Host names the HTTP API answers to besides loopback and the listener's address.
+    pub allowed_hosts: Vec<String>,
 }
 
 impl Default for Config {
@@ -324,6 +363,9 @@ impl Default for Config {
             tokens: Vec::new(),
             tls: None,
             watch: Vec::new(),
+            safe_state: SafeState::Init,
+            shutdown_timeout_ms: 5000,
+            allowed_hosts: Vec::new(),
         }
     }
 }
@@ -380,6 +422,12 @@ impl Config {
             config.gateway = None;
         }
         config.insecure |= args.insecure;
+        if let Some(state) = args.safe_state {
+            config.safe_state = state;
+        }
+        config
+            .allowed_hosts
+            .extend(args.allowed_hosts.iter().cloned());
         if let (Some(cert), Some(key)) = (&args.tls_cert, &args.tls_key) {
             config.tls = Some(TlsSettings {
                 cert: cert.clone(),

@@ -1,26 +1,28 @@
 //! Start-up and shutdown: open the segment, scan it, serve both APIs, and on SIGINT or
-//! SIGTERM stop serving, bring the slaves to a safe state (INIT) and close the link.
+//! SIGTERM (also during the start-up scan) end the event streams, stop serving, bring every
+//! slave to the safe state (INIT, or SAFEOP as configured) within the shutdown deadline and
+//! close the link. A second signal exits at once.
 
 use std::sync::Arc;
 use std::time::Duration;
 
-use master_core::wire::register::AlState;
 use tokio::net::TcpListener;
 use tokio::sync::watch;
+use tokio::time::Instant;
 
 use master_core::gateway::MailboxGateway;
 
 use crate::config::{Config, GatewaySettings};
 use crate::security::Tokens;
 use crate::service::Core;
+use crate::signals::Signals;
 use crate::{grpc, http, segment};
-
-/// How long shutdown waits for the slaves to reach the safe state.
-const SAFE_STATE_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// Runs ecatd with `config` until a signal; errors are start-up failures.
 pub async fn run(config: Config) -> Result<(), String> {
     config.check()?;
+    // Installed first: a signal at any point of the start-up leads to a clean shutdown.
+    let mut signals = Signals::install()?;
     let segment_config = config
         .segment
         .clone()
@@ -56,12 +58,20 @@ pub async fn run(config: Config) -> Result<(), String> {
         tls.as_ref().map(crate::tls::TlsFiles::grpc),
         stopped(stop_rx.clone()),
     ));
+    let hosts = http::browser::AllowedHosts::new(
+        config.http_listen_of(&http_listener),
+        &config.allowed_hosts,
+    );
     let app = http::router(
         core.clone(),
         tokens,
         Arc::clone(&metrics),
         running.sim.clone(),
-    );
+    )
+    .layer(axum::middleware::from_fn_with_state(
+        hosts,
+        http::browser::guard,
+    ));
     let http_task = match &tls {
         Some(files) => tokio::spawn(http::serve_tls(
             app,
@@ -71,34 +81,67 @@ pub async fn run(config: Config) -> Result<(), String> {
         None => tokio::spawn(http::serve(app, http_listener, stopped(stop_rx))),
     };
 
-    match core.master().scan().await {
-        Ok(report) => {
-            for failure in &report.failures {
-                tracing::warn!(%failure, "slave did not reach its target state");
+    // A signal during the start-up scan stops the scan where it is and shuts down.
+    let signal = tokio::select! {
+        report = core.master().scan_cancellable() => {
+            match report {
+                Ok(report) => {
+                    for failure in &report.failures {
+                        tracing::warn!(%failure, "slave did not reach its target state");
+                    }
+                    tracing::info!(slaves = report.slaves.len(), "segment scanned");
+                }
+                Err(err) => {
+                    tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan")
+                }
             }
-            tracing::info!(slaves = report.slaves.len(), "segment scanned");
+            None
         }
-        Err(err) => tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan"),
-    }
-    core.master().start_watch(Duration::from_millis(100));
-    let background = crate::metrics::start(&core, &metrics, &config.watch);
-    if let Some(settings) = &config.gateway
-        && let Err(err) = start_gateway(&core, settings).await
-    {
-        tracing::error!(%err, "mailbox gateway not started");
-    }
-    core.set_ready(true);
-    tracing::info!("ready");
-
-    let signal = wait_for_signal().await;
-    tracing::info!(signal, "shutting down");
-    core.set_ready(false);
+        signal = signals.next() => Some(signal),
+    };
+    let background = match signal {
+        Some(_) => None,
+        None => {
+            core.master().start_watch(Duration::from_millis(100));
+            let background = crate::metrics::start(&core, &metrics, &config.watch);
+            if let Some(settings) = &config.gateway
+                && let Err(err) = start_gateway(&core, settings).await
+            {
+                tracing::error!(%err, "mailbox gateway not started");
+            }
+            core.set_ready(true);
+            tracing::info!("ready");
+            Some(background)
+        }
+    };
+    let signal = match signal {
+        Some(signal) => signal,
+        None => signals.next().await,
+    };
+    let deadline = Instant::now() + Duration::from_millis(config.shutdown_timeout_ms);
+    tracing::info!(
+        signal,
+        safe_state = %config.safe_state.al_state(),
+        timeout_ms = config.shutdown_timeout_ms,
+        "shutting down"
+    );
+    // A second signal exits at once (the slaves' SyncManager watchdogs then take the
+    // outputs to their safe state).
+    signals.exit_on_next();
+    core.stop_streams();
     let _ = stop_tx.send(true);
-    for (name, task) in [("gRPC", grpc_task), ("HTTP", http_task)] {
-        match task.await {
-            Ok(Ok(())) => {}
-            Ok(Err(err)) => tracing::error!(%err, "{name} server failed"),
-            Err(err) => tracing::error!(%err, "{name} server task failed"),
+    // The servers finish the requests in flight, within a third of the budget; the rest is
+    // for the slaves.
+    let servers_by = Instant::now() + (deadline - Instant::now()) / 3;
+    for (name, mut task) in [("gRPC", grpc_task), ("HTTP", http_task)] {
+        match tokio::time::timeout_at(servers_by, &mut task).await {
+            Ok(Ok(Ok(()))) => {}
+            Ok(Ok(Err(err))) => tracing::error!(%err, "{name} server failed"),
+            Ok(Err(err)) => tracing::error!(%err, "{name} server task failed"),
+            Err(_) => {
+                tracing::warn!("{name} server still busy at its shutdown deadline; stopped");
+                task.abort();
+            }
         }
     }
     if let Some(mut gateway) = core.take_gateway() {
@@ -107,13 +150,20 @@ pub async fn run(config: Config) -> Result<(), String> {
     }
     drop(background);
     core.master().stop_watch();
-    if tokio::time::timeout(SAFE_STATE_TIMEOUT, core.all_to(AlState::Init))
-        .await
-        .is_err()
-    {
-        tracing::warn!("slaves did not all reach INIT in time");
+    let state = config.safe_state.al_state();
+    match core.master().all_to_safe(state, deadline).await {
+        Ok(report) if report.confirmed => {
+            tracing::info!(slaves = report.slaves, %state, "slaves in the safe state")
+        }
+        Ok(report) => tracing::warn!(
+            slaves = report.slaves,
+            %state,
+            "slaves not all confirmed in the safe state by the deadline"
+        ),
+        Err(err) => tracing::warn!(%err, "cannot bring the slaves to the safe state"),
     }
     drop(core);
+    // The bus stops with the master: no cycle drives outputs after this.
     running.stop();
     tracing::info!("stopped");
     Ok(())
@@ -132,25 +182,6 @@ async fn bind(addr: std::net::SocketAddr, what: &str) -> Result<TcpListener, Str
     TcpListener::bind(addr)
         .await
         .map_err(|err| format!("cannot listen for {what} on {addr}: {err}"))
-}
-
-async fn wait_for_signal() -> &'static str {
-    use tokio::signal::unix::{SignalKind, signal};
-    let (mut term, mut int) = match (
-        signal(SignalKind::terminate()),
-        signal(SignalKind::interrupt()),
-    ) {
-        (Ok(term), Ok(int)) => (term, int),
-        _ => {
-            // Without signal handlers, Ctrl-C through tokio's portable handler still works.
-            let _ = tokio::signal::ctrl_c().await;
-            return "SIGINT";
-        }
-    };
-    tokio::select! {
-        _ = term.recv() => "SIGTERM",
-        _ = int.recv() => "SIGINT",
-    }
 }
 
 impl Config {

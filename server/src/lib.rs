@@ -12,6 +12,7 @@ pub mod metrics;
 pub mod security;
 pub mod segment;
 pub mod service;
+pub mod signals;
 pub mod sim_hooks;
 pub mod tls;
 pub mod watch;

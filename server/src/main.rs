@@ -32,7 +32,11 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     };
-    match runtime.block_on(server::daemon::run(config)) {
+    let result = runtime.block_on(server::daemon::run(config));
+    // The slaves are safe and the bus is stopped by now: a task still busy (a request cut
+    // at the shutdown deadline) must not hold the exit up.
+    runtime.shutdown_timeout(std::time::Duration::from_millis(500));
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             tracing::error!(%err, "ecatd failed");

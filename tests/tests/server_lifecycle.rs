@@ -1,11 +1,16 @@
 //! ecatd's configuration precedence (file, then `ECATD_*` environment, then flags) as
-//! `--print-config` shows it, and a clean stop on SIGTERM.
+//! `--print-config` shows it, and the shutdown on SIGTERM: event streams closed, every slave
+//! in INIT (read back from the segment on veth), exit 0 within the deadline, also when the
+//! signal comes during the start-up scan.
 
 mod server_support;
 
-use std::process::Command;
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
-use server_support::{Ecatd, bin_dir};
+use server_support::{Ecatd, bin_dir, grpcurl_path};
 
 #[test]
 fn flags_win_over_environment_over_file() {
@@ -56,13 +61,239 @@ fn bad_configuration_is_refused() {
     assert!(String::from_utf8_lossy(&output.stderr).contains("/nonexistent/ecatd.toml"));
 }
 
-#[test]
-fn sigterm_stops_cleanly() {
-    let mut ecatd = Ecatd::start(&[]);
-    assert!(ecatd.stop(), "ecatd exited with failure:\n{}", ecatd.log());
+/// The whole shutdown's budget (ecatd's default `shutdown_timeout_ms`) and a margin for the
+/// process to start its exit and the test to see it.
+const SHUTDOWN: Duration = Duration::from_secs(5);
+const MARGIN: Duration = Duration::from_secs(3);
+
+/// AL status INIT and SAFEOP, no error indication (ETG.1000.6 §5.3.2, spec-notes §al).
+const INIT: (u16, &str) = (0x0001, "INIT");
+const SAFEOP: (u16, &str) = (0x0004, "SAFEOP");
+
+/// A streaming client whose stdout is read to its end on a thread; killed on drop.
+struct Streaming {
+    child: Child,
+    lines: Arc<Mutex<Vec<String>>>,
+}
+
+impl Streaming {
+    fn start(command: &mut Command) -> Streaming {
+        let mut child = command
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("the client starts");
+        let stdout = child.stdout.take().expect("piped");
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let keep = Arc::clone(&lines);
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                keep.lock().unwrap().push(line);
+            }
+        });
+        Streaming { child, lines }
+    }
+
+    /// Waits until a line contains `wanted`.
+    fn wait_for(&self, wanted: &str) {
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while !self
+            .lines
+            .lock()
+            .unwrap()
+            .iter()
+            .any(|l| l.contains(wanted))
+        {
+            assert!(
+                Instant::now() < deadline,
+                "no {wanted:?}; output so far:\n{}",
+                self.lines.lock().unwrap().join("\n")
+            );
+            // Poll interval of the output check; the loop ends on the line or the deadline.
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Whether the client has ended (its stream closed) by `deadline`.
+    fn ended_by(&mut self, deadline: Instant) -> bool {
+        loop {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return true;
+            }
+            if Instant::now() > deadline {
+                return false;
+            }
+            // Poll interval of the exit check; the loop ends on the exit or the deadline.
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Streaming {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Sends SIGTERM, checks that ecatd exits 0 within the shutdown budget and that every slave
+/// is in the given state (AL status, name) afterwards: on veth read back from the segment, with the
+/// in-process simulator as ecatd confirmed it by broadcast read (its own log).
+fn terminate_and_check(ecatd: &mut Ecatd, slaves: usize, (status, name): (u16, &str)) {
+    let sent = Instant::now();
+    let exit = ecatd.terminate(SHUTDOWN + MARGIN);
+    let took = sent.elapsed();
     let log = ecatd.log();
+    let exit = exit.unwrap_or_else(|| panic!("ecatd did not exit in time:\n{log}"));
+    assert_eq!(exit.code(), Some(0), "{log}");
+    assert!(took < SHUTDOWN + MARGIN, "{took:?}\n{log}");
     let shutting = log.find("shutting down").expect("a shutdown line");
+    let safe = log
+        .find("slaves in the safe state")
+        .unwrap_or_else(|| panic!("no safe-state confirmation:\n{log}"));
     let stopped = log.find("\"stopped\"").expect("a stopped line");
-    assert!(shutting < stopped, "{log}");
+    assert!(shutting < safe && safe < stopped, "{log}");
     assert!(log.contains("SIGTERM"), "{log}");
+    if let Some(states) = ecatd.segment_al_states() {
+        assert_eq!(states, vec![status; slaves], "AL status by position\n{log}");
+    } else {
+        let line = log
+            .lines()
+            .find(|l| l.contains("slaves in the safe state"))
+            .unwrap();
+        let v: serde_json::Value = serde_json::from_str(line).unwrap();
+        assert_eq!(v["fields"]["slaves"], slaves, "{line}");
+        assert_eq!(v["fields"]["state"], name, "{line}");
+    }
+}
+
+#[test]
+fn sigterm_with_open_event_streams_reaches_init() {
+    let mut ecatd = Ecatd::start(&[]);
+    let slaves = sim::topology::Topology::default_segment().slaves.len();
+    let mut sse = Streaming::start(Command::new("curl").args([
+        "-s",
+        "-N",
+        "-i",
+        &format!("{}/api/v1/events", ecatd.http),
+    ]));
+    let mut grpc = Streaming::start(
+        Command::new(grpcurl_path())
+            .args(["-plaintext", "-v", "-d", "{}", &ecatd.grpc])
+            .arg("ecat.v1.BusService/WatchEvents"),
+    );
+    sse.wait_for("HTTP/1.1 200");
+    grpc.wait_for("Response headers received");
+    terminate_and_check(&mut ecatd, slaves, INIT);
+    // ecatd closed both streams (the clients ended on their own, not by its exit alone).
+    let deadline = Instant::now() + MARGIN;
+    assert!(sse.ended_by(deadline), "the SSE stream is still open");
+    assert!(
+        grpc.ended_by(deadline),
+        "the WatchEvents stream is still open"
+    );
+}
+
+#[test]
+fn sigterm_during_the_start_up_scan_reaches_init() {
+    // Every mailbox reply 300 ms late: the scan's CoE exchanges take seconds.
+    let slow = sim::topology::Topology::default_segment()
+        .to_toml()
+        .unwrap()
+        .replace(
+            "hop_delay_ns = 150\n",
+            "hop_delay_ns = 150\nresponse_delay_us = 300000\n",
+        );
+    assert!(slow.contains("response_delay_us"), "{slow}");
+    let slaves = sim::topology::Topology::from_toml(&slow)
+        .unwrap()
+        .slaves
+        .len();
+    let file = std::env::temp_dir().join(format!("ecatd-slow-scan-{}.toml", std::process::id()));
+    std::fs::write(&file, slow).unwrap();
+    let mut ecatd = Ecatd::start_listening(&["--simulate", file.to_str().unwrap()], &[]);
+    terminate_and_check(&mut ecatd, slaves, INIT);
+    std::fs::remove_file(&file).unwrap();
+    let log = ecatd.log();
+    assert!(
+        !log.contains("\"ready\"") && !log.contains("segment scanned"),
+        "the signal came after the scan; make it slower:\n{log}"
+    );
+}
+
+#[test]
+fn sigterm_with_safe_state_safeop_leaves_the_slaves_in_safeop() {
+    let mut ecatd = Ecatd::start(&["--safe-state", "safeop"]);
+    let slaves = sim::topology::Topology::default_segment().slaves.len();
+    terminate_and_check(&mut ecatd, slaves, SAFEOP);
+}
+
+#[test]
+fn a_second_sigterm_exits_at_once() {
+    // Mailbox replies 2 s late: a rescan takes seconds, and the shutdown waits for it (a
+    // third of a 60 s budget) unless a second signal cuts it short.
+    let slow = sim::topology::Topology::default_segment()
+        .to_toml()
+        .unwrap()
+        .replace(
+            "hop_delay_ns = 150\n",
+            "hop_delay_ns = 150\nresponse_delay_us = 2000000\n",
+        );
+    let dir = std::env::temp_dir();
+    let topology = dir.join(format!("ecatd-second-signal-{}.toml", std::process::id()));
+    let config = dir.join(format!(
+        "ecatd-second-signal-{}.conf.toml",
+        std::process::id()
+    ));
+    std::fs::write(&topology, slow).unwrap();
+    std::fs::write(&config, "shutdown_timeout_ms = 60000\n").unwrap();
+    let mut ecatd = Ecatd::start_with(
+        &["--simulate", topology.to_str().unwrap()],
+        &["--config", config.to_str().unwrap()],
+    );
+    let mut rescan = Streaming::start(Command::new("curl").args([
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "X-Ecat-Client: tests",
+        &format!("{}/api/v1/rescan", ecatd.http),
+    ]));
+    // The rescan is under way once the slaves it found before are gone or leave OP.
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let (status, body) =
+            server_support::curl(&["-s", &format!("{}/api/v1/slaves", ecatd.http)]);
+        let slaves: serde_json::Value = serde_json::from_str(&body).unwrap_or_default();
+        let list = slaves["slaves"].as_array().or(slaves.as_array()).cloned();
+        if status == 200
+            && list.is_some_and(|l| l.is_empty() || l.iter().any(|s| s["state"] != "OP"))
+        {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the rescan did not start: {body}"
+        );
+        // Poll interval of the state check; the loop ends on the condition or the deadline.
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let pid = ecatd.pid() as libc::pid_t;
+    // SAFETY: `kill` on our own child's pid, which has not been reaped yet.
+    unsafe { libc::kill(pid, libc::SIGTERM) };
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !ecatd.log().contains("shutting down") {
+        assert!(Instant::now() < deadline, "no shutdown:\n{}", ecatd.log());
+        // Poll interval of the log check; the loop ends on the line or the deadline.
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(!rescan.ended_by(Instant::now()), "the rescan ended already");
+    let exit = ecatd.terminate(MARGIN);
+    let log = ecatd.log();
+    let exit = exit.unwrap_or_else(|| panic!("ecatd did not exit at once:\n{log}"));
+    assert_eq!(exit.code(), Some(143), "{log}");
+    assert!(log.contains("second signal"), "{log}");
+    std::fs::remove_file(&topology).unwrap();
+    std::fs::remove_file(&config).unwrap();
 }

@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use serde_json::Value;
 use server_support::gateway_client::GatewayClient;
-use server_support::{Ecatd, curl};
+use server_support::{Ecatd, curl, curl_as_browser};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
@@ -411,4 +411,122 @@ fn openapi_document_validates_and_lists_every_route() {
         String::from_utf8_lossy(&output.stdout),
         String::from_utf8_lossy(&output.stderr)
     );
+}
+
+#[test]
+fn browser_forms_and_foreign_hosts_are_refused() {
+    let ecatd = Ecatd::start(&[]);
+    let stop = format!("{}/api/v1/gateway/stop", ecatd.http);
+    let slaves = format!("{}/api/v1/slaves", ecatd.http);
+    // A cross-origin web form: urlencoded body, a foreign Origin, no custom header.
+    let (status, body) = curl_as_browser(&[
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "Content-Type: application/x-www-form-urlencoded",
+        "-H",
+        "Origin: http://evil.example",
+        "-d",
+        "a=b",
+        &stop,
+    ]);
+    assert_eq!(status, 403, "{body}");
+    assert!(body.contains("cross-origin"), "{body}");
+    // The same form from the page's own origin is still a form: refused.
+    let own_origin = format!("Origin: {}", ecatd.http);
+    let (status, body) = curl_as_browser(&[
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "Content-Type: application/x-www-form-urlencoded",
+        "-H",
+        &own_origin,
+        "-d",
+        "a=b",
+        &stop,
+    ]);
+    assert_eq!(status, 403, "{body}");
+    assert!(body.contains("X-Ecat-Client"), "{body}");
+    // DNS rebinding: a foreign Host, on a write and on a read.
+    for method in ["POST", "GET"] {
+        let (status, body) = curl_as_browser(&[
+            "-s",
+            "-X",
+            method,
+            "-H",
+            "Host: evil.example",
+            "-H",
+            "Content-Type: application/json",
+            &slaves,
+        ]);
+        assert_eq!(status, 421, "{method}: {body}");
+        assert!(body.contains("evil.example"), "{body}");
+    }
+    // Nothing was stopped: the gateway still runs.
+    let (_, gateway) = get(&ecatd, "/api/v1/gateway");
+    assert_eq!(gateway["running"], true, "{gateway}");
+    // A same-origin JSON request works without the custom header.
+    let (status, body) = curl_as_browser(&[
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "Content-Type: application/json",
+        "-H",
+        &own_origin,
+        &stop,
+    ]);
+    assert_eq!(status, 200, "{body}");
+    let (_, gateway) = get(&ecatd, "/api/v1/gateway");
+    assert_eq!(gateway["running"], false, "{gateway}");
+}
+
+#[test]
+fn sii_writes_keep_the_checksum_valid_unless_forced() {
+    use master_core::wire::sii::checksum::{checksum_ok, crc8};
+    let ecatd = Ecatd::start(&[]);
+    let image = |ecatd: &Ecatd| {
+        let (status, sii) = get(ecatd, "/api/v1/slaves/2/sii");
+        assert_eq!(status, 200, "{sii}");
+        hex_decode(sii["data"].as_str().unwrap())
+    };
+    let before = image(&ecatd);
+    assert!(checksum_ok(&before).unwrap());
+    // Word 5 (reserved) without word 7: the checksum is recomputed and written.
+    let (status, body) = send(
+        &ecatd,
+        "PUT",
+        "/api/v1/slaves/2/sii/5",
+        r#"{"data":"3412"}"#,
+    );
+    assert_eq!(status, 200, "{body}");
+    let after = image(&ecatd);
+    assert_eq!(&after[10..12], &[0x34, 0x12]);
+    let mut expected = before.clone();
+    expected[10..12].copy_from_slice(&[0x34, 0x12]);
+    expected[14] = crc8(&expected[..14]);
+    assert_eq!(&after[..16], &expected[..16]);
+    assert!(checksum_ok(&after).unwrap());
+    // Words 5-7 with a wrong checksum: refused, nothing written.
+    let wrong = (after[14] ^ 0xFF, after[15]);
+    let body = format!(r#"{{"data":"78560000{:02x}{:02x}"}}"#, wrong.0, wrong.1);
+    let (status, refused) = send(&ecatd, "PUT", "/api/v1/slaves/2/sii/5", &body);
+    assert_eq!(status, 400, "{refused}");
+    assert!(refused.to_string().contains("checksum"), "{refused}");
+    assert_eq!(&image(&ecatd)[..16], &after[..16]);
+    // The same with force: written as given.
+    let (status, forced) = send(&ecatd, "PUT", "/api/v1/slaves/2/sii/5?force=true", &body);
+    assert_eq!(status, 200, "{forced}");
+    let raw = image(&ecatd);
+    assert_eq!(&raw[10..16], &[0x78, 0x56, 0x00, 0x00, wrong.0, wrong.1]);
+    assert!(!checksum_ok(&raw).unwrap());
+}
+
+fn hex_decode(text: &str) -> Vec<u8> {
+    (0..text.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&text[i..i + 2], 16).unwrap())
+        .collect()
 }

@@ -61,6 +61,7 @@ use crate::mailbox::{MailboxEngine, SlaveMailbox, SlaveMailboxConfig};
 
 pub use access::address::SlaveAddress;
 pub use bringup::dc_settings::{DcSettings, DcSlave};
+pub use bringup::safe_state::SafeStateReport;
 pub use bringup::scan::ScanReport;
 pub use config::MasterConfig;
 pub use error::MasterError;

@@ -506,6 +506,7 @@ async fn execute(c: &mut Clients, command: Command) -> Result<Out, String> {
                     slave,
                     word: num(&word, "word")?,
                     data: unhex(&data)?,
+                    force: false,
                 })
                 .await
                 .map_err(failed)?;

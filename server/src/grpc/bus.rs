@@ -79,6 +79,8 @@ impl BusService for Bus {
                 Err(BroadcastStreamRecvError::Lagged(missed)) => event(&EventView::lagged(missed)),
             })
         });
+        // Ends at shutdown, so that the server's graceful stop does not wait for it.
+        let stream = futures_util::StreamExt::take_until(stream, self.core.stopped());
         Ok(Response::new(Box::pin(stream)))
     }
 
@@ -128,7 +130,7 @@ impl BusService for Bus {
         require_write(&request, "write_sii")?;
         let r = request.get_ref();
         self.core
-            .write_sii(&r.slave, narrow(r.word, "word")?, &r.data)
+            .write_sii(&r.slave, narrow(r.word, "word")?, &r.data, r.force)
             .await
             .map_err(status)?;
         Ok(Response::new(pb::WriteSiiResponse {}))

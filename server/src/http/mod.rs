@@ -6,6 +6,7 @@
 //! `sim` (the simulator's debug route, `--simulate` only).
 
 pub mod auth;
+pub mod browser;
 pub mod error;
 pub mod gateway;
 pub mod health;

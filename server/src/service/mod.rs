@@ -10,6 +10,7 @@ pub mod error;
 pub mod events;
 pub mod gateway;
 pub mod ip;
+mod sii_checksum;
 pub mod value;
 pub mod view;
 
@@ -20,7 +21,6 @@ use master_core::gateway::{MailboxGateway, MailboxGatewayStats};
 use master_core::mailbox::{FoeOptions, FoeProgress, MailboxError, SlaveMailbox, VoeMessage};
 use master_core::master::Master;
 use master_core::wire::coe::info::OdListType;
-use master_core::wire::register::AlState;
 use master_core::wire::soe::{ElementFlags, Idn};
 use tokio::sync::broadcast;
 
@@ -47,6 +47,8 @@ pub struct Core {
     events: Arc<std::sync::OnceLock<events::EventHub>>,
     /// Where the mailbox requests are recorded (shared with the metrics, which own it).
     calls: Arc<MailboxCalls>,
+    /// Set once at shutdown: every event stream ends when it is.
+    stopping: Arc<tokio::sync::watch::Sender<bool>>,
 }
 
 /// What the gRPC and REST layers give the core for each request: the slave name and the
@@ -63,6 +65,7 @@ impl Core {
             gateway: Arc::default(),
             events: Arc::default(),
             calls,
+            stopping: Arc::new(tokio::sync::watch::Sender::new(false)),
         }
     }
 
@@ -97,6 +100,21 @@ impl Core {
     /// Marks the service ready (after the first scan) or not (shutting down).
     pub fn set_ready(&self, ready: bool) {
         self.ready.store(ready, Ordering::Release);
+    }
+
+    /// Starts the shutdown: the service is no longer ready and every event stream ends
+    /// (a server's graceful shutdown would wait for them forever).
+    pub fn stop_streams(&self) {
+        self.set_ready(false);
+        self.stopping.send_replace(true);
+    }
+
+    /// Completes once [`Core::stop_streams`] was called (at once if it already was).
+    pub fn stopped(&self) -> impl std::future::Future<Output = ()> + Send + use<> {
+        let mut rx = self.stopping.subscribe();
+        async move {
+            let _ = rx.wait_for(|stopping| *stopping).await;
+        }
     }
 
     /// Whether the first scan is done and the service is not shutting down.
@@ -198,21 +216,33 @@ impl Core {
         Ok(self.master.read_sii(parse_slave(slave)?).await?)
     }
 
-    /// Writes SII words from `word` on; `data` is little-endian bytes, an even number.
-    pub async fn write_sii(&self, slave: &str, word: u16, data: &[u8]) -> Result<()> {
+    /// Writes SII words from `word` on; `data` is little-endian bytes, an even number. A
+    /// write into words 0-7 keeps the checksum valid (ETG.2010, spec-notes §sii.fixed):
+    /// recomputed and written to word 7 when the write leaves word 7 out, refused (nothing
+    /// written) when it writes a word 7 that does not match; `force` writes as given.
+    pub async fn write_sii(&self, slave: &str, word: u16, data: &[u8], force: bool) -> Result<()> {
         if data.is_empty() || !data.len().is_multiple_of(2) {
             return Err(ApiError::invalid(
                 "SII data must be a non-empty even number of bytes",
             ));
         }
+        let address = parse_slave(slave)?;
         let words: Vec<u16> = data
             .chunks_exact(2)
             .map(|w| u16::from_le_bytes([w[0], w[1]]))
             .collect();
-        Ok(self
-            .master
-            .write_sii(parse_slave(slave)?, word, &words)
-            .await?)
+        let checksum = if force {
+            None
+        } else {
+            sii_checksum::keep_valid(&self.master, address, word, &words).await?
+        };
+        self.master.write_sii(address, word, &words).await?;
+        if let Some(word7) = checksum {
+            self.master
+                .write_sii(address, sii_checksum::CHECKSUM_WORD, &[word7])
+                .await?;
+        }
+        Ok(())
     }
 
     /// Sets the station alias; returns the alias register read back.
@@ -464,16 +494,6 @@ impl Core {
             )
             .await?;
         Ok(ip::from_settings(&settings))
-    }
-
-    /// Brings every slave to `state` (shutdown: a safe state); failures are logged.
-    pub async fn all_to(&self, state: AlState) {
-        for slave in self.master.slaves() {
-            let address = master_core::master::SlaveAddress::Position(slave.position);
-            if let Err(err) = self.master.request_state(address, state).await {
-                tracing::warn!(position = slave.position, %err, "slave did not reach the safe state");
-            }
-        }
     }
 }
 

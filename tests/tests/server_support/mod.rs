@@ -106,6 +106,14 @@ impl Ecatd {
     /// In the `*_veth` binaries ([`on_veth`]) `--simulate [TOPOLOGY]` becomes `ecat-sim
     /// [--topology TOPOLOGY]` on a veth pair and ecatd runs `--iface` on its other end.
     pub fn start_with(segment: &[&str], extra: &[&str]) -> Ecatd {
+        let mut ecatd = Ecatd::start_listening(segment, extra);
+        ecatd.wait_ready(Instant::now() + DEADLINE);
+        ecatd
+    }
+
+    /// [`Ecatd::start_with`] that returns as soon as ecatd listens, before its start-up
+    /// scan ends (to stop it during the scan).
+    pub fn start_listening(segment: &[&str], extra: &[&str]) -> Ecatd {
         let veth = (on_veth() && segment.first() == Some(&"--simulate")).then(|| {
             let rig = ecat_tests::rig::HostRig::new();
             let topology: Vec<&str> = match segment.get(1) {
@@ -197,15 +205,13 @@ impl Ecatd {
         } else {
             "http"
         };
-        let mut ecatd = Ecatd {
+        Ecatd {
             veth,
             grpc: field("grpc"),
             http: format!("{scheme}://{}", field("http")),
             child: Some(child),
             log,
-        };
-        ecatd.wait_ready(deadline);
-        ecatd
+        }
     }
 
     fn wait_ready(&mut self, deadline: Instant) {
@@ -298,25 +304,67 @@ impl Ecatd {
 
     /// Sends SIGTERM and waits for the exit; returns whether it exited with success.
     pub fn stop(&mut self) -> bool {
-        let Some(mut child) = self.child.take() else {
-            return false;
-        };
+        self.terminate(DEADLINE)
+            .is_some_and(|status| status.success())
+    }
+
+    /// Sends SIGTERM and waits up to `patience` for the exit: its status, or `None` if
+    /// ecatd had to be killed (or was already stopped).
+    pub fn terminate(&mut self, patience: Duration) -> Option<std::process::ExitStatus> {
+        let mut child = self.child.take()?;
         // SAFETY: `kill` on our own child's pid, which has not been reaped yet.
         unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) };
-        let deadline = Instant::now() + DEADLINE;
+        let deadline = Instant::now() + patience;
         loop {
             match child.try_wait() {
-                Ok(Some(status)) => return status.success(),
+                Ok(Some(status)) => return Some(status),
+                // Poll interval of the exit check; the loop ends on the exit or the deadline.
                 Ok(None) if Instant::now() < deadline => {
                     std::thread::sleep(Duration::from_millis(20));
                 }
                 _ => {
                     let _ = child.kill();
                     let _ = child.wait();
-                    return false;
+                    return None;
                 }
             }
         }
+    }
+
+    /// On veth ([`on_veth`]), once ecatd has exited: the AL status (0x0130) of every slave
+    /// as the segment reports it now, read with a master of the test's own on the same
+    /// interface, by ring position. `None` with the in-process simulator (it ended with
+    /// ecatd).
+    pub fn segment_al_states(&self) -> Option<Vec<u16>> {
+        use master_core::bus::{Bus, BusConfig, DatagramRequest};
+        use master_core::link::{RawSocket, RawSocketOptions};
+        let veth = self.veth.as_ref()?;
+        assert!(
+            self.child.is_none(),
+            "read the segment once ecatd has exited"
+        );
+        let socket = RawSocket::open(&veth.rig.master_iface, RawSocketOptions::default())
+            .expect("raw socket on the master's end");
+        let (bus, thread) = Bus::start(socket, BusConfig::default()).expect("bus starts");
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_time()
+            .build()
+            .expect("runtime");
+        let states = runtime.block_on(async {
+            let mut states = Vec::new();
+            for position in 0u16..256 {
+                // APRD addresses by ring position: the slave at `position` answers alone.
+                let request = DatagramRequest::aprd(position, 0x0130, 2).expect_wkc(1);
+                match bus.submit(request).await {
+                    Ok(reply) => states.push(u16::from_le_bytes([reply.data[0], reply.data[1]])),
+                    Err(_) => break,
+                }
+            }
+            states
+        });
+        bus.shutdown();
+        let _ = thread.join();
+        Some(states)
     }
 }
 
@@ -422,8 +470,17 @@ pub fn call_status(
         .unwrap_or_else(|| panic!("grpcurl failed without an error: {stdout}{stderr}")))
 }
 
-/// Runs curl with `args` and appends `-w %{http_code}`: the status and the body.
+/// Runs curl with `args` and appends `-w %{http_code}`: the status and the body. It sends
+/// `X-Ecat-Client` as a non-browser client does (ecatd refuses a write that a web form could
+/// send); [`curl_as_browser`] does not.
 pub fn curl(args: &[&str]) -> (u16, String) {
+    let mut with_header = vec!["-H", "X-Ecat-Client: tests"];
+    with_header.extend_from_slice(args);
+    curl_as_browser(&with_header)
+}
+
+/// [`curl`] without the `X-Ecat-Client` header: what a page in a browser could send.
+pub fn curl_as_browser(args: &[&str]) -> (u16, String) {
     let output = Command::new("curl")
         .args(args)
         .args(["-w", "\n%{http_code}"])

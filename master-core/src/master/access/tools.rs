@@ -118,8 +118,24 @@ pub(crate) async fn set_alias(
     };
     eeprom.write(ALIAS_WORD, word_at(ALIAS_WORD)).await?;
     eeprom.write(CHECKSUM_WORD, word_at(CHECKSUM_WORD)).await?;
+    // Verified by reading back: a write the EEPROM did not take (write protection, a busy
+    // PDI) must not pass for done.
+    for word in [ALIAS_WORD, CHECKSUM_WORD] {
+        if eeprom.read(word).await?.first() != Some(&word_at(word)) {
+            return Err(MasterError::Eeprom {
+                station,
+                reason: "alias not written: SII words 4 and 7 read back differ",
+            });
+        }
+    }
     eeprom.reload().await?;
     let now = fprd_u16(&ctx.bus, station, reg::STATION_ALIAS, "station alias").await?;
+    if now != alias {
+        return Err(MasterError::Eeprom {
+            station,
+            reason: "alias written to the SII, but the alias register 0x0012 differs after the reload",
+        });
+    }
     ctx.update(record.info.position, |r| {
         r.info.alias = now;
         if r.sii.len() >= fixed.len() {

@@ -56,6 +56,21 @@ impl Master {
         self.run(scan::scan(ctx)).await
     }
 
+    /// [`Master::scan`] that stops at its next await when the returned future is dropped
+    /// (a shutdown during the start-up scan): the segment is then left half configured, to
+    /// be brought down with [`Master::all_to_safe`].
+    pub async fn scan_cancellable(&self) -> Result<ScanReport, MasterError> {
+        struct AbortOnDrop(tokio::task::AbortHandle);
+        impl Drop for AbortOnDrop {
+            fn drop(&mut self) {
+                self.0.abort();
+            }
+        }
+        let task = self.runtime.spawn(scan::scan(Arc::clone(&self.ctx)));
+        let _abort = AbortOnDrop(task.abort_handle());
+        task.await.map_err(|_| MasterError::Stopped)?
+    }
+
     /// Moves the slave at `address` to `state` (through the states in between) and keeps it
     /// there: the watch restores this state after a power cycle.
     pub async fn request_state(

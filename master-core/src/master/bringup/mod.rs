@@ -13,5 +13,6 @@ pub(super) mod dc_settings;
 pub(super) mod eeprom;
 pub(super) mod mailboxes;
 pub(super) mod reset;
+pub(super) mod safe_state;
 pub(super) mod scan;
 pub(super) mod watch;

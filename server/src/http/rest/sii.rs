@@ -1,7 +1,7 @@
 //! The SII (EEPROM) image and the station alias.
 
 use axum::Json;
-use axum::extract::{Path, State};
+use axum::extract::{Path, Query, State};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
@@ -32,18 +32,34 @@ pub async fn read_sii(State(core): State<Core>, Path(slave): Path<String>) -> Re
     core.read_sii(&slave).await.map(data)
 }
 
+/// Options of an SII write.
+#[derive(Debug, Default, Deserialize, utoipa::IntoParams)]
+pub struct SiiWriteQuery {
+    /// Write the words as given, even a checksum (word 7) that does not match words 0-6.
+    #[serde(default)]
+    pub force: bool,
+}
+
 #[utoipa::path(put, path = "/slaves/{slave}/sii/{word}", tag = "sii", request_body = Data,
-    params(("slave" = String, Path), ("word" = String, Path, description = "first word address")),
+    params(("slave" = String, Path), ("word" = String, Path, description = "first word address"),
+        SiiWriteQuery),
     responses((status = 200, body = Done)))]
-/// Writes SII words (little-endian bytes).
+/// Writes SII words (little-endian bytes); the checksum of words 0-6 is kept valid unless
+/// `force`.
 pub async fn write_sii(
     State(core): State<Core>,
     Path((slave, word)): Path<(String, String)>,
+    Query(query): Query<SiiWriteQuery>,
     Json(body): Json<Data>,
 ) -> Result<Json<Done>> {
-    core.write_sii(&slave, num(&word, "word")?, &unhex(&body.data)?)
-        .await
-        .map(|()| DONE)
+    core.write_sii(
+        &slave,
+        num(&word, "word")?,
+        &unhex(&body.data)?,
+        query.force,
+    )
+    .await
+    .map(|()| DONE)
 }
 
 #[utoipa::path(put, path = "/slaves/{slave}/alias", tag = "sii", request_body = AliasBody,

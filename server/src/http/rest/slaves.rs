@@ -97,5 +97,7 @@ pub async fn events(
             .json_data(&view)
             .unwrap_or_else(|_| Event::default().comment("unencodable")))
     });
+    // Ends at shutdown, so that the server's graceful stop does not wait for it.
+    let stream = futures_util::StreamExt::take_until(stream, core.stopped());
     Sse::new(stream).keep_alive(KeepAlive::default())
 }
