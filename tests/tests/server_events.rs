@@ -6,70 +6,11 @@
 
 mod server_support;
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::process::Command;
 
 use serde_json::Value;
+use server_support::streaming::Streaming;
 use server_support::{Ecatd, b64, curl, grpcurl_path};
-
-const DEADLINE: Duration = Duration::from_secs(20);
-
-/// A client process whose stdout lines are collected as they come; killed on drop.
-struct Streaming {
-    child: Child,
-    lines: Arc<Mutex<Vec<String>>>,
-}
-
-impl Streaming {
-    fn start(command: &mut Command) -> Streaming {
-        let mut child = command
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("the client starts");
-        let stdout = child.stdout.take().expect("piped");
-        let lines = Arc::new(Mutex::new(Vec::new()));
-        let keep = Arc::clone(&lines);
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                keep.lock().unwrap().push(line);
-            }
-        });
-        Streaming { child, lines }
-    }
-
-    fn text(&self) -> String {
-        self.lines.lock().unwrap().join("\n")
-    }
-
-    /// Waits until `found` returns something for the output so far.
-    fn wait_for<T>(&self, what: &str, found: impl Fn(&str) -> Option<T>) -> T {
-        let deadline = Instant::now() + DEADLINE;
-        loop {
-            if let Some(value) = found(&self.text()) {
-                return value;
-            }
-            assert!(
-                Instant::now() < deadline,
-                "no {what} in time; output so far:\n{}",
-                self.text()
-            );
-            // Poll interval of the output check; the loop ends on the condition or the
-            // deadline.
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Streaming {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
 
 /// The JSON messages grpcurl printed after "Response contents:" (one pretty object each).
 fn grpc_messages(text: &str) -> Vec<Value> {

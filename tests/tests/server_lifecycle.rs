@@ -5,11 +5,10 @@
 
 mod server_support;
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
-use std::sync::{Arc, Mutex};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
+use server_support::streaming::Streaming;
 use server_support::{Ecatd, bin_dir, grpcurl_path};
 
 #[test]
@@ -70,73 +69,6 @@ const MARGIN: Duration = Duration::from_secs(3);
 const INIT: (u16, &str) = (0x0001, "INIT");
 const SAFEOP: (u16, &str) = (0x0004, "SAFEOP");
 
-/// A streaming client whose stdout is read to its end on a thread; killed on drop.
-struct Streaming {
-    child: Child,
-    lines: Arc<Mutex<Vec<String>>>,
-}
-
-impl Streaming {
-    fn start(command: &mut Command) -> Streaming {
-        let mut child = command
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("the client starts");
-        let stdout = child.stdout.take().expect("piped");
-        let lines = Arc::new(Mutex::new(Vec::new()));
-        let keep = Arc::clone(&lines);
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                keep.lock().unwrap().push(line);
-            }
-        });
-        Streaming { child, lines }
-    }
-
-    /// Waits until a line contains `wanted`.
-    fn wait_for(&self, wanted: &str) {
-        let deadline = Instant::now() + Duration::from_secs(20);
-        while !self
-            .lines
-            .lock()
-            .unwrap()
-            .iter()
-            .any(|l| l.contains(wanted))
-        {
-            assert!(
-                Instant::now() < deadline,
-                "no {wanted:?}; output so far:\n{}",
-                self.lines.lock().unwrap().join("\n")
-            );
-            // Poll interval of the output check; the loop ends on the line or the deadline.
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-
-    /// Whether the client has ended (its stream closed) by `deadline`.
-    fn ended_by(&mut self, deadline: Instant) -> bool {
-        loop {
-            if let Ok(Some(_)) = self.child.try_wait() {
-                return true;
-            }
-            if Instant::now() > deadline {
-                return false;
-            }
-            // Poll interval of the exit check; the loop ends on the exit or the deadline.
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Streaming {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
 /// Sends SIGTERM, checks that ecatd exits 0 within the shutdown budget and that every slave
 /// is in the given state (AL status, name) afterwards: on veth read back from the segment, with the
 /// in-process simulator as ecatd confirmed it by broadcast read (its own log).
@@ -183,8 +115,8 @@ fn sigterm_with_open_event_streams_reaches_init() {
             .args(["-plaintext", "-v", "-d", "{}", &ecatd.grpc])
             .arg("ecat.v1.BusService/WatchEvents"),
     );
-    sse.wait_for("HTTP/1.1 200");
-    grpc.wait_for("Response headers received");
+    sse.wait_for_line("HTTP/1.1 200");
+    grpc.wait_for_line("Response headers received");
     terminate_and_check(&mut ecatd, slaves, INIT);
     // ecatd closed both streams (the clients ended on their own, not by its exit alone).
     let deadline = Instant::now() + MARGIN;

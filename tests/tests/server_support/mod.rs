@@ -6,6 +6,7 @@
 #![allow(dead_code)]
 
 pub mod gateway_client;
+pub mod streaming;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
