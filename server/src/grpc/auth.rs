@@ -7,7 +7,7 @@ use tonic::{Request, Status};
 
 use super::status::status;
 use crate::roles::{self, Access};
-use crate::security::{Caller, Tokens, authorize_write};
+use crate::security::{Caller, Role, Tokens, authorize_write};
 
 /// The called method's HTTP/2 path (`/package.Service/Method`), put in the request's
 /// extensions by [`with_path`] before the interceptor runs (a tonic interceptor sees no
@@ -50,7 +50,7 @@ pub fn grpc_interceptor(
             .get::<GrpcPath>()
             .map_or("", |p| p.0.as_str());
         let access = roles::grpc(path).unwrap_or(Access::Write);
-        if access == Access::Write && caller.role < crate::security::Role::Write {
+        if access == Access::Write && caller.role < Role::Write {
             // Refused here for every write method alike; the handlers' own check logs the
             // audit line of an allowed write with the slave it names.
             authorize_write(Some(&caller), path, "").map_err(status)?;
