@@ -9,6 +9,7 @@ pub mod grpc;
 pub mod http;
 pub mod logging;
 pub mod metrics;
+pub mod roles;
 pub mod security;
 pub mod segment;
 pub mod service;

@@ -164,3 +164,223 @@ fn non_loopback_without_tokens_is_refused() {
     assert!(!status.success());
     assert!(stderr.contains("--insecure"), "{stderr}");
 }
+
+/// The outcome of one REST call with `token`: the HTTP status.
+fn rest_status(method: &str, url: &str, token: Option<&str>) -> u16 {
+    let header = token.map(|t| format!("authorization: Bearer {t}"));
+    // A stream (the events route) is cut after 2 s: its status is known by then.
+    let mut args = vec!["-s", "-m", "2", "-X", method];
+    if method != "GET" {
+        args.extend(["-H", "content-type: application/json", "-d", "{}"]);
+    }
+    if let Some(h) = &header {
+        args.extend(["-H", h.as_str()]);
+    }
+    args.push(url);
+    curl(&args).0
+}
+
+/// Every route of the OpenAPI document ecatd serves, and the public ones, with no, a read
+/// and a write token: the outcome is the one `server::roles::REST` declares, and a route the
+/// table does not declare fails.
+#[test]
+fn every_route_has_its_declared_role() {
+    use server::roles::{self, Access};
+    let (ecatd, file) = start();
+    std::fs::remove_file(file).unwrap();
+    let (status, text) = curl(&["-s", &format!("{}/api/v1/openapi.json", ecatd.http)]);
+    assert_eq!(status, 200, "{text}");
+    let document: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let mut routes = Vec::new();
+    for (path, item) in document["paths"].as_object().expect("paths") {
+        let full = if path.starts_with("/api/v1") {
+            path.clone()
+        } else {
+            format!("/api/v1{path}")
+        };
+        for method in item.as_object().unwrap().keys() {
+            let method = method.to_ascii_uppercase();
+            let access = roles::rest(&method, &full)
+                .unwrap_or_else(|| panic!("{method} {full} is not in server::roles::REST"));
+            routes.push((method, full.clone(), access));
+        }
+    }
+    assert!(routes.len() >= 25, "the document lists the API: {routes:?}");
+    for (method, path, access) in roles::REST {
+        if *access == Access::Public {
+            routes.push((method.to_string(), path.to_string(), *access));
+        }
+    }
+    for (method, path, access) in &routes {
+        // A slave that does not exist and placeholder arguments: the role decides before
+        // anything reaches the bus, and a write token's call fails on its arguments.
+        let mut concrete = path.replace("{slave}", "999");
+        while let Some(open) = concrete.find('{') {
+            let close = concrete[open..].find('}').unwrap() + open;
+            concrete.replace_range(open..=close, "1");
+        }
+        let url = format!("{}{concrete}", ecatd.http);
+        let none = rest_status(method, &url, None);
+        let read = rest_status(method, &url, Some("read-secret-1"));
+        let write = rest_status(method, &url, Some("write-secret-2"));
+        let context =
+            format!("{method} {path} ({access:?}): none {none}, read {read}, write {write}");
+        match access {
+            Access::Public => assert!(![401, 403].contains(&none), "{context}"),
+            Access::Read => {
+                assert_eq!(none, 401, "{context}");
+                assert!(![401, 403].contains(&read), "{context}");
+            }
+            Access::Write => {
+                assert_eq!(none, 401, "{context}");
+                assert_eq!(read, 403, "{context}");
+            }
+        }
+        assert!(![0, 401, 403].contains(&write), "{context}");
+    }
+}
+
+/// The gRPC status code of calling `method` (`/package.Service/Method`) with `token` and an
+/// empty message ("0" for success).
+fn grpc_code(addr: &str, method: &str, token: Option<&str>) -> String {
+    let header = token.map(|t| format!("authorization: Bearer {t}"));
+    let mut command = std::process::Command::new(server_support::grpcurl_path());
+    // Streams (events, health watch) are cut after 2 s.
+    command.args(["-plaintext", "-format-error", "-max-time", "2", "-d", "{}"]);
+    if let Some(h) = &header {
+        command.args(["-H", h]);
+    }
+    let output = command
+        .arg(addr)
+        .arg(method.trim_start_matches('/'))
+        .output()
+        .expect("grpcurl runs");
+    if output.status.success() {
+        return "0".into();
+    }
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    serde_json::Deserializer::from_str(&stderr)
+        .into_iter::<serde_json::Value>()
+        .next()
+        .and_then(Result::ok)
+        .and_then(|status| status["code"].as_u64())
+        .map_or_else(|| format!("? {stderr}"), |code| code.to_string())
+}
+
+/// Every gRPC method reflection lists, with no, a read and a write token: the outcome is the
+/// one `server::roles::GRPC` declares (16 UNAUTHENTICATED without, 7 PERMISSION_DENIED for a
+/// read token on a write), and a method the table does not declare fails.
+#[test]
+fn every_grpc_method_has_its_declared_role() {
+    use server::roles::{self, Access};
+    let (ecatd, file) = start();
+    std::fs::remove_file(file).unwrap();
+    let mut methods = Vec::new();
+    for service in server_support::grpcurl(&[&ecatd.grpc, "list"]).lines() {
+        let service = service.trim();
+        if service.is_empty() {
+            continue;
+        }
+        for line in server_support::grpcurl(&[&ecatd.grpc, "describe", service]).lines() {
+            let Some(rest) = line.trim().strip_prefix("rpc ") else {
+                continue;
+            };
+            let name = rest.split([' ', '(']).next().unwrap();
+            let path = format!("/{service}/{name}");
+            let access = roles::grpc(&path)
+                .unwrap_or_else(|| panic!("{path} is not in server::roles::GRPC"));
+            methods.push((path, access));
+        }
+    }
+    assert!(methods.len() >= 28, "reflection lists the API: {methods:?}");
+    for (path, access) in &methods {
+        let none = grpc_code(&ecatd.grpc, path, None);
+        let read = grpc_code(&ecatd.grpc, path, Some("read-secret-1"));
+        let write = grpc_code(&ecatd.grpc, path, Some("write-secret-2"));
+        let context = format!("{path} ({access:?}): none {none}, read {read}, write {write}");
+        let refused = |code: &str| ["16", "7"].contains(&code) || code.starts_with('?');
+        match access {
+            Access::Public => assert!(!refused(&none), "{context}"),
+            Access::Read => {
+                assert_eq!(none, "16", "{context}");
+                assert!(!refused(&read), "{context}");
+            }
+            Access::Write => {
+                assert_eq!(none, "16", "{context}");
+                assert_eq!(read, "7", "{context}");
+            }
+        }
+        assert!(!refused(&write), "{context}");
+    }
+}
+
+/// A register read over the drive's SM1 mailbox buffer (at the start address its SM1
+/// register holds) needs a write token on both APIs; other registers a read token reads.
+#[test]
+fn a_mailbox_area_read_needs_a_write_token() {
+    let (ecatd, file) = start();
+    std::fs::remove_file(file).unwrap();
+    let read_as = |token: &str, address: u16, length: usize| {
+        let header = format!("authorization: Bearer {token}");
+        let url = format!(
+            "{}/api/v1/slaves/3/registers/0x{address:04X}?length={length}",
+            ecatd.http
+        );
+        curl(&["-s", "-H", &header, &url])
+    };
+    // SM1's configuration (ETG.1000.4 §6.7, Table 59): start address and length, u16 LE.
+    let (status, body) = read_as("read-secret-1", 0x0808, 4);
+    assert_eq!(status, 200, "SM registers are plain reads: {body}");
+    let value: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let hex = value["data"].as_str().unwrap();
+    let bytes: Vec<u8> = (0..hex.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
+        .collect();
+    let start = u16::from_le_bytes([bytes[0], bytes[1]]);
+    let len = u16::from_le_bytes([bytes[2], bytes[3]]);
+    assert!(start >= 0x1000 && len > 0, "the drive has a mailbox: {hex}");
+
+    let (status, body) = read_as("read-secret-1", start, 1);
+    assert_eq!(status, 403, "{body}");
+    assert!(body.contains("permission_denied"), "{body}");
+    // Overlapping the area from below counts too.
+    assert_eq!(read_as("read-secret-1", start - 2, 4).0, 403);
+    assert_eq!(read_as("read-secret-1", 0x0130, 2).0, 200, "AL status");
+    // A write token's read reaches the slave: an empty send mailbox does not answer a read
+    // of its buffer (working counter 0, ETG.1000.4 §6.7), a full one hands its data over.
+    let (status, body) = read_as("write-secret-2", start, 1);
+    assert!(
+        status == 200 || (status == 503 && body.contains("working counter 0")),
+        "{status} {body}"
+    );
+
+    let grpc_read = |token: &str, address: u16| {
+        call(
+            &ecatd.grpc,
+            &[&format!("authorization: Bearer {token}")],
+            "ecat.v1.BusService/ReadRegister",
+            &format!(r#"{{"slave":"3","address":{address},"length":1}}"#),
+        )
+    };
+    assert_eq!(
+        grpc_read("read-secret-1", start).unwrap_err().0,
+        "7",
+        "PERMISSION_DENIED"
+    );
+    grpc_read("read-secret-1", 0x0130).unwrap();
+    match grpc_read("write-secret-2", start) {
+        Ok(_) => {}
+        Err((code, message)) => assert!(
+            code == "14" && message.contains("working counter 0"),
+            "{code} {message}"
+        ),
+    }
+    let log = ecatd.log();
+    assert!(
+        log.lines().any(|l| l.contains("\"target\":\"audit\"")
+            && l.contains("viewer")
+            && l.contains("SM1")),
+        "no audit line for the refused read:\n{log}"
+    );
+}

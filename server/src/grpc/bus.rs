@@ -13,6 +13,7 @@ use tonic::{Request, Response, Status};
 use super::auth::require_write;
 use super::convert::{event, slave, state_name};
 use super::status::{narrow, status};
+use crate::security::Caller;
 use crate::service::{Core, EventView};
 
 /// The bus service over the core.
@@ -92,6 +93,7 @@ impl BusService for Bus {
         let data = self
             .core
             .read_register(
+                request.extensions().get::<Caller>(),
                 &r.slave,
                 narrow(r.address, "address")?,
                 narrow(r.length, "length")?,

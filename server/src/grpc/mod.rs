@@ -99,6 +99,9 @@ pub async fn serve_tls(
     }
     builder
         .timeout(TIMEOUT)
+        .layer(tower::util::MapRequestLayer::new(
+            auth::with_path::<tonic::body::Body>,
+        ))
         .add_service(reflection_v1)
         .add_service(reflection_v1alpha)
         .add_service(health_service)

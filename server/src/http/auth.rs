@@ -1,12 +1,17 @@
-//! The REST side of the bearer tokens: every `/api/v1` call is authenticated; methods other
-//! than GET and HEAD are writes (write role, audit line).
+//! The REST side of the bearer tokens: every `/api/v1` call is authenticated and needs the
+//! role [`crate::roles::REST`] declares for its route (an undeclared route needs the write
+//! role); a write is audited.
 
-use axum::extract::{Request, State};
-use axum::http::{Method, header};
+use axum::extract::{MatchedPath, Request, State};
+use axum::http::header;
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 
+use crate::roles::{self, Access};
 use crate::security::{Tokens, authorize_write};
+
+/// Where the API's routes are nested; the role table names full paths.
+const PREFIX: &str = "/api/v1";
 
 /// The middleware; see the [module documentation](self).
 pub async fn authenticate(
@@ -22,7 +27,17 @@ pub async fn authenticate(
         Ok(caller) => caller,
         Err(err) => return err.into_response(),
     };
-    if !matches!(*request.method(), Method::GET | Method::HEAD) {
+    // No matched route: the router answers 404 to any authenticated caller.
+    let access = request.extensions().get::<MatchedPath>().map(|matched| {
+        let route = matched.as_str();
+        let full = if route.starts_with(PREFIX) {
+            route.to_owned()
+        } else {
+            format!("{PREFIX}{route}")
+        };
+        roles::rest(request.method().as_str(), &full).unwrap_or(Access::Write)
+    });
+    if access == Some(Access::Write) {
         let operation = format!("{} {}", request.method(), request.uri().path());
         if let Err(err) = authorize_write(Some(&caller), &operation, "") {
             return err.into_response();

@@ -3,13 +3,14 @@
 //!
 //! Files: `address` (slave names), `error` (the one error type), `view` (what the APIs
 //! serialise), `ip` (EoE IP parameter text forms), `gateway` (the mailbox gateway's state,
-//! start and stop).
+//! start and stop), `read_effects` (register reads that need the write role).
 
 pub mod address;
 pub mod error;
 pub mod events;
 pub mod gateway;
 pub mod ip;
+pub mod read_effects;
 mod sii_checksum;
 pub mod value;
 pub mod view;
@@ -25,6 +26,7 @@ use master_core::wire::soe::{ElementFlags, Idn};
 use tokio::sync::broadcast;
 
 use crate::metrics::calls::{MailboxCalls, Outcome, Protocol};
+use crate::security::{Caller, authorize_write};
 pub use address::parse_slave;
 pub use error::{ApiError, ErrorKind};
 pub use gateway::GatewayView;
@@ -185,17 +187,28 @@ impl Core {
             .subscribe()
     }
 
-    /// Reads `len` bytes of ESC registers from `address`.
-    pub async fn read_register(&self, slave: &str, address: u16, len: usize) -> Result<Vec<u8>> {
+    /// Reads `len` bytes of ESC registers from `address` for `caller` (the API's
+    /// authenticated caller). A read with a side effect on the slave
+    /// ([`read_effects`]) needs the write role: refused (and audited) for a read token.
+    pub async fn read_register(
+        &self,
+        caller: Option<&Caller>,
+        slave: &str,
+        address: u16,
+        len: usize,
+    ) -> Result<Vec<u8>> {
         if len == 0 || len > MAX_REGISTER_LEN {
             return Err(ApiError::invalid(format!(
                 "register length must be 1..={MAX_REGISTER_LEN}"
             )));
         }
-        Ok(self
-            .master
-            .read_register(parse_slave(slave)?, address, len)
-            .await?)
+        let target = parse_slave(slave)?;
+        let info = self.master.slave(target)?;
+        if let Some(effect) = read_effects::side_effect(&info, address, len) {
+            let operation = format!("read_register 0x{address:04X}+{len} over {effect}");
+            authorize_write(caller, &operation, slave)?;
+        }
+        Ok(self.master.read_register(target, address, len).await?)
     }
 
     /// Writes ESC registers at `address`.

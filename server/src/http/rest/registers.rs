@@ -1,13 +1,14 @@
 //! ESC register access.
 
-use axum::Json;
 use axum::extract::{Path, Query, State};
+use axum::{Extension, Json};
 use serde::Deserialize;
 use utoipa::IntoParams;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Data, Done, Result, data, num, unhex};
+use crate::security::Caller;
 use crate::service::Core;
 
 /// The routes, each declared once (method and path come from the handler's annotation).
@@ -28,12 +29,19 @@ pub struct LengthQuery {
 /// Reads ESC registers.
 pub async fn read_register(
     State(core): State<Core>,
+    caller: Option<Extension<Caller>>,
     Path((slave, address)): Path<(String, String)>,
     Query(q): Query<LengthQuery>,
 ) -> Result<Json<Data>> {
-    core.read_register(&slave, num(&address, "address")?, q.length.unwrap_or(1))
-        .await
-        .map(data)
+    let caller = caller.map(|Extension(c)| c);
+    core.read_register(
+        caller.as_ref(),
+        &slave,
+        num(&address, "address")?,
+        q.length.unwrap_or(1),
+    )
+    .await
+    .map(data)
 }
 
 #[utoipa::path(put, path = "/slaves/{slave}/registers/{address}", tag = "registers", request_body = Data,
