@@ -3,7 +3,7 @@
 //! Without configured tokens every caller may read and write (ecatd then refuses to listen
 //! on a non-loopback address unless `--insecure`). With tokens every API call needs one
 //! (`authorization: Bearer <token>`); writes and state changes need a write token. Every
-//! write is logged on the `audit` target with the caller's token name.
+//! write is logged on the `audit` target with the caller's token name (outcome: [`crate::audit`]).
 //!
 //! This is the transport-neutral half; `grpc::auth` and `http::auth` put it in front of
 //! their calls.

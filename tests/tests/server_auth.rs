@@ -271,7 +271,17 @@ fn secret_files_reload_on_sighup_and_a_bad_reload_keeps_the_old_set() {
         &url,
     ]);
     assert_eq!(status, 200);
-    assert!(body.contains("\"OP\"") || body.contains("Op"), "{body}");
+    let slaves: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let states: Vec<&serde_json::Value> = slaves
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| &s["state"])
+        .collect();
+    assert!(
+        !states.is_empty() && states.iter().all(|s| *s == "OP"),
+        "{body}"
+    );
     // `metrics_token = true`: /metrics needs a token, a read one will do.
     let metrics = format!("{}/metrics", ecatd.http);
     assert_eq!(curl(&["-s", &metrics]).0, 401);
