@@ -201,6 +201,9 @@ fn every_write_kind_is_audited_with_its_outcome_at_log_warn() {
     .unwrap_or_else(|| panic!("no gRPC audit line:\n{:#?}", lines()));
     assert_eq!(line["fields"]["target"], "3");
     assert_eq!(line["fields"]["caller"], "engineer");
+    // BQYHCA== is 05 06 07 08.
+    assert_eq!(line["fields"]["size"], 4);
+    assert_eq!(line["fields"]["sha256"], sha_prefix(&[5, 6, 7, 8]));
     let failed = call(
         &ecatd.grpc,
         &[AUTH],
