@@ -85,6 +85,12 @@ pub struct Args {
         value_delimiter = ','
     )]
     pub allowed_hosts: Vec<String>,
+    /// Audit log file (JSON lines, appended); default: standard error.
+    #[arg(long, env = "ECATD_AUDIT_LOG", value_name = "FILE")]
+    pub audit_log: Option<PathBuf>,
+    /// `/metrics` needs a token (read role) when tokens are configured.
+    #[arg(long, env = "ECATD_METRICS_TOKEN")]
+    pub metrics_token: bool,
     /// Print the effective configuration as TOML and exit.
     #[arg(long)]
     pub print_config: bool,
@@ -348,6 +354,14 @@ pub struct Config {
     pub shutdown_timeout_ms: u64,
     /// Host names the HTTP API answers to besides loopback and the listener's address.
     pub allowed_hosts: Vec<String>,
+    /// Where the audit lines (one JSON object per line, whatever the log level) go: a file
+    /// appended to; absent: standard error.
+    pub audit_log: Option<PathBuf>,
+    /// Whether `/metrics` needs a token (read role) when tokens are configured.
+    pub metrics_token: bool,
+    /// The configuration file this came from (SIGHUP reloads its tokens).
+    #[serde(skip)]
+    pub file: Option<PathBuf>,
 }
 
 impl Default for Config {
@@ -366,6 +380,9 @@ impl Default for Config {
             safe_state: SafeState::Init,
             shutdown_timeout_ms: 5000,
             allowed_hosts: Vec::new(),
+            audit_log: None,
+            metrics_token: false,
+            file: None,
         }
     }
 }
@@ -381,6 +398,7 @@ impl Config {
             }
             None => Config::default(),
         };
+        config.file = args.config.clone();
         if let Some(topology) = &args.simulate {
             config.segment = Some(Segment::Simulate {
                 topology: (!topology.is_empty()).then(|| PathBuf::from(topology)),
@@ -434,7 +452,33 @@ impl Config {
                 key: key.clone(),
             });
         }
+        if let Some(path) = &args.audit_log {
+            config.audit_log = Some(path.clone());
+        }
+        config.metrics_token |= args.metrics_token;
+        for token in &mut config.tokens {
+            token.resolve()?;
+        }
         Ok(config)
+    }
+
+    /// The tokens of the configuration file `path` again, resolved and checked (SIGHUP):
+    /// the rest of the file is not applied.
+    pub fn reload_tokens(&self, path: &std::path::Path) -> Result<Vec<Token>, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|err| format!("cannot read {}: {err}", path.display()))?;
+        let file: Config =
+            toml::from_str(&text).map_err(|err| format!("{}: {err}", path.display()))?;
+        let mut tokens = file.tokens;
+        for token in &mut tokens {
+            token.resolve()?;
+        }
+        let reloaded = Config {
+            tokens: tokens.clone(),
+            ..self.clone()
+        };
+        reloaded.check()?;
+        Ok(tokens)
     }
 
     /// Refuses a non-loopback listen address without tokens, and non-loopback gateway
@@ -444,6 +488,25 @@ impl Config {
             gateway.check(self.insecure)?;
         }
         crate::watch::spec::check_all(&self.watch)?;
+        for token in &self.tokens {
+            // `load` resolved them; a configuration built otherwise is checked here too.
+            if token.token.chars().count() < crate::security::MIN_SECRET_LEN {
+                return Err(format!(
+                    "token {:?} is empty or shorter than {} characters",
+                    token.name,
+                    crate::security::MIN_SECRET_LEN
+                ));
+            }
+        }
+        if !self.tokens.is_empty() && self.tls.is_none() && !self.insecure {
+            for addr in [self.grpc_listen, self.http_listen] {
+                if !addr.ip().is_loopback() {
+                    return Err(format!(
+                        "refusing to send API tokens in clear text on {addr}; configure [tls] (or --tls-cert and --tls-key), listen on loopback, or pass --insecure"
+                    ));
+                }
+            }
+        }
         if self.tokens.is_empty() && !self.insecure {
             for addr in [self.grpc_listen, self.http_listen] {
                 if !addr.ip().is_loopback() {
@@ -460,7 +523,12 @@ impl Config {
     pub fn to_toml(&self) -> String {
         let mut shown = self.clone();
         for token in &mut shown.tokens {
-            token.token = "***".into();
+            // A secret from a file or the environment is shown by its source only.
+            token.token = if token.secret_file.is_some() || token.secret_env.is_some() {
+                String::new()
+            } else {
+                "***".into()
+            };
         }
         toml::to_string(&shown).unwrap_or_else(|err| format!("# cannot show: {err}\n"))
     }
@@ -505,7 +573,14 @@ mod tests {
         assert_eq!(flagged.http_listen.port(), 2);
         assert_eq!(flagged.segment, Some(Segment::Simulate { topology: None }));
         let round = toml::from_str::<Config>(&flagged.to_toml()).unwrap();
-        assert_eq!(round, flagged);
+        assert_eq!(round.file, None, "where it came from is not configuration");
+        assert_eq!(
+            round,
+            Config {
+                file: None,
+                ..flagged
+            }
+        );
         std::fs::remove_dir_all(dir).unwrap();
     }
 
@@ -526,11 +601,28 @@ mod tests {
         let mut tokened = open.clone();
         tokened.tokens.push(Token {
             name: "a".into(),
-            token: "s".into(),
+            token: "s".repeat(16),
+            secret_file: None,
+            secret_env: None,
             role: crate::security::Role::Read,
         });
+        let err = tokened.check().unwrap_err();
+        assert!(
+            err.contains("0.0.0.0:8080") && err.contains("[tls]") && err.contains("--insecure"),
+            "tokens without TLS off loopback: {err}"
+        );
+        tokened.tls = Some(TlsSettings {
+            cert: "c.pem".into(),
+            key: "k.pem".into(),
+        });
         assert!(tokened.check().is_ok());
-        assert!(!tokened.to_toml().contains("\"s\""));
+        assert!(!tokened.to_toml().contains(&"s".repeat(16)));
+        let clear = Config {
+            tls: None,
+            insecure: true,
+            ..tokened
+        };
+        assert!(clear.check().is_ok(), "--insecure allows clear text");
     }
 
     #[test]
@@ -601,6 +693,80 @@ mod tests {
             toml::from_str("[gateway]\nallow = [{ net = \"10.0.0.0/8\", role = \"admin\" }]\n")
                 .unwrap();
         assert!(bad.check().unwrap_err().contains("admin"));
+    }
+
+    fn token_config(dir: &std::path::Path, body: &str) -> Result<Config, String> {
+        let file = dir.join("ecatd.toml");
+        std::fs::write(&file, body).unwrap();
+        Config::load(&args(&["--config", file.to_str().unwrap()]))
+    }
+
+    #[test]
+    fn short_or_empty_tokens_are_refused_by_name() {
+        let dir = std::env::temp_dir().join(format!("ecatd-tokens-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (secret, what) in [("", "empty"), ("fifteen-chars-x", "too short")] {
+            let err = token_config(
+                &dir,
+                &format!("[[tokens]]\nname = \"ops\"\ntoken = \"{secret}\"\nrole = \"read\"\n"),
+            )
+            .unwrap_err();
+            assert!(err.contains("\"ops\"") && err.contains(what), "{err}");
+            assert!(
+                secret.is_empty() || !err.contains(secret),
+                "secret shown: {err}"
+            );
+        }
+        let ok = token_config(
+            &dir,
+            "[[tokens]]\nname = \"ops\"\ntoken = \"sixteen-chars-xx\"\nrole = \"read\"\n",
+        )
+        .unwrap();
+        assert!(ok.check().is_ok());
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn secrets_come_from_a_file_or_the_environment() {
+        let dir = std::env::temp_dir().join(format!("ecatd-secrets-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let secret = dir.join("secret");
+        std::fs::write(&secret, "from-a-file-0123456789\n").unwrap();
+        let var = format!("ECATD_TEST_SECRET_{}", std::process::id());
+        // SAFETY: this test alone uses this variable; no other thread reads it.
+        unsafe { std::env::set_var(&var, "from-the-environment-0123") };
+        let config = token_config(
+            &dir,
+            &format!(
+                "[[tokens]]\nname = \"f\"\nsecret_file = {:?}\nrole = \"read\"\n\n[[tokens]]\nname = \"e\"\nsecret_env = \"{var}\"\nrole = \"write\"\n",
+                secret.to_str().unwrap()
+            ),
+        )
+        .unwrap();
+        assert_eq!(config.tokens[0].token, "from-a-file-0123456789");
+        assert_eq!(config.tokens[1].token, "from-the-environment-0123");
+        let shown = config.to_toml();
+        assert!(
+            !shown.contains("from-a-file") && !shown.contains("from-the-env"),
+            "{shown}"
+        );
+        assert!(shown.contains(&var), "{shown}");
+        let missing = token_config(
+            &dir,
+            "[[tokens]]\nname = \"gone\"\nsecret_env = \"ECATD_NO_SUCH_VARIABLE_X\"\nrole = \"read\"\n",
+        )
+        .unwrap_err();
+        assert!(
+            missing.contains("\"gone\"") && missing.contains("ECATD_NO_SUCH_VARIABLE_X"),
+            "{missing}"
+        );
+        let both = token_config(
+            &dir,
+            &format!("[[tokens]]\nname = \"two\"\ntoken = \"sixteen-chars-xx\"\nsecret_env = \"{var}\"\nrole = \"read\"\n"),
+        )
+        .unwrap_err();
+        assert!(both.contains("only one"), "{both}");
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]

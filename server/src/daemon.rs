@@ -40,6 +40,7 @@ pub async fn run(config: Config) -> Result<(), String> {
     let metrics = Arc::new(crate::metrics::Store::default());
     let core = Core::new(running.master.clone(), Arc::clone(&metrics.calls));
     let tokens = Tokens::new(config.tokens.clone());
+    reload_tokens_on_sighup(&config, &tokens)?;
     tracing::info!(
         grpc = %config.grpc_listen_of(&grpc_listener),
         http = %config.http_listen_of(&http_listener),
@@ -67,6 +68,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         tokens,
         Arc::clone(&metrics),
         running.sim.clone(),
+        config.metrics_token,
     )
     .layer(axum::middleware::from_fn_with_state(
         hosts,
@@ -166,6 +168,41 @@ pub async fn run(config: Config) -> Result<(), String> {
     // The bus stops with the master: no cycle drives outputs after this.
     running.stop();
     tracing::info!("stopped");
+    Ok(())
+}
+
+/// On SIGHUP, reads the configuration file's tokens again and swaps them in; the bus and
+/// everything else stay as they are. A file that does not pass the start-up checks keeps
+/// the tokens in use, and the log says why.
+fn reload_tokens_on_sighup(config: &Config, tokens: &Tokens) -> Result<(), String> {
+    use tokio::signal::unix::{SignalKind, signal};
+    let mut hangup =
+        signal(SignalKind::hangup()).map_err(|err| format!("cannot handle SIGHUP: {err}"))?;
+    let config = config.clone();
+    let tokens = tokens.clone();
+    tokio::spawn(async move {
+        while hangup.recv().await.is_some() {
+            let Some(file) = &config.file else {
+                tracing::warn!("SIGHUP: no configuration file to reload the tokens from");
+                continue;
+            };
+            // Reading a file: off the async workers.
+            let (reload, path) = (config.clone(), file.clone());
+            match tokio::task::spawn_blocking(move || reload.reload_tokens(&path)).await {
+                Ok(Ok(set)) => {
+                    let count = set.len();
+                    tokens.replace(set);
+                    tracing::info!(tokens = count, "SIGHUP: tokens reloaded");
+                }
+                Ok(Err(err)) => {
+                    tracing::error!(%err, "SIGHUP: tokens not reloaded; the previous ones stay")
+                }
+                Err(err) => {
+                    tracing::error!(%err, "SIGHUP: tokens not reloaded; the previous ones stay")
+                }
+            }
+        }
+    });
     Ok(())
 }
 

@@ -18,7 +18,9 @@ fn main() -> ExitCode {
         print!("{}", config.to_toml());
         return ExitCode::SUCCESS;
     }
-    if let Err(err) = server::logging::init(config.log_format, &config.log) {
+    if let Err(err) =
+        server::logging::init(config.log_format, &config.log, config.audit_log.as_deref())
+    {
         eprintln!("ecatd: {err}");
         return ExitCode::from(2);
     }

@@ -3,10 +3,12 @@
 //! Without configured tokens every caller may read and write (ecatd then refuses to listen
 //! on a non-loopback address unless `--insecure`). With tokens every API call needs one
 //! (`authorization: Bearer <token>`); writes and state changes need a write token. Every
-//! write is logged on the `audit` target with the caller's token name.
+//! write is logged on the `audit` target with the caller's token name (outcome: [`crate::audit`]).
 //!
 //! This is the transport-neutral half; `grpc::auth` and `http::auth` put it in front of
 //! their calls.
+
+use std::sync::{Arc, RwLock};
 
 use serde::{Deserialize, Serialize};
 
@@ -22,16 +24,70 @@ pub enum Role {
     Write,
 }
 
-/// One configured token.
+/// The shortest secret ecatd accepts: shorter ones are guessable by trying.
+pub const MIN_SECRET_LEN: usize = 16;
+
+/// One configured token. The secret comes from exactly one of `token` (in the file),
+/// `secret_file` (a file holding it; trailing newline ignored) or `secret_env` (an
+/// environment variable).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Token {
     /// Who holds it (shows in the audit log; the secret never does).
     pub name: String,
-    /// The secret.
+    /// The secret, when given in the configuration itself.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
     pub token: String,
+    /// A file holding the secret.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub secret_file: Option<std::path::PathBuf>,
+    /// An environment variable holding the secret.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub secret_env: Option<String>,
     /// Its role.
     pub role: Role,
+}
+
+impl Token {
+    /// Fills `token` from its file or environment variable and checks the secret: exactly
+    /// one source, at least [`MIN_SECRET_LEN`] characters. Errors name the token, never
+    /// its secret.
+    pub fn resolve(&mut self) -> Result<(), String> {
+        let name = &self.name;
+        let sources = usize::from(!self.token.is_empty())
+            + usize::from(self.secret_file.is_some())
+            + usize::from(self.secret_env.is_some());
+        if sources > 1 {
+            return Err(format!(
+                "token {name:?}: give only one of token, secret_file and secret_env"
+            ));
+        }
+        if let Some(path) = &self.secret_file {
+            let text = std::fs::read_to_string(path).map_err(|err| {
+                format!(
+                    "token {name:?}: cannot read its secret_file {}: {err}",
+                    path.display()
+                )
+            })?;
+            self.token = text.trim_end_matches(['\n', '\r']).to_owned();
+        } else if let Some(var) = &self.secret_env {
+            self.token = std::env::var(var).map_err(|err| {
+                format!("token {name:?}: environment variable {var} of its secret_env: {err}")
+            })?;
+        }
+        if self.token.is_empty() {
+            return Err(format!(
+                "token {name:?} has an empty secret; give it token, secret_file or secret_env"
+            ));
+        }
+        let len = self.token.chars().count();
+        if len < MIN_SECRET_LEN {
+            return Err(format!(
+                "token {name:?} is too short ({len} characters); use at least {MIN_SECRET_LEN}"
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// The identity of a request, attached by the authentication layer.
@@ -43,26 +99,51 @@ pub struct Caller {
     pub role: Role,
 }
 
-/// The configured tokens.
+/// The configured tokens. Clones share one set, which [`Tokens::replace`] swaps (SIGHUP).
 #[derive(Debug, Clone, Default)]
 pub struct Tokens {
-    tokens: Vec<Token>,
+    tokens: Arc<RwLock<Arc<Vec<Token>>>>,
 }
 
 impl Tokens {
     /// The token set.
     pub fn new(tokens: Vec<Token>) -> Tokens {
-        Tokens { tokens }
+        Tokens {
+            tokens: Arc::new(RwLock::new(Arc::new(tokens))),
+        }
+    }
+
+    /// The current set (a snapshot: a reload does not change it under the caller).
+    fn current(&self) -> Arc<Vec<Token>> {
+        // A panic while holding the lock cannot leave the set half-written (it is swapped
+        // whole), so a poisoned lock still holds a valid set.
+        Arc::clone(&self.tokens.read().unwrap_or_else(|e| e.into_inner()))
+    }
+
+    /// Swaps in a new set for every clone; calls already authenticated keep their caller.
+    pub fn replace(&self, tokens: Vec<Token>) {
+        *self.tokens.write().unwrap_or_else(|e| e.into_inner()) = Arc::new(tokens);
     }
 
     /// Whether any token is configured.
     pub fn enabled(&self) -> bool {
-        !self.tokens.is_empty()
+        !self.current().is_empty()
+    }
+
+    /// How many tokens are configured.
+    pub fn len(&self) -> usize {
+        self.current().len()
+    }
+
+    /// Whether no token is configured.
+    pub fn is_empty(&self) -> bool {
+        !self.enabled()
     }
 
     /// Who sends `authorization` (the header's value, if any).
     pub fn authenticate(&self, authorization: Option<&str>) -> Result<Caller, ApiError> {
-        if !self.enabled() {
+        let tokens = self.current();
+        if tokens.is_empty() {
             return Ok(Caller {
                 name: "anonymous".into(),
                 role: Role::Write,
@@ -75,7 +156,7 @@ impl Tokens {
             })
             .map(str::trim)
             .ok_or_else(|| ApiError::unauthenticated("a bearer token is required"))?;
-        self.tokens
+        tokens
             .iter()
             .find(|t| constant_time_eq(t.token.as_bytes(), secret.as_bytes()))
             .map(|t| Caller {
@@ -104,6 +185,7 @@ pub fn authorize_write(
         )));
     }
     tracing::info!(target: "audit", caller = %caller.name, operation, target, "write");
+    crate::audit::note(&caller.name, operation, target);
     Ok(())
 }
 
@@ -116,11 +198,15 @@ mod tests {
             Token {
                 name: "r".into(),
                 token: "read-secret".into(),
+                secret_file: None,
+                secret_env: None,
                 role: Role::Read,
             },
             Token {
                 name: "w".into(),
                 token: "write-secret".into(),
+                secret_file: None,
+                secret_env: None,
                 role: Role::Write,
             },
         ])

@@ -9,12 +9,12 @@ use server_support::{Ecatd, call, curl, run_to_exit};
 const CONFIG: &str = r#"
 [[tokens]]
 name = "viewer"
-token = "read-secret-1"
+token = "read-secret-1-viewer"
 role = "read"
 
 [[tokens]]
 name = "engineer"
-token = "write-secret-2"
+token = "write-secret-2-engineer"
 role = "write"
 "#;
 
@@ -53,13 +53,18 @@ fn rest_writes_need_a_write_token() {
     };
     assert_eq!(put(None).0, 401);
     assert_eq!(put(Some("wrong")).0, 401);
-    let (status, body) = put(Some("read-secret-1"));
+    let (status, body) = put(Some("read-secret-1-viewer"));
     assert_eq!(status, 403, "{body}");
     assert!(body.contains("permission_denied"), "{body}");
-    assert_eq!(put(Some("write-secret-2")).0, 200);
+    assert_eq!(put(Some("write-secret-2-engineer")).0, 200);
     // Reads: a read token is enough, no token is not.
     assert_eq!(curl(&["-s", &url]).0, 401);
-    let (status, body) = curl(&["-s", "-H", "authorization: Bearer read-secret-1", &url]);
+    let (status, body) = curl(&[
+        "-s",
+        "-H",
+        "authorization: Bearer read-secret-1-viewer",
+        &url,
+    ]);
     assert_eq!(status, 200);
     assert!(body.contains("01020304"), "the write took effect: {body}");
     // Stopping the gateway is a write too.
@@ -69,8 +74,8 @@ fn rest_writes_need_a_write_token() {
         curl(&["-s", "-X", "POST", "-H", &header, &stop])
     };
     assert_eq!(curl(&["-s", "-X", "POST", &stop]).0, 401);
-    assert_eq!(post("read-secret-1").0, 403);
-    let (status, body) = post("write-secret-2");
+    assert_eq!(post("read-secret-1-viewer").0, 403);
+    let (status, body) = post("write-secret-2-engineer");
     assert_eq!(status, 200, "{body}");
     assert!(body.contains("\"running\":false"), "{body}");
     // Health stays open for probes.
@@ -99,16 +104,16 @@ fn grpc_writes_need_a_write_token() {
         |headers: &[&str]| call(&ecatd.grpc, headers, "ecat.v1.CoeService/Download", body);
     assert_eq!(download(&[]).unwrap_err().0, "16", "UNAUTHENTICATED");
     assert_eq!(
-        download(&["authorization: Bearer read-secret-1"])
+        download(&["authorization: Bearer read-secret-1-viewer"])
             .unwrap_err()
             .0,
         "7",
         "PERMISSION_DENIED"
     );
-    download(&["authorization: Bearer write-secret-2"]).unwrap();
+    download(&["authorization: Bearer write-secret-2-engineer"]).unwrap();
     let upload = call(
         &ecatd.grpc,
-        &["authorization: Bearer read-secret-1"],
+        &["authorization: Bearer read-secret-1-viewer"],
         "ecat.v1.CoeService/Upload",
         r#"{"slave":"3","index":8193,"subindex":0}"#,
     )
@@ -124,17 +129,17 @@ fn grpc_writes_need_a_write_token() {
     };
     assert_eq!(stop(&[]).unwrap_err().0, "16", "UNAUTHENTICATED");
     assert_eq!(
-        stop(&["authorization: Bearer read-secret-1"])
+        stop(&["authorization: Bearer read-secret-1-viewer"])
             .unwrap_err()
             .0,
         "7",
         "PERMISSION_DENIED"
     );
-    let stopped = stop(&["authorization: Bearer write-secret-2"]).unwrap();
+    let stopped = stop(&["authorization: Bearer write-secret-2-engineer"]).unwrap();
     assert!(stopped["running"].is_null(), "stopped: {stopped}");
     let status = call(
         &ecatd.grpc,
-        &["authorization: Bearer read-secret-1"],
+        &["authorization: Bearer read-secret-1-viewer"],
         "ecat.v1.GatewayService/GetGateway",
         "{}",
     )
@@ -221,8 +226,8 @@ fn every_route_has_its_declared_role() {
         }
         let url = format!("{}{concrete}", ecatd.http);
         let none = rest_status(method, &url, None);
-        let read = rest_status(method, &url, Some("read-secret-1"));
-        let write = rest_status(method, &url, Some("write-secret-2"));
+        let read = rest_status(method, &url, Some("read-secret-1-viewer"));
+        let write = rest_status(method, &url, Some("write-secret-2-engineer"));
         let context =
             format!("{method} {path} ({access:?}): none {none}, read {read}, write {write}");
         match access {
@@ -295,8 +300,8 @@ fn every_grpc_method_has_its_declared_role() {
     assert!(methods.len() >= 28, "reflection lists the API: {methods:?}");
     for (path, access) in &methods {
         let none = grpc_code(&ecatd.grpc, path, None);
-        let read = grpc_code(&ecatd.grpc, path, Some("read-secret-1"));
-        let write = grpc_code(&ecatd.grpc, path, Some("write-secret-2"));
+        let read = grpc_code(&ecatd.grpc, path, Some("read-secret-1-viewer"));
+        let write = grpc_code(&ecatd.grpc, path, Some("write-secret-2-engineer"));
         let context = format!("{path} ({access:?}): none {none}, read {read}, write {write}");
         let refused = |code: &str| ["16", "7"].contains(&code) || code.starts_with('?');
         match access {
@@ -329,7 +334,7 @@ fn a_mailbox_area_read_needs_a_write_token() {
         curl(&["-s", "-H", &header, &url])
     };
     // SM1's configuration (ETG.1000.4 §6.7, Table 59): start address and length, u16 LE.
-    let (status, body) = read_as("read-secret-1", 0x0808, 4);
+    let (status, body) = read_as("read-secret-1-viewer", 0x0808, 4);
     assert_eq!(status, 200, "SM registers are plain reads: {body}");
     let value: serde_json::Value = serde_json::from_str(&body).unwrap();
     let hex = value["data"].as_str().unwrap();
@@ -341,15 +346,19 @@ fn a_mailbox_area_read_needs_a_write_token() {
     let len = u16::from_le_bytes([bytes[2], bytes[3]]);
     assert!(start >= 0x1000 && len > 0, "the drive has a mailbox: {hex}");
 
-    let (status, body) = read_as("read-secret-1", start, 1);
+    let (status, body) = read_as("read-secret-1-viewer", start, 1);
     assert_eq!(status, 403, "{body}");
     assert!(body.contains("permission_denied"), "{body}");
     // Overlapping the area from below counts too.
-    assert_eq!(read_as("read-secret-1", start - 2, 4).0, 403);
-    assert_eq!(read_as("read-secret-1", 0x0130, 2).0, 200, "AL status");
+    assert_eq!(read_as("read-secret-1-viewer", start - 2, 4).0, 403);
+    assert_eq!(
+        read_as("read-secret-1-viewer", 0x0130, 2).0,
+        200,
+        "AL status"
+    );
     // A write token's read reaches the slave: an empty send mailbox does not answer a read
     // of its buffer (working counter 0, ETG.1000.4 §6.7), a full one hands its data over.
-    let (status, body) = read_as("write-secret-2", start, 1);
+    let (status, body) = read_as("write-secret-2-engineer", start, 1);
     assert!(
         status == 200 || (status == 503 && body.contains("working counter 0")),
         "{status} {body}"
@@ -364,12 +373,12 @@ fn a_mailbox_area_read_needs_a_write_token() {
         )
     };
     assert_eq!(
-        grpc_read("read-secret-1", start).unwrap_err().0,
+        grpc_read("read-secret-1-viewer", start).unwrap_err().0,
         "7",
         "PERMISSION_DENIED"
     );
-    grpc_read("read-secret-1", 0x0130).unwrap();
-    match grpc_read("write-secret-2", start) {
+    grpc_read("read-secret-1-viewer", 0x0130).unwrap();
+    match grpc_read("write-secret-2-engineer", start) {
         Ok(_) => {}
         Err((code, message)) => assert!(
             code == "14" && message.contains("working counter 0"),
@@ -383,4 +392,164 @@ fn a_mailbox_area_read_needs_a_write_token() {
             && l.contains("SM1")),
         "no audit line for the refused read:\n{log}"
     );
+}
+
+fn config_file(name: &str, toml: &str) -> std::path::PathBuf {
+    let file = std::env::temp_dir().join(format!("ecatd-auth-{name}-{}.toml", std::process::id()));
+    std::fs::write(&file, toml).unwrap();
+    file
+}
+
+#[test]
+fn empty_or_short_tokens_are_refused_by_name() {
+    for (secret, what) in [("", "empty"), ("short-secret", "too short")] {
+        let file = config_file(
+            "short",
+            &format!("[[tokens]]\nname = \"ops-team\"\ntoken = \"{secret}\"\nrole = \"read\"\n"),
+        );
+        let (status, stderr) = run_to_exit(&["--simulate", "--config", file.to_str().unwrap()]);
+        std::fs::remove_file(file).unwrap();
+        assert!(!status.success());
+        assert!(
+            stderr.contains("\"ops-team\"") && stderr.contains(what),
+            "{stderr}"
+        );
+        assert!(secret.is_empty() || !stderr.contains(secret), "{stderr}");
+    }
+}
+
+#[test]
+fn tokens_off_loopback_need_tls_or_insecure() {
+    let file = config_file("clear", CONFIG);
+    let path = file.to_str().unwrap();
+    let args = [
+        "--simulate",
+        "--config",
+        path,
+        "--grpc-listen",
+        "127.0.0.1:0",
+        "--http-listen",
+        "0.0.0.0:0",
+    ];
+    let (status, stderr) = run_to_exit(&args);
+    assert!(!status.success());
+    assert!(
+        stderr.contains("clear text") && stderr.contains("[tls]") && stderr.contains("--insecure"),
+        "{stderr}"
+    );
+    // With --insecure it starts (tokens still required).
+    let ecatd = Ecatd::start(&["--config", path, "--insecure"]);
+    std::fs::remove_file(&file).unwrap();
+    assert_eq!(
+        curl(&["-s", &format!("{}/api/v1/slaves", ecatd.http)]).0,
+        401
+    );
+}
+
+#[test]
+fn secret_files_reload_on_sighup_and_a_bad_reload_keeps_the_old_set() {
+    let secret = std::env::temp_dir().join(format!("ecatd-auth-secret-{}", std::process::id()));
+    std::fs::write(&secret, "first-secret-from-a-file\n").unwrap();
+    let file = config_file(
+        "reload",
+        &format!(
+            "metrics_token = true\n[[tokens]]\nname = \"viewer\"\nsecret_file = {:?}\nrole = \"read\"\n",
+            secret.to_str().unwrap()
+        ),
+    );
+    let ecatd = Ecatd::start(&["--config", file.to_str().unwrap()]);
+    let url = format!("{}/api/v1/slaves", ecatd.http);
+    let get =
+        |secret: &str| curl(&["-s", "-H", &format!("authorization: Bearer {secret}"), &url]).0;
+    assert_eq!(get("first-secret-from-a-file"), 200);
+    let hangup = || {
+        let status = std::process::Command::new("kill")
+            .args(["-HUP", &ecatd.pid().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+    };
+    let until = |done: &dyn Fn() -> bool| {
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+        while !done() {
+            assert!(std::time::Instant::now() < deadline, "{}", ecatd.log());
+            // Poll interval; the loop ends on the condition or the deadline.
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+    };
+    std::fs::write(&secret, "second-secret-from-a-file\n").unwrap();
+    hangup();
+    until(&|| get("second-secret-from-a-file") == 200);
+    assert_eq!(get("first-secret-from-a-file"), 401);
+    // A short secret does not pass: the old set stays, the log says why.
+    std::fs::write(&secret, "short\n").unwrap();
+    hangup();
+    until(&|| ecatd.log().contains("tokens not reloaded"));
+    assert!(ecatd.log().contains("too short"), "{}", ecatd.log());
+    assert_eq!(get("second-secret-from-a-file"), 200);
+    // The bus was not touched: the slaves are still there and in OP.
+    let (status, body) = curl(&[
+        "-s",
+        "-H",
+        "authorization: Bearer second-secret-from-a-file",
+        &url,
+    ]);
+    assert_eq!(status, 200);
+    let slaves: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let states: Vec<&serde_json::Value> = slaves
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| &s["state"])
+        .collect();
+    assert!(
+        !states.is_empty() && states.iter().all(|s| *s == "OP"),
+        "{body}"
+    );
+    // `metrics_token = true`: /metrics needs a token, a read one will do.
+    let metrics = format!("{}/metrics", ecatd.http);
+    assert_eq!(curl(&["-s", &metrics]).0, 401);
+    let (status, text) = curl(&[
+        "-s",
+        "-H",
+        "authorization: Bearer second-secret-from-a-file",
+        &metrics,
+    ]);
+    assert_eq!(status, 200);
+    assert!(text.contains("ecat_"), "{text}");
+    std::fs::remove_file(file).unwrap();
+    std::fs::remove_file(secret).unwrap();
+}
+
+#[test]
+fn metrics_stay_open_without_the_switch() {
+    let (ecatd, file) = start();
+    std::fs::remove_file(file).unwrap();
+    assert_eq!(curl(&["-s", &format!("{}/metrics", ecatd.http)]).0, 200);
+}
+
+/// A caller without a token is refused before its body is read: a body above the 16 MiB
+/// limit gets 401 (the token check), not 413 (which reading it would give), so an
+/// unauthenticated client cannot make ecatd buffer bodies.
+#[test]
+fn an_unauthenticated_body_is_never_read() {
+    let (ecatd, file) = start();
+    std::fs::remove_file(file).unwrap();
+    let body = std::env::temp_dir().join(format!("ecatd-auth-body-{}", std::process::id()));
+    std::fs::write(&body, vec![0u8; 17 << 20]).unwrap();
+    let url = format!("{}/api/v1/slaves/0/coe/sdo/0x2000/0", ecatd.http);
+    let upload = format!("@{}", body.to_str().unwrap());
+    let args = [
+        "-s",
+        "-X",
+        "PUT",
+        "-H",
+        "content-type: application/octet-stream",
+        "--data-binary",
+        upload.as_str(),
+        url.as_str(),
+    ];
+    let (status, text) = curl(&args);
+    std::fs::remove_file(&body).unwrap();
+    assert_eq!(status, 401, "{text}");
 }

@@ -109,6 +109,7 @@ impl BusService for Bus {
     ) -> Reply<pb::WriteRegisterResponse> {
         require_write(&request, "write_register")?;
         let r = request.get_ref();
+        crate::audit::note_value(&r.data);
         self.core
             .write_register(&r.slave, narrow(r.address, "address")?, &r.data)
             .await
@@ -131,6 +132,7 @@ impl BusService for Bus {
     ) -> Reply<pb::WriteSiiResponse> {
         require_write(&request, "write_sii")?;
         let r = request.get_ref();
+        crate::audit::note_value(&r.data);
         self.core
             .write_sii(&r.slave, narrow(r.word, "word")?, &r.data, r.force)
             .await

@@ -39,6 +39,11 @@ impl CoeService for Coe {
     async fn download(&self, request: Request<pb::DownloadRequest>) -> Reply<pb::DownloadResponse> {
         require_write(&request, "coe_download")?;
         let r = request.get_ref();
+        crate::audit::note_value(if r.value_type.is_empty() {
+            &r.data
+        } else {
+            r.value.as_bytes()
+        });
         let (index, subindex) = (narrow(r.index, "index")?, narrow(r.subindex, "subindex")?);
         let done = if r.value_type.is_empty() {
             self.core

@@ -12,8 +12,8 @@ use tokio_stream::wrappers::ReceiverStream;
 use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 
-use super::auth::require_write;
 use super::status::status;
+use crate::security::{Caller, authorize_write};
 use crate::service::{ApiError, Core};
 
 /// Largest file a client may write in one call.
@@ -82,13 +82,21 @@ impl FoeService for Foe {
         &self,
         request: Request<Streaming<pb::FoeWriteChunk>>,
     ) -> Reply<pb::FoeWriteResponse> {
-        require_write(&request, "foe_write")?;
+        let caller = request.extensions().get::<Caller>().cloned();
         let mut stream = request.into_inner();
         let mut target: Option<(String, String, u32)> = None;
         let mut data = Vec::new();
         while let Some(chunk) = stream.next().await {
             let chunk = chunk?;
             if target.is_none() {
+                // The first chunk names the slave and the file: the check and its audit
+                // line come before any data is kept.
+                authorize_write(
+                    caller.as_ref(),
+                    "foe_write",
+                    &format!("{} {}", chunk.slave, chunk.name),
+                )
+                .map_err(status)?;
                 target = Some((chunk.slave, chunk.name, chunk.password));
             }
             if data.len() + chunk.data.len() > MAX_FOE_WRITE {
@@ -98,8 +106,13 @@ impl FoeService for Foe {
             }
             data.extend_from_slice(&chunk.data);
         }
+        if target.is_none() {
+            // Nothing to write, but the caller still needs the right to try.
+            authorize_write(caller.as_ref(), "foe_write", "").map_err(status)?;
+        }
         let (slave, name, password) =
             target.ok_or_else(|| status(ApiError::invalid("empty FoE write stream")))?;
+        crate::audit::note_value(&data);
         self.core
             .foe_write(&slave, &name, password, &data)
             .await

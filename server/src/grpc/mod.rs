@@ -4,6 +4,7 @@
 //! `auth` (the token interceptor and write check), `convert` (views to messages), `status`
 //! (the error mapping).
 
+pub mod audit;
 pub mod auth;
 pub mod bus;
 pub mod coe;
@@ -102,6 +103,7 @@ pub async fn serve_tls(
         .layer(tower::util::MapRequestLayer::new(
             auth::with_path::<tonic::body::Body>,
         ))
+        .layer(audit::AuditLayer)
         .add_service(reflection_v1)
         .add_service(reflection_v1alpha)
         .add_service(health_service)

@@ -38,6 +38,7 @@ impl SoeService for Protocols {
     async fn write(&self, request: Request<pb::SoeWriteRequest>) -> Reply<pb::SoeWriteResponse> {
         require_write(&request, "soe_write")?;
         let r = request.get_ref();
+        crate::audit::note_value(&r.data);
         self.core
             .soe_write(
                 &r.slave,
@@ -57,6 +58,7 @@ impl VoeService for Protocols {
     async fn transfer(&self, request: Request<pb::VoeRequest>) -> Reply<pb::VoeResponse> {
         require_write(&request, "voe")?;
         let r = request.get_ref();
+        crate::audit::note_value(&r.data);
         let answer = self
             .core
             .voe(

@@ -5,6 +5,7 @@
 //! `openapi` (the document's frame), `error` (errors as JSON), `auth` (tokens), `health`,
 //! `sim` (the simulator's debug route, `--simulate` only).
 
+pub mod audit;
 pub mod auth;
 pub mod browser;
 pub mod error;
@@ -48,6 +49,7 @@ pub fn router(
     tokens: Tokens,
     metrics: Arc<metrics::Store>,
     sim: Option<SimHooks>,
+    metrics_token: bool,
 ) -> Router {
     let api = OpenApiRouter::new()
         .merge(rest::routes())
@@ -62,9 +64,10 @@ pub fn router(
         ))
         .merge(rest::stream_routes())
         .layer(axum::middleware::from_fn_with_state(
-            tokens,
+            tokens.clone(),
             auth::authenticate,
         ))
+        .layer(axum::middleware::from_fn(audit::record))
         .layer(DefaultBodyLimit::max(MAX_BODY))
         .with_state(core.clone());
     let (router, document) = OpenApiRouter::with_openapi(openapi::ApiDoc::openapi())
@@ -78,12 +81,46 @@ pub fn router(
         )
         .route(
             "/metrics",
-            get(render_metrics).with_state(MetricsState {
-                core: core.clone(),
-                store: metrics,
-            }),
+            get(render_metrics)
+                .with_state(MetricsState {
+                    core: core.clone(),
+                    store: metrics,
+                })
+                .layer(axum::middleware::from_fn_with_state(
+                    MetricsGuard {
+                        tokens,
+                        required: metrics_token,
+                    },
+                    metrics_guard,
+                )),
         )
         .merge(health::routes(core))
+}
+
+/// Whether `/metrics` needs a token (`metrics_token`): then any configured token (read
+/// role or more) opens it, as for the API's reads; without tokens it stays open.
+#[derive(Clone)]
+struct MetricsGuard {
+    tokens: Tokens,
+    required: bool,
+}
+
+async fn metrics_guard(
+    axum::extract::State(guard): axum::extract::State<MetricsGuard>,
+    request: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    if guard.required {
+        let header = request
+            .headers()
+            .get(header::AUTHORIZATION)
+            .and_then(|v| v.to_str().ok());
+        if let Err(err) = guard.tokens.authenticate(header) {
+            return err.into_response();
+        }
+    }
+    next.run(request).await
 }
 
 /// What `/metrics` reads: the master through the core, and what ecatd recorded itself.
