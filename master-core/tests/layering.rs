@@ -70,6 +70,32 @@ fn ident_at(text: &str) -> &str {
     &text[..end]
 }
 
+/// Every `super::` chain in `code` that starts a path (not `x::super::`): how many times it
+/// climbs and the name after the last `super::` (non-empty).
+fn super_chains(code: &str) -> Vec<(usize, &str)> {
+    let mut chains = Vec::new();
+    let mut rest = code;
+    while let Some(at) = rest.find("super::") {
+        let before = rest[..at].chars().next_back();
+        let mut tail = &rest[at..];
+        if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_' || c == ':') {
+            rest = &tail["super::".len()..];
+            continue;
+        }
+        let mut climbs = 0;
+        while let Some(next) = tail.strip_prefix("super::") {
+            climbs += 1;
+            tail = next;
+        }
+        let name = ident_at(tail);
+        if !name.is_empty() {
+            chains.push((climbs, name));
+        }
+        rest = tail;
+    }
+    chains
+}
+
 /// The top-level modules `source` names, for a file whose module path is `path` (e.g.
 /// `["mailbox", "engine", "demux"]`), with the line of each use.
 fn uses(path: &[String], source: &str) -> Vec<(String, usize)> {
@@ -91,28 +117,12 @@ fn uses(path: &[String], source: &str) -> Vec<(String, usize)> {
             }
             rest = tail;
         }
-        let mut rest = code;
-        while let Some(at) = rest.find("super::") {
-            let before = rest[..at].chars().next_back();
-            let mut tail = &rest[at..];
-            if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_' || c == ':') {
-                rest = &tail["super::".len()..];
-                continue;
+        // `super` from a file reaches its parent module; from the crate root's child it
+        // reaches the root, where the next name is a top-level module.
+        for (climbs, name) in super_chains(code) {
+            if climbs >= path.len() && name != "super" {
+                found.push((name.to_string(), number + 1));
             }
-            let mut climbs = 0;
-            while let Some(next) = tail.strip_prefix("super::") {
-                climbs += 1;
-                tail = next;
-            }
-            // `super` from a file reaches its parent module; from the crate root's child
-            // it reaches the root, where the next name is a top-level module.
-            if climbs >= path.len() {
-                let name = ident_at(tail);
-                if !name.is_empty() && name != "super" {
-                    found.push((name.to_string(), number + 1));
-                }
-            }
-            rest = tail;
         }
     }
     found
@@ -208,27 +218,11 @@ fn mailbox_uses(path: &[String], source: &str) -> Vec<(String, usize)> {
             }
             rest = tail;
         }
-        let mut rest = code;
-        while let Some(at) = rest.find("super::") {
-            let before = rest[..at].chars().next_back();
-            let mut tail = &rest[at..];
-            if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_' || c == ':') {
-                rest = &tail["super::".len()..];
-                continue;
-            }
-            let mut climbs = 0;
-            while let Some(next) = tail.strip_prefix("super::") {
-                climbs += 1;
-                tail = next;
-            }
-            // From `mailbox/a/b.rs` (path mailbox, a, b) two climbs reach the mailbox root.
+        // From `mailbox/a/b.rs` (path mailbox, a, b) two climbs reach the mailbox root.
+        for (climbs, name) in super_chains(code) {
             if climbs + 1 == path.len() {
-                let name = ident_at(tail);
-                if !name.is_empty() {
-                    found.push((name.to_string(), number + 1));
-                }
+                found.push((name.to_string(), number + 1));
             }
-            rest = tail;
         }
     }
     found

@@ -27,26 +27,18 @@ const PARAMETER: u16 = 0x2001;
 /// An object no slave has.
 const MISSING: u16 = 0x5555;
 
-fn object(index: u16, access: &str, name: &str) -> CoeObject {
-    CoeObject {
-        index,
-        subindex: 0,
-        data_type: "UNSIGNED32".into(),
-        access: access.into(),
-        name: name.into(),
-        value: None,
-        size: None,
-    }
-}
-
 /// The default segment, the CoE store with `esc`'s firmware switches and the objects the
 /// refusals need.
 fn topology(esc: EscSpec) -> Topology {
     let mut topology = Topology::default_segment();
     let store = &mut topology.slaves[COE_STORE];
     store.esc = esc;
-    store.objects.push(object(WRITE_ONLY, "wo", "Write only"));
-    store.objects.push(object(READ_ONLY, "ro", "Read only"));
+    store
+        .objects
+        .push(CoeObject::unsigned32(WRITE_ONLY, "wo", "Write only"));
+    store
+        .objects
+        .push(CoeObject::unsigned32(READ_ONLY, "ro", "Read only"));
     topology
 }
 

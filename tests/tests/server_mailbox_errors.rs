@@ -33,18 +33,6 @@ const READ_ONLY_CODE: u32 = 0x0601_0002;
 const LENGTH_CODE: u32 = 0x0607_0010;
 const GENERAL_CODE: u32 = 0x0800_0000;
 
-fn object(index: u16, access: &str, name: &str) -> CoeObject {
-    CoeObject {
-        index,
-        subindex: 0,
-        data_type: "UNSIGNED32".into(),
-        access: access.into(),
-        name: name.into(),
-        value: None,
-        size: None,
-    }
-}
-
 /// A SOES-like CoE store answering after `delay_us`.
 fn soes_like(delay_us: u32) -> EscSpec {
     EscSpec {
@@ -64,8 +52,12 @@ fn topology_file(name: &str, esc: EscSpec) -> PathBuf {
     let mut topology = Topology::default_segment();
     let store = &mut topology.slaves[STORE];
     store.esc = esc;
-    store.objects.push(object(WRITE_ONLY, "wo", "Write only"));
-    store.objects.push(object(READ_ONLY, "ro", "Read only"));
+    store
+        .objects
+        .push(CoeObject::unsigned32(WRITE_ONLY, "wo", "Write only"));
+    store
+        .objects
+        .push(CoeObject::unsigned32(READ_ONLY, "ro", "Read only"));
     let path = std::env::temp_dir().join(format!(
         "ecatd-mailbox-errors-{name}-{}.toml",
         std::process::id()

@@ -116,6 +116,11 @@ impl ApiError {
         ApiError::new(ErrorKind::Unavailable, "unavailable", message)
     }
 
+    /// A fault of ecatd itself (a task that died), not of the request.
+    pub fn internal(message: impl Into<String>) -> ApiError {
+        ApiError::new(ErrorKind::Internal, "internal", message)
+    }
+
     /// A request too large.
     pub fn too_large(message: impl Into<String>) -> ApiError {
         ApiError::new(ErrorKind::ResourceExhausted, "too_large", message)

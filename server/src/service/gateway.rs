@@ -275,13 +275,7 @@ impl Core {
             Ok(GatewayView::of(Some(gateway)))
         })
         .await
-        .map_err(|err| ApiError {
-            kind: ErrorKind::Internal,
-            tag: "internal",
-            message: format!("gateway start: {err}"),
-            code: None,
-            code_text: String::new(),
-        })?
+        .map_err(|err| ApiError::internal(format!("gateway start: {err}")))?
     }
 
     /// Stops the gateway (releasing its port; requests under way are cancelled) and
@@ -299,12 +293,6 @@ impl Core {
             Ok(GatewayView::of(Some(gateway)))
         })
         .await
-        .map_err(|err| ApiError {
-            kind: ErrorKind::Internal,
-            tag: "internal",
-            message: format!("gateway stop: {err}"),
-            code: None,
-            code_text: String::new(),
-        })?
+        .map_err(|err| ApiError::internal(format!("gateway stop: {err}")))?
     }
 }

@@ -305,6 +305,21 @@ pub struct CoeObject {
     pub size: Option<usize>,
 }
 
+impl CoeObject {
+    /// A VAR object of type UNSIGNED32 with `access` (see [`CoeObject::access`]), value zero.
+    pub fn unsigned32(index: u16, access: &str, name: &str) -> CoeObject {
+        CoeObject {
+            index,
+            subindex: 0,
+            data_type: "UNSIGNED32".into(),
+            access: access.into(),
+            name: name.into(),
+            value: None,
+            size: None,
+        }
+    }
+}
+
 /// One SoE IDN of a drive (ETG.1000.6, spec-notes §soe): its elements as they travel on the wire.
 ///
 /// Byte elements (`min`, `max`, `value`, `default`) are little-endian, as in the SoE
