@@ -37,7 +37,15 @@ pub async fn run(config: Config) -> Result<(), String> {
         .transpose()?;
     let running = segment::open(&segment_config)?;
     // What the metrics record lives beside the core; the core only records its requests.
-    let metrics = Arc::new(crate::metrics::Store::default());
+    let metrics = Arc::new(crate::metrics::Store {
+        link: match &segment_config {
+            crate::config::Segment::Simulate { .. } => crate::metrics::state::Link::Simulated,
+            crate::config::Segment::Iface { name } => {
+                crate::metrics::state::Link::Iface(name.clone())
+            }
+        },
+        ..Default::default()
+    });
     let core = Core::new(running.master.clone(), Arc::clone(&metrics.calls));
     let tokens = Tokens::new(config.tokens.clone());
     reload_tokens_on_sighup(&config, &tokens)?;
@@ -113,6 +121,7 @@ pub async fn run(config: Config) -> Result<(), String> {
             }
             core.set_ready(true);
             tracing::info!("ready");
+            crate::systemd::notify("READY=1");
             Some(background)
         }
     };
@@ -120,6 +129,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         Some(signal) => signal,
         None => signals.next().await,
     };
+    crate::systemd::notify("STOPPING=1");
     let deadline = Instant::now() + Duration::from_millis(config.shutdown_timeout_ms);
     tracing::info!(
         signal,

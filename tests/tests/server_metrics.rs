@@ -120,14 +120,32 @@ fn counters_equal_what_was_done() {
     } else {
         assert_eq!(lost, 0.0, "the in-process link loses nothing");
     }
-    let name = &topology.slaves[0].name;
+    assert_eq!(
+        sample(&states, r#"ecat_slave_al_status_code{station="1001"}"#),
+        0.0
+    );
+    // Per-slave series carry the station only; names and identities join from
+    // ecat_slave_info.
+    let first = &topology.slaves[0];
     assert_eq!(
         sample(
             &states,
-            &format!(r#"ecat_slave_al_status_code{{position="0",station="1001",name="{name}"}}"#)
+            &format!(
+                r#"ecat_slave_info{{station="1001",position="0",alias="{}",name="{}",vendor_id="0x{:08x}",product_code="0x{:08x}",revision="0x{:08x}"}}"#,
+                first.alias, first.name, first.vendor_id, first.product_code, first.revision
+            )
         ),
-        0.0
+        1.0
     );
+    assert_eq!(
+        states
+            .lines()
+            .filter(|l| l.starts_with("ecat_slave_info{"))
+            .count(),
+        topology.slaves.len()
+    );
+    assert_eq!(sample(&states, "ecat_ready"), 1.0);
+    assert_eq!(sample(&states, "ecat_link_up"), 1.0);
 }
 
 /// An ETG.8200 datagram: the SDO upload request of `index`:`subindex` for `address`.
@@ -159,8 +177,11 @@ fn gateway_counters_equal_the_datagrams_sent() {
     let before = scrape(&ecatd);
     assert_eq!(sample(&before, "ecat_mailbox_gateway_up"), 1.0);
     assert_eq!(
-        sample(&before, "ecat_mailbox_gateway_port"),
-        f64::from(gateway.port())
+        sample(
+            &before,
+            &format!(r#"ecat_mailbox_gateway_info{{port="{}"}}"#, gateway.port())
+        ),
+        1.0
     );
     let client = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("client socket");
     client
@@ -354,7 +375,6 @@ fn esc_error_counters_equal_the_registers() {
     for slave in &slaves {
         let position = slave["position"].as_u64().unwrap();
         let station = slave["station"].as_u64().unwrap();
-        let name = slave["name"].as_str().unwrap();
         let (status, body) = rest(
             &ecatd,
             "GET",
@@ -371,7 +391,7 @@ fn esc_error_counters_equal_the_registers() {
             .map(|i| u8::from_str_radix(&data[i..i + 2], 16).unwrap())
             .collect();
         assert_eq!(block.len(), 20);
-        let labels = format!(r#"position="{position}",station="{station}",name="{name}""#);
+        let labels = format!(r#"station="{station}""#);
         for port in 0..4 {
             let port_labels = format!(r#"{{{labels},port="{port}"}}"#);
             let check = |family: &str, value: u8| {

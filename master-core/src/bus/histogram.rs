@@ -2,8 +2,9 @@
 //!
 //! Each power of two of nanoseconds is split into four buckets, so any recorded value is
 //! known to within 25 % (an estimate at the bucket's middle is within ±12.5 %), from 1 ns to
-//! about 18 minutes, in 156 counters. Recording is one relaxed atomic add; a snapshot copies
-//! the counters and can be taken at any time from any thread.
+//! about 18 minutes, in 156 counters. Recording is two relaxed atomic adds (the bucket and
+//! the exact sum, so that Prometheus' `_sum` and averages are not estimates); a snapshot
+//! copies the counters and can be taken at any time from any thread.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
@@ -19,12 +20,15 @@ pub const BUCKETS: usize = (SUB + (40 - SUB_BITS as u64) * SUB) as usize;
 #[derive(Debug)]
 pub struct Histogram {
     counts: [AtomicU64; BUCKETS],
+    /// Sum of every value recorded, in nanoseconds (wraps after about 584 years).
+    sum_nanos: AtomicU64,
 }
 
 /// A copy of a histogram's counters at one moment.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct HistogramSnapshot {
     counts: [u64; BUCKETS],
+    sum_nanos: u64,
 }
 
 /// The bucket of a value in nanoseconds.
@@ -56,6 +60,7 @@ impl Histogram {
     pub fn new() -> Histogram {
         Histogram {
             counts: std::array::from_fn(|_| AtomicU64::new(0)),
+            sum_nanos: AtomicU64::new(0),
         }
     }
 
@@ -63,6 +68,7 @@ impl Histogram {
     pub fn record(&self, value: Duration) {
         let nanos = u64::try_from(value.as_nanos()).unwrap_or(u64::MAX);
         self.counts[bucket_of(nanos)].fetch_add(1, Ordering::Relaxed);
+        self.sum_nanos.fetch_add(nanos, Ordering::Relaxed);
     }
 
     /// Sets every counter back to zero (not atomic as a whole: a value recorded meanwhile
@@ -71,12 +77,14 @@ impl Histogram {
         for count in &self.counts {
             count.store(0, Ordering::Relaxed);
         }
+        self.sum_nanos.store(0, Ordering::Relaxed);
     }
 
     /// Copies the counters.
     pub fn snapshot(&self) -> HistogramSnapshot {
         HistogramSnapshot {
             counts: std::array::from_fn(|i| self.counts[i].load(Ordering::Relaxed)),
+            sum_nanos: self.sum_nanos.load(Ordering::Relaxed),
         }
     }
 }
@@ -91,6 +99,11 @@ impl HistogramSnapshot {
     /// How many durations were recorded.
     pub fn count(&self) -> u64 {
         self.counts.iter().sum()
+    }
+
+    /// The exact sum of the durations recorded (not an estimate from the buckets).
+    pub fn sum(&self) -> Duration {
+        Duration::from_nanos(self.sum_nanos)
     }
 
     /// An estimate of the `q` quantile (`0.5` for the median, `0.99` for p99): the middle of
@@ -171,5 +184,7 @@ mod tests {
         near(snapshot.p99().unwrap(), 99.0);
         near(snapshot.quantile(0.0).unwrap(), 1.0);
         assert_eq!(snapshot.buckets().map(|(_, _, n)| n).sum::<u64>(), 100);
+        // 1 + 2 + ... + 100 µs, exactly.
+        assert_eq!(snapshot.sum(), Duration::from_micros(5050));
     }
 }

@@ -7,9 +7,11 @@ use prometheus::proto::{MetricFamily, MetricType};
 use super::family::Family;
 use crate::service::Core;
 
-/// Upper bounds of the round-trip histogram, in seconds.
-const RTT_BOUNDS: [f64; 12] = [
-    25e-6, 50e-6, 100e-6, 250e-6, 500e-6, 1e-3, 2.5e-3, 5e-3, 10e-3, 25e-3, 100e-3, 1.0,
+/// Upper bounds of the timing histograms, in seconds: from 5 µs (the jitter of a good
+/// cycle) to 1 s.
+pub(super) const BOUNDS: [f64; 14] = [
+    5e-6, 10e-6, 25e-6, 50e-6, 100e-6, 250e-6, 500e-6, 1e-3, 2.5e-3, 5e-3, 10e-3, 25e-3, 100e-3,
+    1.0,
 ];
 
 fn counter(name: &str, help: &str, value: u64) -> Option<MetricFamily> {
@@ -22,6 +24,7 @@ fn counter(name: &str, help: &str, value: u64) -> Option<MetricFamily> {
 pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
     let s = core.master().bus_stats();
     let cycle = core.master().cycle_stats();
+    let timing = core.master().cycle_timing();
     let mut out = vec![
         counter(
             "ecat_bus_frames_sent_total",
@@ -98,6 +101,23 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
             "Process-data exchanges lost.",
             cycle.lost,
         ),
+        counter(
+            "ecat_process_data_cycles_wrong_wkc_total",
+            "Process-data exchanges that came back with a working counter other than expected.",
+            cycle.wrong_wkc,
+        ),
+        counter(
+            "ecat_process_data_cycles_missed_total",
+            "Periods in which no process-data cycle ran (skipped after a late one).",
+            cycle.missed,
+        ),
+        Family::new(
+            "ecat_process_data_cycle_period_seconds",
+            "The configured period of the cyclic exchange (0: not running).",
+            MetricType::GAUGE,
+        )
+        .gauge(&[], timing.period.as_secs_f64())
+        .done(),
         Family::new(
             "ecat_process_data_wkc",
             "Working counter of the last process-data exchange.",
@@ -116,13 +136,28 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
     ];
     out.push(histogram(
         "ecat_bus_round_trip_seconds",
-        "Frame round-trip time, send to receive on the bus thread (sum estimated from bucket midpoints).",
+        "Frame round-trip time, send to receive on the bus thread.",
         &s.round_trip,
     ));
     out.push(histogram(
         "ecat_bus_cycle_start_delay_seconds",
-        "How long after its due time each cycle started (sum estimated from bucket midpoints).",
+        "How long after its due time each cycle started.",
         &s.cycle_start_delay,
+    ));
+    out.push(histogram(
+        "ecat_process_data_cycle_time_seconds",
+        "Time between the starts of consecutive process-data cycles.",
+        &timing.cycle_time,
+    ));
+    out.push(histogram(
+        "ecat_process_data_cycle_jitter_seconds",
+        "How far each cycle time was from the period, either way.",
+        &timing.jitter,
+    ));
+    out.push(histogram(
+        "ecat_process_data_round_trip_seconds",
+        "From sending the cyclic frame to its return.",
+        &timing.round_trip,
     ));
     out
 }
@@ -132,19 +167,20 @@ pub(super) fn histogram(
     help: &str,
     snapshot: &master_core::bus::HistogramSnapshot,
 ) -> Option<MetricFamily> {
-    let mut cumulative = [0u64; RTT_BOUNDS.len()];
-    let (mut count, mut sum) = (0u64, 0f64);
-    for (low, high, n) in snapshot.buckets() {
+    let mut cumulative = [0u64; BOUNDS.len()];
+    let mut count = 0u64;
+    for (_, high, n) in snapshot.buckets() {
         count += n;
-        sum += n as f64 * (low + high).as_secs_f64() / 2.0;
-        for (bound, slot) in RTT_BOUNDS.iter().zip(cumulative.iter_mut()) {
+        // A fine bucket straddling a bound counts in the next one up: the bounds are upper
+        // limits, never understated.
+        for (bound, slot) in BOUNDS.iter().zip(cumulative.iter_mut()) {
             if high <= Duration::from_secs_f64(*bound) {
                 *slot += n;
             }
         }
     }
-    let buckets: Vec<(f64, u64)> = RTT_BOUNDS.iter().copied().zip(cumulative).collect();
+    let buckets: Vec<(f64, u64)> = BOUNDS.iter().copied().zip(cumulative).collect();
     Family::new(name, help, MetricType::HISTOGRAM)
-        .histogram(&[], &buckets, count, sum)
+        .histogram(&[], &buckets, count, snapshot.sum().as_secs_f64())
         .done()
 }

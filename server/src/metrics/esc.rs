@@ -22,17 +22,10 @@ pub const PERIOD: Duration = Duration::from_secs(1);
 /// The ESC's ports.
 const PORTS: usize = 4;
 
-#[derive(Debug, Clone)]
-struct Read {
-    position: u16,
-    name: String,
-    counters: ErrorCountersRepr,
-}
-
 #[derive(Debug, Default)]
 struct Inner {
     /// The last block read, by station address.
-    last: BTreeMap<u16, Read>,
+    last: BTreeMap<u16, ErrorCountersRepr>,
     /// Reads that failed (the last values stay).
     failed_reads: u64,
 }
@@ -81,14 +74,7 @@ impl EscCounters {
             let mut inner = self.lock();
             match read {
                 Ok(counters) => {
-                    inner.last.insert(
-                        slave.station,
-                        Read {
-                            position: slave.position,
-                            name: slave.name,
-                            counters,
-                        },
-                    );
+                    inner.last.insert(slave.station, counters);
                 }
                 Err(_) => inner.failed_reads += 1,
             }
@@ -146,20 +132,11 @@ impl EscCounters {
         for (name, help, field) in per_port {
             let mut family = Family::new(name, help, MetricType::GAUGE);
             for (station, read) in &last {
-                let values = field(&read.counters);
+                let values = field(read);
                 for (port, value) in values.iter().enumerate() {
-                    let (position, station, port_label) = (
-                        read.position.to_string(),
-                        station.to_string(),
-                        port.to_string(),
-                    );
+                    let (station, port_label) = (station.to_string(), port.to_string());
                     family = family.gauge(
-                        &[
-                            ("position", &position),
-                            ("station", &station),
-                            ("name", &read.name),
-                            ("port", &port_label),
-                        ],
+                        &[("station", &station), ("port", &port_label)],
                         f64::from(*value),
                     );
                 }
@@ -169,14 +146,9 @@ impl EscCounters {
         for (name, help, field) in per_slave {
             let mut family = Family::new(name, help, MetricType::GAUGE);
             for (station, read) in &last {
-                let (position, station) = (read.position.to_string(), station.to_string());
                 family = family.gauge(
-                    &[
-                        ("position", &position),
-                        ("station", &station),
-                        ("name", &read.name),
-                    ],
-                    f64::from(field(&read.counters)),
+                    &[("station", &station.to_string())],
+                    f64::from(field(read)),
                 );
             }
             out.push(family.done());

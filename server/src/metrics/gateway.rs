@@ -125,11 +125,13 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
             "Requests being served now.",
             in_flight as f64,
         ),
-        gauge(
-            "ecat_mailbox_gateway_port",
-            "The UDP port the gateway is bound to (after a fallback, the fallback port).",
-            f64::from(port),
-        ),
+        Family::new(
+            "ecat_mailbox_gateway_info",
+            "The gateway's UDP port (after a fallback, the fallback port); always 1.",
+            MetricType::GAUGE,
+        )
+        .gauge(&[("port", &port.to_string())], 1.0)
+        .done(),
         gauge(
             "ecat_mailbox_gateway_start_time_seconds",
             "When the gateway started, in seconds since the Unix epoch.",
@@ -137,7 +139,7 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
         ),
         histogram(
             "ecat_mailbox_gateway_request_duration_seconds",
-            "Time from a request's arrival to its answer (sum estimated from bucket midpoints).",
+            "Time from a request's arrival to its answer.",
             &latency,
         ),
     ]

@@ -4,15 +4,19 @@
 //! Files: `family` (building families), `bus` (link and cycle), `slaves` (AL states and
 //! codes), `mailbox` (per-slave mailbox and EoE counters), `gateway` (the mailbox gateway's
 //! statistics), `calls` (ecatd's own mailbox requests per slave and protocol), `esc` (the
-//! ESC error counters, read in the background).
+//! ESC error counters, read in the background), `events` (events by kind, counted in the
+//! background), `state` (ready and link up), `process` (the process' CPU, memory, files).
 
 mod bus;
 pub mod calls;
 pub mod esc;
+pub mod events;
 pub(crate) mod family;
 mod gateway;
 mod mailbox;
+mod process;
 mod slaves;
+pub mod state;
 
 use std::sync::Arc;
 
@@ -26,13 +30,16 @@ use family::Family;
 /// `store` recorded.
 pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     let mut families: Vec<Option<MetricFamily>> = vec![build_info()];
+    families.extend(state::collect(core, &store.link));
     families.extend(bus::collect(core));
     families.extend(slaves::collect(core));
     families.extend(mailbox::collect(core));
     families.extend(store.calls.collect());
     families.extend(store.esc.collect());
     families.extend(store.watch.collect());
+    families.extend(store.events.collect());
     families.extend(gateway::collect(core));
+    families.extend(process::collect());
     families.into_iter().flatten().collect()
 }
 
@@ -46,6 +53,10 @@ pub struct Store {
     pub esc: Arc<esc::EscCounters>,
     /// The watched values (`[[watch]]`).
     pub watch: Arc<crate::watch::WatchValues>,
+    /// Events by kind.
+    pub events: Arc<events::EventCounts>,
+    /// The segment's link, for `ecat_link_up`.
+    pub link: state::Link,
 }
 
 /// The background readers behind the metrics; they stop when this is dropped.
@@ -61,10 +72,10 @@ impl Drop for Background {
     }
 }
 
-/// Starts the background readers into `store`: the ESC error counters and the watched
-/// values.
+/// Starts the background readers into `store`: the ESC error counters, the event counts
+/// and the watched values.
 pub fn start(core: &Core, store: &Store, watches: &[crate::watch::WatchSpec]) -> Background {
-    let mut tasks = vec![store.esc.start(core.master())];
+    let mut tasks = vec![store.esc.start(core.master()), store.events.start(core)];
     tasks.extend(crate::watch::start(core, watches, &store.watch));
     Background { tasks }
 }
