@@ -15,7 +15,7 @@ pub mod security;
 pub mod segment;
 pub mod service;
 pub mod signals;
-pub mod systemd;
 pub mod sim_hooks;
+pub mod systemd;
 pub mod tls;
 pub mod watch;

@@ -855,7 +855,10 @@ fn stop_and_restart_through_the_api() {
     assert_eq!(started["boundAddress"], loopback(port).to_string());
     assert_eq!(metric(&ecatd, "ecat_mailbox_gateway_up"), 1.0);
     assert_eq!(
-        metric(&ecatd, &format!(r#"ecat_mailbox_gateway_info{{port="{port}"}}"#)),
+        metric(
+            &ecatd,
+            &format!(r#"ecat_mailbox_gateway_info{{port="{port}"}}"#)
+        ),
         1.0
     );
     let mut client = GatewayClient::new(loopback(port));
@@ -889,7 +892,10 @@ fn master_number_2_asks_for_34981_and_falls_back_when_it_is_taken() {
     assert_eq!(view["bound_address"], loopback(port).to_string());
     assert_eq!(ecatd.gateway_addr(), loopback(port), "the log line");
     assert_eq!(
-        metric(&ecatd, &format!(r#"ecat_mailbox_gateway_info{{port="{port}"}}"#)),
+        metric(
+            &ecatd,
+            &format!(r#"ecat_mailbox_gateway_info{{port="{port}"}}"#)
+        ),
         1.0
     );
     assert!(

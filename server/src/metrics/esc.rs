@@ -146,10 +146,7 @@ impl EscCounters {
         for (name, help, field) in per_slave {
             let mut family = Family::new(name, help, MetricType::GAUGE);
             for (station, read) in &last {
-                family = family.gauge(
-                    &[("station", &station.to_string())],
-                    f64::from(field(read)),
-                );
+                family = family.gauge(&[("station", &station.to_string())], f64::from(field(read)));
             }
             out.push(family.done());
         }

@@ -89,7 +89,13 @@ mod tests {
             .unwrap();
             String::from_utf8(out).unwrap()
         };
-        assert!(text.contains("ecat_events_total{kind=\"slave_lost\"} 2\n"), "{text}");
-        assert!(text.contains("ecat_events_total{kind=\"emergency\"} 1\n"), "{text}");
+        assert!(
+            text.contains("ecat_events_total{kind=\"slave_lost\"} 2\n"),
+            "{text}"
+        );
+        assert!(
+            text.contains("ecat_events_total{kind=\"emergency\"} 1\n"),
+            "{text}"
+        );
     }
 }

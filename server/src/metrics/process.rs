@@ -118,7 +118,8 @@ mod tests {
 
     #[test]
     fn a_command_name_with_spaces_and_parentheses_does_not_shift_the_fields() {
-        let stat = "42 (tokio (w) 1) S 1 42 42 0 -1 4194304 10 0 0 0 250 50 0 0 20 0 9 0 1234 1000 200";
+        let stat =
+            "42 (tokio (w) 1) S 1 42 42 0 -1 4194304 10 0 0 0 250 50 0 0 20 0 9 0 1234 1000 200";
         let fields = stat_fields(stat).unwrap();
         assert_eq!(fields[0], "S");
         assert_eq!(fields[14 - 3], "250");

@@ -74,7 +74,10 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
         present = present.gauge(&labels, if s.present { 1.0 } else { 0.0 });
         error = error.gauge(&labels, if s.al_error { 1.0 } else { 0.0 });
         // The counts are kept by ring position.
-        let errors = wkc_errors.get(usize::from(s.position)).copied().unwrap_or(0);
+        let errors = wkc_errors
+            .get(usize::from(s.position))
+            .copied()
+            .unwrap_or(0);
         wkc = wkc.counter(&labels, f64::from(errors));
     }
     vec![
