@@ -68,6 +68,27 @@ fn an_unplugged_slave_is_reported_lost_and_found_and_returns_to_op() {
 }
 
 #[test]
+fn a_segment_that_stops_answering_loses_every_slave_and_gets_them_back() {
+    let rig = scanned();
+    let mut events = rig.master().events();
+    let slaves = rig.topology.slaves.len();
+    // The cable into the first slave: no frame comes back at all, not even a broadcast.
+    rig.segment().set_plugged(0, false);
+    let mut lost = Vec::new();
+    while lost.len() < slaves {
+        match next_event(&mut events, |e| matches!(e, MasterEvent::SlaveLost { .. })) {
+            Some(MasterEvent::SlaveLost { position, .. }) => lost.push(position),
+            other => panic!("expected every slave lost, got {other:?} after {lost:?}"),
+        }
+    }
+    lost.sort_unstable();
+    assert_eq!(lost, (0..slaves as u16).collect::<Vec<_>>());
+    assert!(rig.master().slaves().iter().all(|s| !s.present));
+    rig.segment().set_plugged(0, true);
+    assert!(wait_until(|| (0..slaves as u16).all(|p| in_op(&rig, p))));
+}
+
+#[test]
 fn a_power_cycled_slave_is_configured_again_and_returns_to_op() {
     let rig = scanned();
     let mut events = rig.master().events();

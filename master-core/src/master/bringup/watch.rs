@@ -11,7 +11,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use crate::bus::DatagramRequest;
+use crate::bus::{BusError, DatagramRequest};
 use crate::wire::register::address as reg;
 use crate::wire::register::al::AL_STATUS_BLOCK_LEN;
 use crate::wire::register::{AlStatusBlock, AlStatusBlockRepr};
@@ -42,12 +42,14 @@ pub(crate) async fn look(ctx: &Arc<Context>) -> Result<(), MasterError> {
     if known.is_empty() {
         return Ok(());
     }
-    let count = ctx
-        .bus
-        .brd(reg::TYPE, 2)
-        .await
-        .map_err(MasterError::bus("count slaves"))?
-        .wkc;
+    let count = match ctx.bus.brd(reg::TYPE, 2).await {
+        Ok(reply) => reply.wkc,
+        // Not even the broadcast came back, after the bus's retries: nothing answers behind
+        // the master's port (cable to the first slave, its power, or the link itself). Every
+        // known slave is then lost; without this a silent segment kept its slaves "present".
+        Err(BusError::Timeout { .. }) => 0,
+        Err(err) => return Err(MasterError::bus("count slaves")(err)),
+    };
     // All status reads at once: the bus packs them into as few frames as fit.
     let pendings: Vec<_> = known
         .iter()
@@ -61,6 +63,8 @@ pub(crate) async fn look(ctx: &Arc<Context>) -> Result<(), MasterError> {
     for (record, pending) in known.into_iter().zip(pendings) {
         let result = match pending.await {
             Ok(reply) => one(ctx, record, reply.wkc, &reply.data, count).await,
+            // A silent segment (count 0): the status read could not come back either.
+            Err(BusError::Timeout { .. }) if count == 0 => one(ctx, record, 0, &[], 0).await,
             Err(source) => Err(MasterError::Bus {
                 what: "AL status",
                 source,
