@@ -11,6 +11,7 @@ import socket
 import subprocess
 import sys
 import time
+import urllib.request
 
 from selenium import webdriver
 from selenium.common.exceptions import WebDriverException
@@ -18,6 +19,7 @@ from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
+from selenium.webdriver.support.select import Select
 
 ARGS = json.loads(sys.argv[1])
 BASE = ARGS["http"]
@@ -111,6 +113,15 @@ def ecat(*args):
     return {"status": run.returncode, "stderr": run.stderr}
 
 
+def raise_emergency(position, code, register, data):
+    """The simulator's debug route (`--simulate` only): the slave sends a CoE emergency."""
+    body = json.dumps({"error_code": code, "error_register": register, "data": data}).encode()
+    request = urllib.request.Request(f"{BASE}/api/v1/slaves/{position}/sim/emergency", data=body, method="POST",
+                                     headers={"Content-Type": "application/json", "Authorization": "Bearer " + ARGS["write_token"]})
+    with urllib.request.urlopen(request, timeout=30) as response:
+        return response.status
+
+
 def open_object(d, index):
     node = wait(f"object {index}", lambda: d.find_element(By.ID, f"object-{index}"))
     wait(f"object {index}'s description", lambda: "…" not in node.find_element(By.TAG_NAME, "summary").text)
@@ -161,6 +172,10 @@ def main():
                 ActionChains(d).send_keys(Keys.ENTER).perform()
                 break
         OUT["keyboard_view"] = wait("the events view", lambda: js(d, "return location.hash") == "#/events" and d.find_elements(By.ID, "events") and "#/events")
+        OUT["emergency_raised"] = raise_emergency(0, ARGS["emergency_code"], 0x11, "0102030405")
+        wait("the emergency in the log", lambda: d.find_elements(By.CSS_SELECTOR, "#events tr.event-emergency"))
+        Select(d.find_element(By.ID, "event-kind")).select_by_value("emergency")
+        OUT["events_filtered"] = wait("the filtered log", lambda: (rows := [r.text for r in d.find_elements(By.CSS_SELECTOR, "#events tbody tr")]) and rows)
         shot(d, "events")
 
         # The CoE dictionary of slave 3: 0x1018:01 read, 0x2001:00 written.
@@ -180,6 +195,9 @@ def main():
 
         # FoE: 1 MiB written with the progress bar, then read back.
         go(d, "#/slave/0")
+        # The page's own mailbox reads first (counters, dictionary, IDNs, IP settings): the
+        # file transfer then has the slave's mailbox to itself.
+        wait("the slave page's reads", lambda: d.find_elements(By.ID, "eoe-ip") and d.find_elements(By.CSS_SELECTOR, "#view table"))
         name = wait("the FoE file name", lambda: d.find_element(By.ID, "foe-name"))
         name.clear()
         name.send_keys(ARGS["foe_name"])
@@ -202,7 +220,7 @@ def main():
             "sha256": status.get_attribute("data-sha256"),
             "size": status.get_attribute("data-size"),
         }
-        wait("the SoE IDNs", lambda: d.find_elements(By.CSS_SELECTOR, "#view table"))
+        OUT["slave_emergencies"] = d.find_element(By.ID, "emergencies").text
         shot(d, "slave")
         logs(d, "foe")
 

@@ -18,6 +18,8 @@ const READ_TOKEN: &str = "read-secret-1-dashboard";
 const WRITE_TOKEN: &str = "write-secret-2-dashboard";
 /// Written to 0x2001:00 (UNSIGNED32 "Parameter" of slave 3, 0x12345678 at start).
 const COE_VALUE: u32 = 4660;
+/// The CoE emergency the simulated drive sends (CiA 301 0x8110, CAN overrun).
+const EMERGENCY_CODE: u16 = 0x8110;
 /// Malformed datagrams sent to the gateway.
 const BAD_REQUESTS: usize = 40;
 
@@ -94,6 +96,7 @@ fn the_dashboard_shows_the_segment_and_drives_the_mailboxes() {
         "foe_name": "firmware.bin",
         "foe_file": foe_file,
         "bad_requests": BAD_REQUESTS,
+        "emergency_code": EMERGENCY_CODE,
         "screenshots": shots,
     });
     let output = Command::new(venv_bin().join("python"))
@@ -130,6 +133,15 @@ fn the_dashboard_shows_the_segment_and_drives_the_mailboxes() {
     assert_eq!(r["not_reloaded"], true);
     assert_eq!(r["keyboard_view"], "#/events");
 
+    // An emergency: in the log (filtered to emergencies only) and on the slave's page.
+    assert_eq!(r["emergency_raised"], 200);
+    let rows = r["events_filtered"].as_array().unwrap();
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    let code = format!("0x{EMERGENCY_CODE:04x}");
+    assert!(rows[0].as_str().unwrap().contains(&code), "{rows:?}");
+    let shown = r["slave_emergencies"].as_str().unwrap();
+    assert!(shown.contains(&format!("0x{EMERGENCY_CODE:04X}")), "{shown}");
+
     // CoE: 0x1018:01 is the vendor id; the write reached the slave.
     assert_eq!(r["coe_1018_01"], SIM_VENDOR_ID.to_string());
     assert_eq!(r["coe_write_status"], "written");
@@ -145,7 +157,13 @@ fn the_dashboard_shows_the_segment_and_drives_the_mailboxes() {
 
     // FoE: 1 MiB written with the bar at 100 %, and the same bytes read back.
     let digest = sha256_hex(&foe);
-    assert_eq!(r["foe_write"]["progress"], 100, "{}", r["foe_write"]);
+    assert_eq!(
+        r["foe_write"]["progress"],
+        100,
+        "{}\n{}",
+        r["foe_write"],
+        ecatd.log()
+    );
     assert_eq!(r["foe_write"]["sha256"], digest.as_str());
     assert_eq!(r["foe_read"]["progress"], 100, "{}", r["foe_read"]);
     assert_eq!(r["foe_read"]["sha256"], digest.as_str());

@@ -67,6 +67,8 @@ function askToken(reason) {
   document.getElementById("token-reason").textContent = reason || "Enter the bearer token ecatd gave you (kept for this browser tab only).";
   const input = document.getElementById("token-input");
   input.value = token();
+  // Escape closes without a button: then nothing changes.
+  dialog.returnValue = "";
   dialog.showModal();
   input.focus();
 }
