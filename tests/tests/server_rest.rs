@@ -394,13 +394,19 @@ fn bus_counters_and_session() {
             assert!(now["cycle_time"]["count"].as_u64().unwrap() > 0, "{now}");
             break;
         }
-        assert!(std::time::Instant::now() < deadline, "the cycle counters do not move: {now}");
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the cycle counters do not move: {now}"
+        );
         // Poll interval; the loop ends on the condition or the deadline.
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     let (status, session) = get(&ecatd, "/api/v1/session");
     assert_eq!(status, 200);
-    assert_eq!(session, serde_json::json!({"caller": "anonymous", "role": "write"}));
+    assert_eq!(
+        session,
+        serde_json::json!({"caller": "anonymous", "role": "write"})
+    );
 }
 
 #[test]

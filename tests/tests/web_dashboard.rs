@@ -80,7 +80,10 @@ fn the_dashboard_shows_the_segment_and_drives_the_mailboxes() {
     // The page itself: embedded, with a policy that allows nothing off-origin.
     let (status, page) = curl(&["-s", "-i", &format!("{}/", ecatd.http)]);
     assert_eq!(status, 200);
-    assert!(page.contains("content-security-policy: default-src 'none'"), "{page}");
+    assert!(
+        page.contains("content-security-policy: default-src 'none'"),
+        "{page}"
+    );
     assert!(page.contains("<script type=\"module\" src=\"/static/app.js\">"));
 
     let args = serde_json::json!({
@@ -140,7 +143,10 @@ fn the_dashboard_shows_the_segment_and_drives_the_mailboxes() {
     let code = format!("0x{EMERGENCY_CODE:04x}");
     assert!(rows[0].as_str().unwrap().contains(&code), "{rows:?}");
     let shown = r["slave_emergencies"].as_str().unwrap();
-    assert!(shown.contains(&format!("0x{EMERGENCY_CODE:04X}")), "{shown}");
+    assert!(
+        shown.contains(&format!("0x{EMERGENCY_CODE:04X}")),
+        "{shown}"
+    );
 
     // CoE: 0x1018:01 is the vendor id; the write reached the slave.
     assert_eq!(r["coe_1018_01"], SIM_VENDOR_ID.to_string());
@@ -177,7 +183,11 @@ fn the_dashboard_shows_the_segment_and_drives_the_mailboxes() {
 
     // Gateway: no failures before, the failure rate above the 5 % line after.
     assert_eq!(r["gateway_before"], 0.0);
-    assert!(r["gateway_after"].as_f64().unwrap() > 5.0, "{}", r["gateway_after"]);
+    assert!(
+        r["gateway_after"].as_f64().unwrap() > 5.0,
+        "{}",
+        r["gateway_after"]
+    );
     assert!(r["gateway_chart_last"].as_f64().unwrap() > 5.0);
     let (_, gateway) = rest(&ecatd, READ_TOKEN, &[], "/api/v1/gateway");
     let gateway: serde_json::Value = serde_json::from_str(&gateway).unwrap();

@@ -154,6 +154,11 @@ export function listen(onEvent, onStatus) {
         onStatus("reconnecting…");
       } catch (err) {
         if (stopped) return;
+        if (err.name === "AbortError") {
+          // restart(): a new token; connect again at once.
+          onStatus("reconnecting…");
+          continue;
+        }
         onStatus(err.status === 401 ? "token needed" : "offline");
       }
       await new Promise((r) => setTimeout(r, 1000));

@@ -77,7 +77,10 @@ fn etags() -> &'static [String] {
 /// The dashboard's routes (public: the page holds no data; its API calls carry the token).
 pub fn routes() -> Router {
     Router::new()
-        .route("/", get(|headers: HeaderMap| async move { serve("index.html", &headers) }))
+        .route(
+            "/",
+            get(|headers: HeaderMap| async move { serve("index.html", &headers) }),
+        )
         .route(
             "/static/{*file}",
             get(|Path(file): Path<String>, headers: HeaderMap| async move {
@@ -150,7 +153,10 @@ mod tests {
 
     #[test]
     fn types_tags_and_policy() {
-        assert_eq!(content_type("static/app.js"), "text/javascript; charset=utf-8");
+        assert_eq!(
+            content_type("static/app.js"),
+            "text/javascript; charset=utf-8"
+        );
         assert_eq!(content_type("index.html"), "text/html; charset=utf-8");
         let page = serve("index.html", &HeaderMap::new());
         assert_eq!(page.status(), StatusCode::OK);

@@ -1,8 +1,8 @@
 //! The bus's counters and timing, and who the caller is (the dashboard hides write controls
 //! from a read token).
 
-use axum::{Extension, Json};
 use axum::extract::State;
+use axum::{Extension, Json};
 use serde::Serialize;
 use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
