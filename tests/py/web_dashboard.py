@@ -232,7 +232,7 @@ def main():
         host, port = ARGS["gateway"].rsplit(":", 1)
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as udp:
             for i in range(ARGS["bad_requests"]):
-                # Too short for an ETG.8200 header (ETG.8200 §5.2): counted as malformed.
+                # Too short for an ETG.8200 request (spec-notes §gateway): counted as malformed.
                 udp.sendto(bytes([0x42, i & 0xFF]), (host, int(port)))
         OUT["gateway_after"] = wait("the failure rate to rise", lambda: float(rate.get_attribute("data-overall")) > 5 and float(rate.get_attribute("data-overall")))
         OUT["gateway_chart_last"] = wait("the chart to show it", lambda: float(js(d, "return document.querySelector('#chart-failure-rate path.line').dataset.last") or 0) > 5

@@ -1,4 +1,4 @@
-// The CoE object dictionary as a tree, from SDO Information (ETG.1000.6 §5.6.3): the
+// The CoE object dictionary as a tree, from SDO Information (spec-notes §coe.info): the
 // object list, each object's description, and its entries' descriptions when opened.
 // Values are read on demand and decoded by their data type; a writable entry gets an editor
 // for its type (write role only).
@@ -7,7 +7,7 @@ import { api } from "./api.js";
 import { h, fill, hex, errorLine } from "./dom.js";
 
 const OBJECT_CODES = { 7: "VAR", 8: "ARRAY", 9: "RECORD" };
-/** Object access bits 3-5: writable in PREOP, SAFEOP, OP (ETG.1000.6 Table 44). */
+/** Object access bits 3-5: writable in PREOP, SAFEOP, OP (spec-notes §coe.info). */
 const WRITE_BITS = 0x38;
 
 function sub(n) {

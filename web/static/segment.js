@@ -1,6 +1,6 @@
 // The segment: every slave in ring order as a line of ports, with link state (ESC DL status
-// 0x0110, ETG.1000.4 §6.1.4.1), AL state and status code, identity, alias, DC support (ESC
-// features 0x0008 bit 2); live from the event stream; state requests for one slave or all.
+// 0x0110, spec-notes §esc.dl), AL state and status code, identity, alias, DC support (ESC
+// features 0x0008 bit 2, spec-notes §esc.info); live from the event stream; state requests for one slave or all.
 
 import { api } from "./api.js";
 import { h, fill, hex, errorLine } from "./dom.js";

@@ -1,5 +1,5 @@
-// The SII summary: the fixed area (ETG.1000.6 §5.4, Table 16 "Slave Information Interface
-// area") and the STRINGS and GENERAL categories (ETG.2010 Table 2, Table 4).
+// The SII summary: the fixed area and the STRINGS and GENERAL categories (spec-notes
+// §sii.fixed, §sii.categories).
 
 import { hex } from "./dom.js";
 

@@ -16,7 +16,7 @@ function idnName(idn) {
   return `${kind}-${(idn >> 12) & 7}-${String(idn & 0xfff).padStart(4, "0")}`;
 }
 
-/** ESC error counters 0x0300-0x0313 (ETG.1000.4 §6.2, Table 41-45 "Error counters"). */
+/** ESC error counters 0x0300-0x0313 (spec-notes §esc.errors). */
 function counterRows(b) {
   const ports = [0, 1, 2, 3];
   return [
@@ -47,7 +47,7 @@ async function soeView(body, position) {
   fill(body, h("p", { class: "muted" }, "reading S-0-0017 (IDN list)…"));
   try {
     const list = bytesOf((await api(`/slaves/${position}/soe/0/17`)).data);
-    // A list: current length, maximum length (bytes), then the IDNs (IEC 61800-7-204).
+    // A list: current length, maximum length (bytes), then the IDNs (spec-notes §soe).
     const idns = [];
     const len = list[0] | (list[1] << 8);
     for (let i = 4; i + 1 < Math.min(list.length, 4 + len); i += 2) idns.push(list[i] | (list[i + 1] << 8));
