@@ -48,12 +48,17 @@ pub const REST: &[(&str, &str, Access)] = &[
     ("GET", "/healthz", Public),
     ("GET", "/readyz", Public),
     ("GET", "/metrics", Public),
+    // The dashboard's files (`http::web`); its data comes through `/api/v1`.
+    ("GET", "/", Public),
+    ("GET", "/static/{*file}", Public),
     ("GET", "/api/v1/openapi.json", Public),
     ("GET", "/api/v1/slaves", Read),
     ("GET", "/api/v1/slaves/{slave}", Read),
     ("PUT", "/api/v1/slaves/{slave}/state", Write),
     ("POST", "/api/v1/rescan", Write),
     ("GET", "/api/v1/events", Read),
+    ("GET", "/api/v1/bus", Read),
+    ("GET", "/api/v1/session", Read),
     // Read, but a read over a mailbox SyncManager area needs a write token (service layer).
     ("GET", "/api/v1/slaves/{slave}/registers/{address}", Read),
     ("PUT", "/api/v1/slaves/{slave}/registers/{address}", Write),

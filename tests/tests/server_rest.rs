@@ -15,7 +15,7 @@ use server_support::{Ecatd, curl, curl_as_browser};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
-const ROUTES: [(&str, &str); 25] = [
+const ROUTES: [(&str, &str); 27] = [
     ("get", "/api/v1/slaves"),
     ("get", "/api/v1/slaves/{slave}"),
     ("put", "/api/v1/slaves/{slave}/state"),
@@ -41,6 +41,8 @@ const ROUTES: [(&str, &str); 25] = [
     ("get", "/api/v1/gateway"),
     ("post", "/api/v1/gateway/start"),
     ("post", "/api/v1/gateway/stop"),
+    ("get", "/api/v1/bus"),
+    ("get", "/api/v1/session"),
 ];
 
 fn get(ecatd: &Ecatd, path: &str) -> (u16, Value) {
@@ -371,6 +373,39 @@ fn gateway_routes_report_stop_and_start_the_gateway() {
     assert_eq!(
         client.sdo_upload(1001, 0x1000, 0),
         Ok(device_type.to_le_bytes().to_vec())
+    );
+}
+
+/// The dashboard's two reads: the bus counters move with the cycle, the session names the
+/// caller (no tokens: `anonymous` with the write role).
+#[test]
+fn bus_counters_and_session() {
+    let ecatd = Ecatd::start(&[]);
+    let (status, first) = get(&ecatd, "/api/v1/bus");
+    assert_eq!(status, 200, "{first}");
+    assert!(first["period_us"].as_u64().unwrap() > 0, "{first}");
+    assert!(first["expected_wkc"].as_u64().unwrap() > 0, "{first}");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    loop {
+        let (_, now) = get(&ecatd, "/api/v1/bus");
+        if now["cycles_completed"].as_u64() > first["cycles_completed"].as_u64()
+            && now["frames_sent"].as_u64() > first["frames_sent"].as_u64()
+        {
+            assert!(now["cycle_time"]["count"].as_u64().unwrap() > 0, "{now}");
+            break;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the cycle counters do not move: {now}"
+        );
+        // Poll interval; the loop ends on the condition or the deadline.
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let (status, session) = get(&ecatd, "/api/v1/session");
+    assert_eq!(status, 200);
+    assert_eq!(
+        session,
+        serde_json::json!({"caller": "anonymous", "role": "write"})
     );
 }
 

@@ -3,7 +3,7 @@
 //!
 //! Files: `rest` (handlers, one file per resource), `gateway` (the gateway's handlers),
 //! `openapi` (the document's frame), `error` (errors as JSON), `auth` (tokens), `health`,
-//! `sim` (the simulator's debug route, `--simulate` only).
+//! `sim` (the simulator's debug route, `--simulate` only), `web` (the dashboard at `/`).
 
 pub mod audit;
 pub mod auth;
@@ -14,6 +14,7 @@ pub mod health;
 pub mod openapi;
 pub mod rest;
 pub mod sim;
+pub mod web;
 
 use std::future::Future;
 use std::sync::Arc;
@@ -95,6 +96,7 @@ pub fn router(
                 )),
         )
         .merge(health::routes(core))
+        .merge(web::routes())
 }
 
 /// Whether `/metrics` needs a token (`metrics_token`): then any configured token (read

@@ -3,9 +3,10 @@
 //!
 //! Files: `address` (slave names), `error` (the one error type), `view` (what the APIs
 //! serialise), `ip` (EoE IP parameter text forms), `gateway` (the mailbox gateway's state,
-//! start and stop), `read_effects` (register reads that need the write role).
+//! start and stop), `bus` (frame and cycle counters), `read_effects` (register reads that need the write role).
 
 pub mod address;
+pub mod bus;
 pub mod error;
 pub mod events;
 pub mod gateway;
@@ -28,6 +29,7 @@ use tokio::sync::broadcast;
 use crate::metrics::calls::{MailboxCalls, Outcome, Protocol};
 use crate::security::{Caller, authorize_write};
 pub use address::parse_slave;
+pub use bus::BusView;
 pub use error::{ApiError, ErrorKind};
 pub use gateway::GatewayView;
 use value::ValueType;

@@ -1,5 +1,5 @@
 //! REST handlers under `/api/v1`: the same operations as gRPC, one core call each, one file
-//! per resource as in `grpc/` (`slaves`, `registers`, `sii`, `coe`, `soe`, `foe`, `voe`,
+//! per resource as in `grpc/` (`slaves`, `bus` (counters and the caller's role), `registers`, `sii`, `coe`, `soe`, `foe`, `voe`,
 //! `eoe`). Binary values are hex strings; numbers in paths are decimal or `0x` hex; slave
 //! names use the common syntax (`3`, `%231004` for `#1004`, `@0x777`).
 //!
@@ -7,6 +7,7 @@
 //! relative to `/api/v1`): the router is built from those annotations, so the OpenAPI
 //! document lists exactly the routes served.
 
+pub mod bus;
 pub mod coe;
 pub mod eoe;
 pub mod foe;
@@ -60,6 +61,7 @@ const DONE: Json<Done> = Json(Done { ok: true });
 pub fn routes() -> OpenApiRouter<Core> {
     OpenApiRouter::new()
         .merge(slaves::routes())
+        .merge(bus::routes())
         .merge(registers::routes())
         .merge(sii::routes())
         .merge(coe::routes())

@@ -1,0 +1,183 @@
+// ecatd's REST API and event stream, with the bearer token when one is set. Every write
+// is JSON or octet-stream with the X-Ecat-Client header, as ecatd's browser checks require.
+
+const TOKEN_KEY = "ecatd.token";
+const BASE = "/api/v1";
+
+/** An API error: HTTP status and ecatd's message. */
+export class ApiError extends Error {
+  constructor(status, message, kind) {
+    super(message);
+    this.status = status;
+    this.kind = kind;
+  }
+}
+
+const unauthorizedListeners = new Set();
+
+/** Calls `fn(error)` when ecatd refuses a call for want of a (valid) token. */
+export function onUnauthorized(fn) {
+  unauthorizedListeners.add(fn);
+}
+
+export function token() {
+  return sessionStorage.getItem(TOKEN_KEY) || "";
+}
+
+export function setToken(value) {
+  if (value) sessionStorage.setItem(TOKEN_KEY, value);
+  else sessionStorage.removeItem(TOKEN_KEY);
+}
+
+function headers(extra) {
+  const out = { "X-Ecat-Client": "dashboard", ...extra };
+  const t = token();
+  if (t) out.Authorization = "Bearer " + t;
+  return out;
+}
+
+async function failure(response) {
+  let message = response.statusText;
+  let kind;
+  try {
+    const body = await response.json();
+    const e = body.error;
+    if (e && typeof e === "object") {
+      message = e.message || message;
+      kind = e.kind;
+    } else {
+      message = body.message || e || message;
+    }
+  } catch {
+    // Not JSON: keep the status text.
+  }
+  const err = new ApiError(response.status, message, kind);
+  if (response.status === 401) unauthorizedListeners.forEach((fn) => fn(err));
+  return err;
+}
+
+/** GET (or `method`) `path` under /api/v1; `body` is sent as JSON; returns the JSON. */
+export async function api(path, { method = "GET", body } = {}) {
+  const init = { method, headers: headers(body === undefined ? {} : { "Content-Type": "application/json" }) };
+  if (body !== undefined) init.body = JSON.stringify(body);
+  const response = await fetch(BASE + path, init);
+  if (!response.ok) throw await failure(response);
+  return response.json();
+}
+
+/** GET `path` as bytes, reporting `progress(received, total)` as they arrive. */
+export async function download(path, progress) {
+  const response = await fetch(BASE + path, { headers: headers() });
+  if (!response.ok) throw await failure(response);
+  const total = Number(response.headers.get("Content-Length")) || 0;
+  const reader = response.body.getReader();
+  const parts = [];
+  let received = 0;
+  for (;;) {
+    const { done, value } = await reader.read();
+    if (done) break;
+    parts.push(value);
+    received += value.length;
+    progress(received, total);
+  }
+  const out = new Uint8Array(received);
+  let at = 0;
+  for (const p of parts) {
+    out.set(p, at);
+    at += p.length;
+  }
+  return out;
+}
+
+/**
+ * PUT `bytes` to `path` as application/octet-stream; `progress(phase, fraction)` reports the
+ * body going to ecatd ("sending") and then the wait for the slave ("writing").
+ */
+export function upload(path, bytes, progress) {
+  return new Promise((resolve, reject) => {
+    const xhr = new XMLHttpRequest();
+    xhr.open("PUT", BASE + path);
+    for (const [k, v] of Object.entries(headers({ "Content-Type": "application/octet-stream" }))) {
+      xhr.setRequestHeader(k, v);
+    }
+    xhr.upload.onprogress = (e) => {
+      if (e.lengthComputable) progress("sending", e.loaded / e.total);
+    };
+    xhr.upload.onload = () => progress("writing", 1);
+    xhr.onerror = () => reject(new ApiError(0, "connection to ecatd lost"));
+    xhr.onload = async () => {
+      if (xhr.status >= 200 && xhr.status < 300) {
+        resolve(JSON.parse(xhr.responseText));
+        return;
+      }
+      reject(await failure(new Response(xhr.responseText, { status: xhr.status, statusText: xhr.statusText })));
+    };
+    xhr.send(bytes);
+  });
+}
+
+/**
+ * Listens to /api/v1/events (server-sent events read over fetch, so that the token goes in
+ * a header) and calls `onEvent(event)` for each; `onStatus(text)` says whether it is live.
+ * Reconnects after a second when the stream ends.
+ */
+export function listen(onEvent, onStatus) {
+  let stopped = false;
+  let controller;
+  async function run() {
+    while (!stopped) {
+      controller = new AbortController();
+      try {
+        const response = await fetch(BASE + "/events", { headers: headers(), signal: controller.signal });
+        if (!response.ok) throw await failure(response);
+        onStatus("live");
+        const reader = response.body.pipeThrough(new TextDecoderStream()).getReader();
+        let buffer = "";
+        for (;;) {
+          const { done, value } = await reader.read();
+          if (done) break;
+          buffer += value.replace(/\r\n/g, "\n");
+          let end;
+          while ((end = buffer.indexOf("\n\n")) >= 0) {
+            const block = buffer.slice(0, end);
+            buffer = buffer.slice(end + 2);
+            const data = block.split("\n").filter((l) => l.startsWith("data:")).map((l) => l.slice(5).trimStart()).join("\n");
+            if (data) {
+              try {
+                onEvent(JSON.parse(data));
+              } catch {
+                // A comment or keep-alive: nothing to show.
+              }
+            }
+          }
+        }
+        onStatus("reconnecting…");
+      } catch (err) {
+        if (stopped) return;
+        if (err.name === "AbortError") {
+          // restart(): a new token; connect again at once.
+          onStatus("reconnecting…");
+          continue;
+        }
+        onStatus(err.status === 401 ? "token needed" : "offline");
+      }
+      await new Promise((r) => setTimeout(r, 1000));
+    }
+  }
+  run();
+  return {
+    restart() {
+      if (controller) controller.abort();
+    },
+    stop() {
+      stopped = true;
+      if (controller) controller.abort();
+    },
+  };
+}
+
+/** SHA-256 of `bytes`, hex. */
+export async function sha256(bytes) {
+  const digest = new Uint8Array(await crypto.subtle.digest("SHA-256", bytes));
+  return Array.from(digest, (b) => b.toString(16).padStart(2, "0")).join("");
+}

@@ -1,0 +1,126 @@
+// The dashboard's frame: the views by URL fragment (#/segment, #/slave/3, #/gateway,
+// #/bus, #/events), the event stream shared by all views, the token prompt, the theme.
+
+import { api, listen, onUnauthorized, setToken, token } from "./api.js";
+import { fill, errorLine } from "./dom.js";
+import * as segment from "./segment.js";
+import * as slave from "./slave.js";
+import * as gateway from "./gateway.js";
+import * as bus from "./bus.js";
+import * as events from "./events.js";
+
+const VIEWS = { segment, slave, gateway, bus, events };
+const MAX_EVENTS = 1000;
+
+/** What every view may use. */
+export const app = {
+  role: "read",
+  /** Events received since the page opened, newest last. */
+  log: [],
+  listeners: new Set(),
+  canWrite() {
+    return this.role === "write";
+  },
+  /** Calls `fn(event)` for each new event until the view changes. */
+  onEvent(fn) {
+    this.listeners.add(fn);
+  },
+};
+
+const view = document.getElementById("view");
+let current = null;
+
+async function loadSession() {
+  try {
+    const session = await api("/session");
+    app.role = session.role;
+    document.getElementById("role").textContent = `${session.caller} (${session.role === "write" ? "read and write" : "read only"})`;
+  } catch (err) {
+    app.role = "read";
+    document.getElementById("role").textContent = err.status === 401 ? "no token" : "";
+  }
+  document.body.classList.toggle("read-only", app.role !== "write");
+}
+
+async function route() {
+  const [, name = "segment", ...args] = (location.hash || "#/segment").split("/");
+  const module = VIEWS[name] || segment;
+  if (current && current.stop) current.stop();
+  app.listeners.clear();
+  document.querySelectorAll("nav a").forEach((a) => {
+    const active = a.dataset.view === name || (name === "slave" && a.dataset.view === "segment");
+    if (active) a.setAttribute("aria-current", "page");
+    else a.removeAttribute("aria-current");
+  });
+  fill(view);
+  document.title = `ecatd: ${name}`;
+  try {
+    current = (await module.show(view, app, ...args.map(decodeURIComponent))) || null;
+  } catch (err) {
+    fill(view, errorLine(err));
+  }
+}
+
+function askToken(reason) {
+  const dialog = document.getElementById("token-dialog");
+  if (dialog.open) return;
+  document.getElementById("token-reason").textContent = reason || "Enter the bearer token ecatd gave you (kept for this browser tab only).";
+  const input = document.getElementById("token-input");
+  input.value = token();
+  // Escape closes without a button: then nothing changes.
+  dialog.returnValue = "";
+  dialog.showModal();
+  input.focus();
+}
+
+function setupToken(stream) {
+  const dialog = document.getElementById("token-dialog");
+  document.getElementById("token-button").addEventListener("click", () => askToken());
+  dialog.addEventListener("close", async () => {
+    if (dialog.returnValue === "save") setToken(document.getElementById("token-input").value.trim());
+    else if (dialog.returnValue === "forget") setToken("");
+    else return;
+    await loadSession();
+    stream.restart();
+    route();
+  });
+  onUnauthorized((err) => askToken(`ecatd says: ${err.message}`));
+}
+
+const THEMES = ["auto", "light", "dark"];
+
+function setupTheme() {
+  const button = document.getElementById("theme-button");
+  const apply = (theme) => {
+    if (theme === "auto") document.documentElement.removeAttribute("data-theme");
+    else document.documentElement.dataset.theme = theme;
+    button.textContent = `Theme: ${theme}`;
+  };
+  let theme = localStorage.getItem("ecatd.theme") || "auto";
+  apply(theme);
+  button.addEventListener("click", () => {
+    theme = THEMES[(THEMES.indexOf(theme) + 1) % THEMES.length];
+    localStorage.setItem("ecatd.theme", theme);
+    apply(theme);
+  });
+}
+
+async function start() {
+  setupTheme();
+  const live = document.getElementById("live");
+  const stream = listen((event) => {
+    event.received = new Date();
+    app.log.push(event);
+    if (app.log.length > MAX_EVENTS) app.log.shift();
+    app.listeners.forEach((fn) => fn(event));
+  }, (status) => {
+    live.textContent = `events: ${status}`;
+    live.dataset.status = status;
+  });
+  setupToken(stream);
+  await loadSession();
+  window.addEventListener("hashchange", route);
+  await route();
+}
+
+start();
