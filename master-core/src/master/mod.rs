@@ -63,6 +63,10 @@ pub use access::address::SlaveAddress;
 pub use bringup::dc_settings::{DcSettings, DcSlave};
 pub use bringup::safe_state::SafeStateReport;
 pub use bringup::scan::ScanReport;
+pub use bringup::slave_config::{
+    ExpectedIdentity, MismatchPolicy, RevisionMatch, SlaveConfig, SlaveConfigs, SlaveDc,
+    StartupAction, StartupCommand, SyncSignal, TopologyProblem, Transition, Watchdog,
+};
 pub use config::MasterConfig;
 pub use error::MasterError;
 pub use event::MasterEvent;
@@ -133,6 +137,7 @@ impl Master {
             image,
             layout_source: source,
             pdo_configs: Mutex::new(Vec::new()),
+            slave_configs: Mutex::new(Default::default()),
             dc: Mutex::new(Vec::new()),
             mailboxes,
             topology: tokio::sync::Mutex::new(()),

@@ -4,10 +4,12 @@
 //! Files: `family` (building families), `bus` (link and cycle), `slaves` (AL states and
 //! codes), `mailbox` (per-slave mailbox and EoE counters), `gateway` (the mailbox gateway's
 //! statistics), `calls` (ecatd's own mailbox requests per slave and protocol), `esc` (the
-//! ESC error counters, read in the background).
+//! ESC error counters, read in the background), `config` (what the segment's configuration
+//! found: mismatches and failed start-up commands).
 
 mod bus;
 pub mod calls;
+pub mod config;
 pub mod esc;
 pub(crate) mod family;
 mod gateway;
@@ -32,6 +34,7 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     families.extend(store.calls.collect());
     families.extend(store.esc.collect());
     families.extend(store.watch.collect());
+    families.extend(store.config.collect());
     families.extend(gateway::collect(core));
     families.into_iter().flatten().collect()
 }
@@ -46,6 +49,8 @@ pub struct Store {
     pub esc: Arc<esc::EscCounters>,
     /// The watched values (`[[watch]]`).
     pub watch: Arc<crate::watch::WatchValues>,
+    /// Configuration mismatches and failed start-up commands.
+    pub config: Arc<config::ConfigFindings>,
 }
 
 /// The background readers behind the metrics; they stop when this is dropped.

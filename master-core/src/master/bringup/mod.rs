@@ -15,4 +15,6 @@ pub(super) mod mailboxes;
 pub(super) mod reset;
 pub(super) mod safe_state;
 pub(super) mod scan;
+pub(super) mod slave_config;
+pub(super) mod startup;
 pub(super) mod watch;
