@@ -47,6 +47,14 @@ pub async fn run(config: Config) -> Result<(), String> {
     // What the metrics record lives beside the core; the core only records its requests.
     let metrics = Arc::new(crate::metrics::Store::default());
     let core = Core::new(running.master.clone(), Arc::clone(&metrics.calls));
+    core.set_effective_config(
+        config.to_toml(),
+        config
+            .eni
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default(),
+    );
     // Before the scan: its findings against the configuration are counted too.
     let findings = metrics.config.follow(core.master());
     let tokens = Tokens::new(config.tokens.clone());

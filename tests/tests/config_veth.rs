@@ -76,6 +76,7 @@ impl Segment {
 struct Daemon {
     child: Child,
     http: String,
+    grpc: String,
     log: Arc<Mutex<Vec<String>>>,
 }
 
@@ -116,7 +117,13 @@ impl Daemon {
             }
         };
         let http = format!("http://{}", listening["fields"]["http"].as_str().unwrap());
-        let daemon = Daemon { child, http, log };
+        let grpc = format!("http://{}", listening["fields"]["grpc"].as_str().unwrap());
+        let daemon = Daemon {
+            child,
+            http,
+            grpc,
+            log,
+        };
         daemon.wait(|| curl(&["-s", &format!("{}/readyz", daemon.http)]).0 == 200);
         daemon
     }
@@ -395,22 +402,47 @@ fn a_configuration_file_is_applied_and_applied_again_after_a_power_cycle() {
     );
 }
 
-/// The drive's reads-back and the wire of one run of ecatd with `args` on the default
-/// segment: the drive's SDO downloads, the store's, and the cycle.
-fn wire_result(
-    name: &str,
-    args: &[&str],
-) -> (Vec<(u16, u8, Vec<u8>)>, Vec<(u16, u8, Vec<u8>)>, Duration) {
+/// The effective configuration as `ecat config` (gRPC) prints it, checked against the
+/// REST route's.
+fn shown_config(ecatd: &Daemon) -> server::config::Config {
+    let output = Command::new(bin_dir().join("ecat"))
+        .args(["--address", &ecatd.grpc, "--json", "config"])
+        .output()
+        .expect("ecat runs");
+    assert!(output.status.success(), "{output:?}");
+    let by_grpc: Value = serde_json::from_slice(&output.stdout).unwrap();
+    let by_rest = ecatd.get("/api/v1/config");
+    assert_eq!(by_grpc, by_rest);
+    toml::from_str(by_rest["toml"].as_str().unwrap()).expect("the shown TOML reads back")
+}
+
+/// What one run of ecatd on the default segment did: the drive's SDO downloads, the
+/// store's, the cycle on the wire, and the slaves of the effective configuration.
+type WireResult = (
+    Vec<(u16, u8, Vec<u8>)>,
+    Vec<(u16, u8, Vec<u8>)>,
+    Duration,
+    Vec<master_core::master::SlaveConfig>,
+);
+
+/// The [`WireResult`] of ecatd with `args`, after reading back what the sample sets.
+fn wire_result(name: &str, args: &[&str]) -> WireResult {
     let segment = Segment::start(name, None);
     let ecatd = Daemon::start(&segment, args);
     ecatd.wait(|| ecatd.states().iter().all(|s| s == "OP"));
     check_applied(&ecatd);
+    let config = shown_config(&ecatd);
+    assert_eq!(config.bus.cycle, Duration::from_micros(500));
+    let setup = config
+        .segment_setup()
+        .expect("the shown configuration is good");
     ecatd.stop();
     let frames = segment.frames();
     (
         sdo_downloads(&frames, DRIVE, 0x1000),
         sdo_downloads(&frames, DRIVE + 3, 0x1000),
         cycle_on_the_wire(&frames),
+        setup.slaves.slaves,
     )
 }
 
@@ -418,12 +450,17 @@ fn wire_result(
 fn an_eni_gives_the_same_wire_result_as_the_equivalent_toml() {
     let toml = data("drive-500us.toml");
     let eni = data("default-segment.eni.xml");
-    let (drive, store, cycle) = wire_result("eni-toml", &["--config", toml.to_str().unwrap()]);
+    let (drive, store, cycle, shown) =
+        wire_result("eni-toml", &["--config", toml.to_str().unwrap()]);
     assert_eq!(drive, drive_downloads());
     assert_eq!(store, vec![(0x2001, 0, le(0xCAFE_F00D, 4))]);
-    let (eni_drive, eni_store, eni_cycle) = wire_result("eni", &["--eni", eni.to_str().unwrap()]);
+    let (eni_drive, eni_store, eni_cycle, eni_shown) =
+        wire_result("eni", &["--eni", eni.to_str().unwrap()]);
     assert_eq!(eni_drive, drive);
     assert_eq!(eni_store, store);
+    // `ecat config` shows the same slaves (identity, PDOs, DC, start-up commands) either
+    // way.
+    assert_eq!(eni_shown, shown);
     for cycle in [cycle, eni_cycle] {
         assert!(
             cycle > Duration::from_micros(400) && cycle < Duration::from_micros(600),

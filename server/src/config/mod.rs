@@ -671,7 +671,16 @@ impl Config {
                 "***".into()
             };
         }
-        toml::to_string(&shown).unwrap_or_else(|err| format!("# cannot show: {err}\n"))
+        // The slaves and cycle of an ENI are shown as entries: the text reads back as a
+        // configuration of its own, without the ENI.
+        let from_eni = shown.eni.take().map(|eni| {
+            format!(
+                "# [bus] cycle and [[slave]] entries from the ENI file {}\n",
+                eni.display()
+            )
+        });
+        let text = toml::to_string(&shown).unwrap_or_else(|err| format!("# cannot show: {err}\n"));
+        from_eni.unwrap_or_default() + &text
     }
 }
 
