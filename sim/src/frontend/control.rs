@@ -160,18 +160,20 @@ mod tests {
     fn commands_reach_the_handles_and_bad_ones_are_refused() {
         let built = build_with_handles(&Topology::default_segment()).unwrap();
         let handles = built.slaves;
-        command(&handles, "input 2 5 1").unwrap();
-        assert!(
-            command(&handles, "input 1 5 1").is_err(),
-            "DO8 has no inputs"
-        );
-        command(&handles, "emergency 3 0x8100").unwrap();
-        command(&handles, "emergency 3 8130 11 deadbeef01").unwrap();
+        let power = PowerCycles::default();
+        let command = |line: &str| command(&handles, &power, line);
+        command("input 2 5 1").unwrap();
+        assert!(command("input 1 5 1").is_err(), "DO8 has no inputs");
+        command("emergency 3 0x8100").unwrap();
+        command("emergency 3 8130 11 deadbeef01").unwrap();
         assert_eq!(handles[3].emergencies.as_ref().unwrap().pending(), 2);
-        assert!(command(&handles, "emergency 3 8130 11 dead").is_err());
-        assert!(command(&handles, "emergency 3 8130 1ff deadbeef01").is_err());
-        assert!(command(&handles, "emergency 9 8100").is_err());
-        assert!(command(&handles, "input 2 x 1").is_err());
-        assert!(command(&handles, "reboot").is_err());
+        assert!(command("emergency 3 8130 11 dead").is_err());
+        assert!(command("emergency 3 8130 1ff deadbeef01").is_err());
+        assert!(command("emergency 9 8100").is_err());
+        assert!(command("input 2 x 1").is_err());
+        assert!(command("reboot").is_err());
+        command("power-cycle 1").unwrap();
+        assert!(command("power-cycle 9").is_err());
+        assert_eq!(power.queued(), vec![1]);
     }
 }

@@ -36,6 +36,15 @@ impl PowerCycles {
         self.pending.store(true, Ordering::Release);
     }
 
+    /// The positions waiting for their power cycle.
+    #[cfg(test)]
+    pub fn queued(&self) -> Vec<usize> {
+        self.positions
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone()
+    }
+
     fn apply(&self, segment: &mut Segment) {
         if !self.pending.swap(false, Ordering::Acquire) {
             return;
