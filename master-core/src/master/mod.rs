@@ -27,7 +27,8 @@
 //! - `bringup/`: the scan of all slaves (`scan`), one slave's configuration (`configure`),
 //!   register reset (`reset`), the SII interface (`eeprom`), AL state changes (`al`),
 //!   distributed clocks (`dc`, `dc_settings`), the mailbox engine kept in step (`mailboxes`), the topology
-//!   watch (`watch`), and their [`Master`] methods (`api`);
+//!   watch (`watch`), the per-slave configuration (`slave_config`: expected identity,
+//!   start-up commands, DC; applied by `startup`), and their [`Master`] methods (`api`);
 //! - `process_data/`: layouts (`layout`, `coe_layout`), PDO assignments (`pdo_assignment`,
 //!   written by `pdo_config`), the
 //!   image and cyclic task (`image`), groups (`groups`), named entries and snapshots
