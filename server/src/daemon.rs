@@ -35,7 +35,15 @@ pub async fn run(config: Config) -> Result<(), String> {
         .as_ref()
         .map(crate::tls::TlsFiles::load)
         .transpose()?;
-    let running = segment::open(&segment_config)?;
+    let setup = config.segment_setup()?;
+    if !config.eni_unused.is_empty() {
+        tracing::info!(
+            eni = %config.eni.as_ref().map(|p| p.display().to_string()).unwrap_or_default(),
+            unused = %config.eni_unused.join(", "),
+            "ENI elements ecatd does not use"
+        );
+    }
+    let running = segment::open(&segment_config, &setup)?;
     // What the metrics record lives beside the core; the core only records its requests.
     let metrics = Arc::new(crate::metrics::Store {
         link: match &segment_config {
@@ -47,6 +55,16 @@ pub async fn run(config: Config) -> Result<(), String> {
         ..Default::default()
     });
     let core = Core::new(running.master.clone(), Arc::clone(&metrics.calls));
+    core.set_effective_config(
+        config.to_toml(),
+        config
+            .eni
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default(),
+    );
+    // Before the scan: its findings against the configuration are counted too.
+    let findings = metrics.config.follow(core.master());
     let tokens = Tokens::new(config.tokens.clone());
     reload_tokens_on_sighup(&config, &tokens)?;
     tracing::info!(
@@ -100,6 +118,19 @@ pub async fn run(config: Config) -> Result<(), String> {
                         tracing::warn!(%failure, "slave did not reach its target state");
                     }
                     tracing::info!(slaves = report.slaves.len(), "segment scanned");
+                }
+                // The configuration does not fit the segment: found before any slave
+                // left INIT, so nothing of it was applied; ecatd does not start.
+                Err(err @ master_core::master::MasterError::Configuration { .. }) => {
+                    tracing::error!(%err, "the configuration does not fit the segment");
+                    core.stop_streams();
+                    let _ = stop_tx.send(true);
+                    let _ = grpc_task.await;
+                    let _ = http_task.await;
+                    findings.abort();
+                    drop(core);
+                    running.stop();
+                    return Err(format!("the configuration does not fit the segment: {err}"));
                 }
                 Err(err) => {
                     tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan")
@@ -161,6 +192,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         let _ = tokio::task::spawn_blocking(move || gateway.stop()).await;
     }
     drop(background);
+    findings.abort();
     core.master().stop_watch();
     let state = config.safe_state.al_state();
     match core.master().all_to_safe(state, deadline).await {

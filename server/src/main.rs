@@ -18,6 +18,23 @@ fn main() -> ExitCode {
         print!("{}", config.to_toml());
         return ExitCode::SUCCESS;
     }
+    if args.check_config {
+        // `load` checked the file, the ENI and the segment's configuration; the rest here.
+        if let Err(err) = config.check() {
+            eprintln!("ecatd: {err}");
+            return ExitCode::from(2);
+        }
+        for unused in &config.eni_unused {
+            println!("ENI element not used: {unused}");
+        }
+        println!(
+            "configuration good: {} slave entries, {} groups, cycle {}",
+            config.slave.len(),
+            config.group.len(),
+            server::config::duration::show(config.bus.cycle)
+        );
+        return ExitCode::SUCCESS;
+    }
     if let Err(err) =
         server::logging::init(config.log_format, &config.log, config.audit_log.as_deref())
     {

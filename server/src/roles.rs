@@ -91,6 +91,7 @@ pub const REST: &[(&str, &str, Access)] = &[
     ("GET", "/api/v1/slaves/{slave}/eoe/ip", Read),
     ("PUT", "/api/v1/slaves/{slave}/eoe/ip", Write),
     ("GET", "/api/v1/gateway", Read),
+    ("GET", "/api/v1/config", Read),
     ("POST", "/api/v1/gateway/start", Write),
     ("POST", "/api/v1/gateway/stop", Write),
     // `--simulate` only, not in the OpenAPI document.
@@ -121,6 +122,7 @@ pub const GRPC: &[(&str, Access)] = &[
     ("/ecat.v1.BusService/ReadSii", Read),
     ("/ecat.v1.BusService/WriteSii", Write),
     ("/ecat.v1.BusService/SetAlias", Write),
+    ("/ecat.v1.BusService/GetConfig", Read),
     ("/ecat.v1.CoeService/Upload", Read),
     ("/ecat.v1.CoeService/Download", Write),
     ("/ecat.v1.CoeService/ObjectList", Read),

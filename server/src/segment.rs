@@ -3,11 +3,11 @@
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
-use master_core::bus::{Bus, BusConfig, BusHandle};
+use master_core::bus::{Bus, BusHandle};
 use master_core::link::{RawSocket, RawSocketOptions};
-use master_core::master::{Master, MasterConfig};
+use master_core::master::Master;
 
-use crate::config::Segment;
+use crate::config::{Segment, SegmentSetup};
 use crate::sim_hooks::SimHooks;
 
 /// A running bus and master; [`Running::stop`] shuts them down.
@@ -41,25 +41,31 @@ fn joiner<L: Send + 'static>(thread: JoinHandle<L>) -> Box<dyn FnOnce() + Send> 
     })
 }
 
-/// Starts the bus and master on `segment`.
-pub fn open(segment: &Segment) -> Result<Running, String> {
+/// Starts the bus and master on `segment` with `setup` (the master applies the slaves'
+/// configuration from its first scan on).
+pub fn open(segment: &Segment, setup: &SegmentSetup) -> Result<Running, String> {
     let mut sim = None;
     let (bus, thread) = match segment {
         Segment::Simulate { topology } => {
-            let (bus, thread, hooks) = simulate(topology.as_deref())?;
+            let (bus, thread, hooks) = simulate(topology.as_deref(), setup)?;
             sim = Some(hooks);
             (bus, thread)
         }
         Segment::Iface { name } => {
             let socket = RawSocket::open(name, RawSocketOptions::default())
                 .map_err(|err| format!("cannot open {name}: {err}"))?;
-            let (bus, thread) = Bus::start(socket, BusConfig::default())
+            let (bus, thread) = on_cpu(setup.cpu, || Bus::start(socket, setup.bus))?
                 .map_err(|err| format!("cannot start the bus: {err}"))?;
             (bus, joiner(thread))
         }
     };
-    let master = Master::start(bus.clone(), MasterConfig::default())
+    let master = Master::start(bus.clone(), setup.master)
         .map_err(|err| format!("cannot start the master: {err}"))?;
+    master.set_slave_configs(setup.slaves.clone());
+    for (address, assignments) in &setup.pdos {
+        master.set_pdo_assignment(*address, assignments.clone());
+    }
+    master.set_groups(setup.groups.clone());
     Ok(Running {
         master: Arc::new(master),
         sim,
@@ -70,9 +76,42 @@ pub fn open(segment: &Segment) -> Result<Running, String> {
 
 type Started = (BusHandle, Box<dyn FnOnce() + Send>, SimHooks);
 
+/// Runs `start` with the calling thread pinned to `cpu`, so that the threads it spawns
+/// (the bus thread) inherit the pinning; the caller's own affinity is restored after.
+fn on_cpu<T>(cpu: Option<usize>, start: impl FnOnce() -> T) -> Result<T, String> {
+    let Some(cpu) = cpu else {
+        return Ok(start());
+    };
+    if cpu >= libc::CPU_SETSIZE as usize {
+        return Err(format!("[bus] cpu = {cpu}: no such CPU"));
+    }
+    // SAFETY: `cpu_set_t` is plain data; the calls get its size and a valid pointer.
+    unsafe {
+        let mut before: libc::cpu_set_t = std::mem::zeroed();
+        let size = std::mem::size_of::<libc::cpu_set_t>();
+        if libc::sched_getaffinity(0, size, &mut before) != 0 {
+            return Err(format!(
+                "cannot read the CPU affinity: {}",
+                std::io::Error::last_os_error()
+            ));
+        }
+        let mut only: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_SET(cpu, &mut only);
+        if libc::sched_setaffinity(0, size, &only) != 0 {
+            return Err(format!(
+                "[bus] cpu = {cpu}: cannot pin the bus thread there: {}",
+                std::io::Error::last_os_error()
+            ));
+        }
+        let started = start();
+        libc::sched_setaffinity(0, size, &before);
+        Ok(started)
+    }
+}
+
 /// The bus on the in-process simulator: the built-in segment, or the topology file given.
 #[cfg(feature = "simulate")]
-fn simulate(topology: Option<&std::path::Path>) -> Result<Started, String> {
+fn simulate(topology: Option<&std::path::Path>, setup: &SegmentSetup) -> Result<Started, String> {
     use sim::link::InProcessLink;
     use sim::topology::{Topology, build_with_handles};
 
@@ -87,14 +126,15 @@ fn simulate(topology: Option<&std::path::Path>) -> Result<Started, String> {
     };
     let built = build_with_handles(&topology).map_err(|err| format!("topology: {err}"))?;
     let hooks = SimHooks::new(&built.slaves);
-    let (bus, thread) = Bus::start(InProcessLink::new(built.segment), BusConfig::default())
+    let link = InProcessLink::new(built.segment);
+    let (bus, thread) = on_cpu(setup.cpu, || Bus::start(link, setup.bus))?
         .map_err(|err| format!("cannot start the bus: {err}"))?;
     Ok((bus, joiner(thread), hooks))
 }
 
 /// Without the simulator built in, `--simulate` is refused before anything starts.
 #[cfg(not(feature = "simulate"))]
-fn simulate(_topology: Option<&std::path::Path>) -> Result<Started, String> {
+fn simulate(_topology: Option<&std::path::Path>, _setup: &SegmentSetup) -> Result<Started, String> {
     Err(NO_SIMULATOR.into())
 }
 
@@ -110,14 +150,17 @@ mod tests {
     #[cfg(not(feature = "simulate"))]
     #[test]
     fn simulate_is_refused_without_the_simulator() {
-        let refused = open(&Segment::Simulate { topology: None }).err();
+        let setup = crate::config::Config::default().segment_setup().unwrap();
+        let refused = open(&Segment::Simulate { topology: None }, &setup).err();
         assert_eq!(refused.as_deref(), Some(NO_SIMULATOR));
     }
 
     #[cfg(feature = "simulate")]
     #[test]
     fn simulate_runs_the_built_in_segment_with_its_hooks() {
-        let running = open(&Segment::Simulate { topology: None }).expect("simulated segment");
+        let setup = crate::config::Config::default().segment_setup().unwrap();
+        let running =
+            open(&Segment::Simulate { topology: None }, &setup).expect("simulated segment");
         assert!(running.sim.is_some());
         running.stop();
     }

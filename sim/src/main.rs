@@ -153,9 +153,10 @@ fn announce_and_serve(
     };
     announce(&mut out).map_err(|err| Failure::Io(format!("cannot write to stdout: {err}")))?;
     drop(out);
+    let power = Arc::new(frontend::serve::PowerCycles::default());
     if args.control {
-        frontend::control::start(slaves, Arc::clone(&stop));
+        frontend::control::start(slaves, Arc::clone(&stop), Arc::clone(&power));
     }
-    serve(link, &mut segment, &time, &stop, &mut io::stderr())
+    serve(link, &mut segment, &time, &stop, &power, &mut io::stderr())
         .map_err(|err| Failure::Io(format!("link {}: {err}", args.iface)))
 }

@@ -15,12 +15,13 @@ use server_support::{Ecatd, curl, curl_as_browser};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
-const ROUTES: [(&str, &str); 27] = [
+const ROUTES: [(&str, &str); 28] = [
     ("get", "/api/v1/slaves"),
     ("get", "/api/v1/slaves/{slave}"),
     ("put", "/api/v1/slaves/{slave}/state"),
     ("post", "/api/v1/rescan"),
     ("get", "/api/v1/events"),
+    ("get", "/api/v1/config"),
     ("get", "/api/v1/slaves/{slave}/registers/{address}"),
     ("put", "/api/v1/slaves/{slave}/registers/{address}"),
     ("get", "/api/v1/slaves/{slave}/sii"),

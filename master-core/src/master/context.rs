@@ -9,6 +9,7 @@ use crate::mailbox::MailboxEngine;
 
 use crate::master::access::address::{self, SlaveAddress};
 use crate::master::bringup::dc_settings::DcSlave;
+use crate::master::bringup::slave_config::{SlaveConfig, SlaveConfigs};
 use crate::master::config::MasterConfig;
 use crate::master::error::MasterError;
 use crate::master::event::MasterEvent;
@@ -31,6 +32,8 @@ pub(crate) struct Context {
     pub dc: Mutex<Vec<DcSlave>>,
     /// PDO assignments to write in PREOP, by slave.
     pub pdo_configs: Mutex<Vec<SlavePdoConfig>>,
+    /// Expected identities, start-up commands and DC settings, by slave.
+    pub slave_configs: Mutex<SlaveConfigs>,
     /// Owns the mailbox of every slave in PREOP or above (see `mailboxes`).
     pub mailboxes: MailboxEngine,
     /// Serialises scans and the watch's repairs, so they never configure the same slave at
@@ -77,6 +80,15 @@ impl Context {
             .iter()
             .find(|c| c.names(info))
             .map(|c| c.assignments.clone())
+    }
+
+    /// The configuration entry of the slave of `info`, if any.
+    pub fn slave_config_for(&self, info: &SlaveInfo) -> Option<SlaveConfig> {
+        self.slave_configs
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .for_slave(info)
+            .cloned()
     }
 
     /// The record at `position`.

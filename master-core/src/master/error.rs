@@ -107,6 +107,27 @@ pub enum MasterError {
         /// The mailbox engine's error.
         source: MailboxError,
     },
+    /// A start-up command of the slave's configuration failed (ETG.1020 §6.4); the slave
+    /// stays in the state it was in.
+    #[error("slave {position}: start-up command {command} ({transition}) failed: {source}")]
+    Startup {
+        /// Ring position.
+        position: u16,
+        /// The transition it belonged to, e.g. `PREOP -> SAFEOP`.
+        transition: String,
+        /// The command, e.g. `SDO 0x6060:00`.
+        command: String,
+        /// The mailbox error (an SDO abort carries its abort code).
+        source: MailboxError,
+    },
+    /// The configuration does not fit the segment (found before anything was written).
+    #[error("slave {position}: {reason}")]
+    Configuration {
+        /// Ring position.
+        position: u16,
+        /// What is wrong.
+        reason: String,
+    },
     /// A value the caller passed cannot be used.
     #[error("invalid argument: {0}")]
     InvalidArgument(&'static str),

@@ -2,6 +2,7 @@
 
 use crate::wire::register::{AlState, AlStatusCode};
 
+use super::bringup::slave_config::TopologyProblem;
 use super::info::Identity;
 
 /// Something that happened on the segment. Delivered to every subscriber of
@@ -66,5 +67,30 @@ pub enum MasterEvent {
         state: AlState,
         /// The AL status code; `Display` gives its name.
         code: AlStatusCode,
+    },
+    /// The segment is not what the configuration expects: a slave not the one expected
+    /// (it is held in PREOP), one missing, or one no entry names.
+    TopologyMismatch {
+        /// Ring position (of a missing slave: the configured one, if by position).
+        position: u16,
+        /// Station address.
+        station: u16,
+        /// What is wrong.
+        problem: TopologyProblem,
+    },
+    /// A start-up command failed; the slave's bring-up stopped before the transition.
+    StartupFailed {
+        /// Ring position.
+        position: u16,
+        /// Station address.
+        station: u16,
+        /// The transition, e.g. `PREOP -> SAFEOP`.
+        transition: String,
+        /// The command, e.g. `SDO 0x6060:00`.
+        command: String,
+        /// The SDO abort code, if the slave aborted the transfer.
+        abort_code: Option<u32>,
+        /// The error in words.
+        error: String,
     },
 }

@@ -27,7 +27,8 @@
 //! - `bringup/`: the scan of all slaves (`scan`), one slave's configuration (`configure`),
 //!   register reset (`reset`), the SII interface (`eeprom`), AL state changes (`al`),
 //!   distributed clocks (`dc`, `dc_settings`), the mailbox engine kept in step (`mailboxes`), the topology
-//!   watch (`watch`), and their [`Master`] methods (`api`);
+//!   watch (`watch`), the per-slave configuration (`slave_config`: expected identity,
+//!   start-up commands, DC; applied by `startup`), and their [`Master`] methods (`api`);
 //! - `process_data/`: layouts (`layout`, `coe_layout`), PDO assignments (`pdo_assignment`,
 //!   written by `pdo_config`), the
 //!   image and cyclic task (`image`), groups (`groups`), named entries and snapshots
@@ -63,6 +64,10 @@ pub use access::address::SlaveAddress;
 pub use bringup::dc_settings::{DcSettings, DcSlave};
 pub use bringup::safe_state::SafeStateReport;
 pub use bringup::scan::ScanReport;
+pub use bringup::slave_config::{
+    ExpectedIdentity, MismatchPolicy, RevisionMatch, SlaveConfig, SlaveConfigs, SlaveDc,
+    StartupAction, StartupCommand, SyncSignal, TopologyProblem, Transition, Watchdog,
+};
 pub use config::MasterConfig;
 pub use error::MasterError;
 pub use event::MasterEvent;
@@ -133,6 +138,7 @@ impl Master {
             image,
             layout_source: source,
             pdo_configs: Mutex::new(Vec::new()),
+            slave_configs: Mutex::new(Default::default()),
             dc: Mutex::new(Vec::new()),
             mailboxes,
             topology: tokio::sync::Mutex::new(()),

@@ -14,6 +14,9 @@ pub(crate) struct SlaveRecord {
     /// Whether the configured PDO assignment was written since the slave was identified
     /// (a power cycle restores the slave's own).
     pub pdo_written: bool,
+    /// A start-up command failed since the slave was identified: the watch does not retry
+    /// the bring-up at every look (a power cycle or a new scan does).
+    pub held: bool,
 }
 
 impl SlaveRecord {
@@ -42,6 +45,7 @@ impl SlaveRecord {
             sii: Vec::new(),
             layout: ProcessDataLayout::default(),
             pdo_written: false,
+            held: false,
         }
     }
 }

@@ -512,6 +512,10 @@ async fn execute(c: &mut Clients, command: Command) -> Result<Out, String> {
                 .map_err(failed)?;
             out(json!({"ok": true}), "")
         }
+        Command::Config => {
+            let (json, human) = crate::config::run(c).await?;
+            out(json, human)
+        }
         Command::Gateway { action } => {
             let (json, human) = crate::gateway::run(c, action).await?;
             out(json, human)

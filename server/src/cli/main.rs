@@ -4,6 +4,7 @@
 
 mod client;
 mod commands;
+mod config;
 mod gateway;
 
 use std::process::ExitCode;
@@ -236,6 +237,8 @@ pub enum Command {
         /// Data, hex (little-endian words).
         data: String,
     },
+    /// The configuration ecatd runs with (IgH's `config`).
+    Config,
     /// The mailbox gateway's state and statistics; `start` or `stop` it.
     Gateway {
         /// What to do (nothing: show the state).

@@ -26,6 +26,11 @@ type Reply<T> = Result<Response<T>, Status>;
 
 #[tonic::async_trait]
 impl BusService for Bus {
+    async fn get_config(&self, _: Request<pb::GetConfigRequest>) -> Reply<pb::GetConfigResponse> {
+        let (toml, eni) = self.core.effective_config();
+        Ok(Response::new(pb::GetConfigResponse { toml, eni }))
+    }
+
     async fn list_slaves(
         &self,
         _: Request<pb::ListSlavesRequest>,

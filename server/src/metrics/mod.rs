@@ -5,10 +5,12 @@
 //! codes), `mailbox` (per-slave mailbox and EoE counters), `gateway` (the mailbox gateway's
 //! statistics), `calls` (ecatd's own mailbox requests per slave and protocol), `esc` (the
 //! ESC error counters, read in the background), `events` (events by kind, counted in the
-//! background), `state` (ready and link up), `process` (the process' CPU, memory, files).
+//! background), `state` (ready and link up), `process` (the process' CPU, memory, files),
+//! `config` (what the segment's configuration found: mismatches and failed start-up commands).
 
 mod bus;
 pub mod calls;
+pub mod config;
 pub mod esc;
 pub mod events;
 pub(crate) mod family;
@@ -38,6 +40,7 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     families.extend(store.esc.collect());
     families.extend(store.watch.collect());
     families.extend(store.events.collect());
+    families.extend(store.config.collect());
     families.extend(gateway::collect(core));
     families.extend(process::collect());
     families.into_iter().flatten().collect()
@@ -57,6 +60,8 @@ pub struct Store {
     pub events: Arc<events::EventCounts>,
     /// The segment's link, for `ecat_link_up`.
     pub link: state::Link,
+    /// Configuration mismatches and failed start-up commands.
+    pub config: Arc<config::ConfigFindings>,
 }
 
 /// The background readers behind the metrics; they stop when this is dropped.

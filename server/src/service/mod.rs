@@ -53,6 +53,8 @@ pub struct Core {
     calls: Arc<MailboxCalls>,
     /// Set once at shutdown: every event stream ends when it is.
     stopping: Arc<tokio::sync::watch::Sender<bool>>,
+    /// The effective configuration as TOML, and the ENI file it came from (`ecat config`).
+    effective_config: Arc<std::sync::OnceLock<(String, String)>>,
 }
 
 /// What the gRPC and REST layers give the core for each request: the slave name and the
@@ -70,7 +72,19 @@ impl Core {
             events: Arc::default(),
             calls,
             stopping: Arc::new(tokio::sync::watch::Sender::new(false)),
+            effective_config: Arc::default(),
         }
+    }
+
+    /// Records the effective configuration (TOML) and its ENI file, once, at start.
+    pub fn set_effective_config(&self, toml: String, eni: String) {
+        let _ = self.effective_config.set((toml, eni));
+    }
+
+    /// The effective configuration as TOML and the ENI file it came from (empty strings
+    /// before [`Core::set_effective_config`]).
+    pub fn effective_config(&self) -> (String, String) {
+        self.effective_config.get().cloned().unwrap_or_default()
     }
 
     /// Hands the mailbox gateway (running or not) to the core.

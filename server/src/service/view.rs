@@ -1,6 +1,6 @@
 //! What the core hands to both APIs: plain serialisable views of the master's types.
 
-use master_core::master::{MasterEvent, SlaveInfo};
+use master_core::master::{MasterEvent, SlaveInfo, TopologyProblem};
 use master_core::wire::register::AlState;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
@@ -233,6 +233,25 @@ impl From<&MasterEvent> for EventView {
                 al_status_code: Some(u16::from(*code)),
                 ..base("al_error", *position, *station, name)
             },
+            MasterEvent::TopologyMismatch {
+                position,
+                station,
+                problem,
+            } => {
+                let found = match problem {
+                    TopologyProblem::Mismatch { found, .. } | TopologyProblem::Extra { found } => {
+                        Some(id(found))
+                    }
+                    TopologyProblem::Missing { .. } => None,
+                };
+                EventView {
+                    identity: found,
+                    ..base("topology_mismatch", *position, *station, "")
+                }
+            }
+            MasterEvent::StartupFailed {
+                position, station, ..
+            } => base("startup_failed", *position, *station, ""),
         };
         view.text = format!("{event:?}");
         view

@@ -7,7 +7,8 @@
 //!   `OutputProbe` would show them;
 //! - stdin, one command a line: `input <position> <channel> <0|1>` sets a digital input,
 //!   `emergency <position> <code hex> [<error register hex> <5 data bytes hex>]` raises a
-//!   CoE emergency on a slave (without the last two: error register 0, zero bytes). Each command is answered `ecat-sim: ok <command>` or
+//!   CoE emergency on a slave (without the last two: error register 0, zero bytes),
+//!   `power-cycle <position>` power-cycles a slave before the next frame. Each command is answered `ecat-sim: ok <command>` or
 //!   `ecat-sim: error <reason>` on stdout.
 //!
 //! Both run on threads of their own, touching only the shared handles, never the frame
@@ -21,12 +22,14 @@ use std::time::Duration;
 
 use sim::topology::SlaveHandles;
 
+use super::serve::PowerCycles;
+
 /// How often the output reporter looks at the terminals.
 const OUTPUT_POLL: Duration = Duration::from_millis(1);
 
 /// Starts the output reporter and the command reader; both end with `stop` (the reader
 /// also when stdin closes).
-pub fn start(handles: Vec<SlaveHandles>, stop: Arc<AtomicBool>) {
+pub fn start(handles: Vec<SlaveHandles>, stop: Arc<AtomicBool>, power: Arc<PowerCycles>) {
     let probes: Vec<_> = handles
         .iter()
         .enumerate()
@@ -52,7 +55,7 @@ pub fn start(handles: Vec<SlaveHandles>, stop: Arc<AtomicBool>) {
             if stop.load(Ordering::Relaxed) {
                 break;
             }
-            match command(&handles, &line) {
+            match command(&handles, &power, &line) {
                 Ok(()) => say(&format!("ok {}", line.trim())),
                 Err(reason) => say(&format!("error {reason}")),
             }
@@ -86,7 +89,7 @@ fn five_bytes(word: &str) -> Result<[u8; 5], String> {
 }
 
 /// Carries out one command line.
-fn command(handles: &[SlaveHandles], line: &str) -> Result<(), String> {
+fn command(handles: &[SlaveHandles], power: &PowerCycles, line: &str) -> Result<(), String> {
     let words: Vec<&str> = line.split_whitespace().collect();
     let slave = |word: &str| -> Result<&SlaveHandles, String> {
         let position: usize = word.parse().map_err(|_| format!("bad position {word:?}"))?;
@@ -136,6 +139,14 @@ fn command(handles: &[SlaveHandles], line: &str) -> Result<(), String> {
                 Err("emergency queue full".into())
             }
         }
+        ["power-cycle", position] => {
+            slave(position)?;
+            let position: usize = position
+                .parse()
+                .map_err(|_| format!("bad position {position:?}"))?;
+            power.request(position);
+            Ok(())
+        }
         _ => Err(format!("unknown command {line:?}")),
     }
 }
@@ -149,18 +160,20 @@ mod tests {
     fn commands_reach_the_handles_and_bad_ones_are_refused() {
         let built = build_with_handles(&Topology::default_segment()).unwrap();
         let handles = built.slaves;
-        command(&handles, "input 2 5 1").unwrap();
-        assert!(
-            command(&handles, "input 1 5 1").is_err(),
-            "DO8 has no inputs"
-        );
-        command(&handles, "emergency 3 0x8100").unwrap();
-        command(&handles, "emergency 3 8130 11 deadbeef01").unwrap();
+        let power = PowerCycles::default();
+        let command = |line: &str| command(&handles, &power, line);
+        command("input 2 5 1").unwrap();
+        assert!(command("input 1 5 1").is_err(), "DO8 has no inputs");
+        command("emergency 3 0x8100").unwrap();
+        command("emergency 3 8130 11 deadbeef01").unwrap();
         assert_eq!(handles[3].emergencies.as_ref().unwrap().pending(), 2);
-        assert!(command(&handles, "emergency 3 8130 11 dead").is_err());
-        assert!(command(&handles, "emergency 3 8130 1ff deadbeef01").is_err());
-        assert!(command(&handles, "emergency 9 8100").is_err());
-        assert!(command(&handles, "input 2 x 1").is_err());
-        assert!(command(&handles, "reboot").is_err());
+        assert!(command("emergency 3 8130 11 dead").is_err());
+        assert!(command("emergency 3 8130 1ff deadbeef01").is_err());
+        assert!(command("emergency 9 8100").is_err());
+        assert!(command("input 2 x 1").is_err());
+        assert!(command("reboot").is_err());
+        command("power-cycle 1").unwrap();
+        assert!(command("power-cycle 9").is_err());
+        assert_eq!(power.queued(), vec![1]);
     }
 }

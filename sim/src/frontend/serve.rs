@@ -17,6 +17,50 @@ use super::counter::FrameCounter;
 /// Longest wait for a frame before the loop looks at its stop flag again.
 pub const TICK: Duration = Duration::from_millis(100);
 
+/// Power cycles asked for from another thread (`--control`), carried out by the frame
+/// loop between two frames (it owns the segment).
+#[derive(Debug, Default)]
+pub struct PowerCycles {
+    pending: AtomicBool,
+    positions: std::sync::Mutex<Vec<usize>>,
+}
+
+impl PowerCycles {
+    /// Asks for the slave at `position` to be power-cycled before the next frame.
+    pub fn request(&self, position: usize) {
+        let mut positions = self
+            .positions
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        positions.push(position);
+        self.pending.store(true, Ordering::Release);
+    }
+
+    /// The positions waiting for their power cycle.
+    #[cfg(test)]
+    pub fn queued(&self) -> Vec<usize> {
+        self.positions
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone()
+    }
+
+    fn apply(&self, segment: &mut Segment) {
+        if !self.pending.swap(false, Ordering::Acquire) {
+            return;
+        }
+        let positions = std::mem::take(
+            &mut *self
+                .positions
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner),
+        );
+        for position in positions {
+            segment.power_cycle(position);
+        }
+    }
+}
+
 /// Answers frames on `link` with `segment` until `stop` is set; returns the final counts.
 ///
 /// `time` is the segment's time base: it is set to the time since the loop started before
@@ -28,6 +72,7 @@ pub fn serve(
     segment: &mut Segment,
     time: &ManualTime,
     stop: &AtomicBool,
+    power: &PowerCycles,
     report: &mut impl Write,
 ) -> io::Result<FrameCounter> {
     let origin = Instant::now();
@@ -43,6 +88,7 @@ pub fn serve(
             continue;
         };
         counter.frames_in += 1;
+        power.apply(segment);
         let elapsed = u64::try_from(origin.elapsed().as_nanos()).unwrap_or(u64::MAX);
         time.set(elapsed);
         let frame = &mut buf[..len];
@@ -93,7 +139,15 @@ mod tests {
         let mut segment = built.segment;
         let counter = std::thread::scope(|scope| {
             let server = scope.spawn(|| {
-                serve(&mut wire, &mut segment, &built.time, &stop, &mut io::sink()).unwrap()
+                serve(
+                    &mut wire,
+                    &mut segment,
+                    &built.time,
+                    &stop,
+                    &PowerCycles::default(),
+                    &mut io::sink(),
+                )
+                .unwrap()
             });
             for _ in 0..3 {
                 master.send(&brd_frame()).unwrap();

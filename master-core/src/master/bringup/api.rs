@@ -99,6 +99,26 @@ impl Master {
         self.run(async move { watch::look(&ctx).await }).await
     }
 
+    /// Sets the per-slave configuration (expected identities, start-up commands, DC) the
+    /// master applies from the next scan on and at every bring-up after it (a power cycle,
+    /// a hot-plug): see [`SlaveConfigs`](crate::master::SlaveConfigs).
+    pub fn set_slave_configs(&self, configs: crate::master::SlaveConfigs) {
+        *self
+            .ctx
+            .slave_configs
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner) = configs;
+    }
+
+    /// The per-slave configuration in force ([`Master::set_slave_configs`]).
+    pub fn slave_configs(&self) -> crate::master::SlaveConfigs {
+        self.ctx
+            .slave_configs
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+    }
+
     /// The DC slaves of the last scan with their measured delays and offsets, the
     /// reference clock first (empty without DC).
     pub fn dc_slaves(&self) -> Vec<DcSlave> {

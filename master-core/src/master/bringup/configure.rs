@@ -20,6 +20,8 @@ use super::al::{self, Who};
 use super::dc;
 use super::eeprom::Eeprom;
 use super::mailboxes;
+use super::slave_config::Transition;
+use super::startup;
 use crate::master::access::datagram::{apwr, fprd, fprd_u16, fpwr};
 use crate::master::context::Context;
 use crate::master::error::MasterError;
@@ -145,6 +147,7 @@ pub(crate) async fn identify(
         sii: image,
         layout,
         pdo_written: false,
+        held: false,
     })
 }
 
@@ -332,6 +335,10 @@ pub(crate) async fn bring_to(
     };
     let mut current = al::read_status(&ctx.bus, who).await?.status.state;
     for step in al::path(current, to) {
+        let transition = Transition {
+            from: current,
+            to: step,
+        };
         let prepared = match step {
             AlState::PreOp if current == AlState::Init => {
                 configure_mailbox(ctx, info, false).await?;
@@ -340,6 +347,8 @@ pub(crate) async fn bring_to(
             AlState::Boot => configure_mailbox(ctx, info, true).await,
             AlState::SafeOp if current == AlState::PreOp => {
                 write_pdo_config(ctx, record).await?;
+                startup::run(ctx, record, transition).await?;
+                startup::write_watchdog(ctx, record).await?;
                 dc::activate_sync0(ctx, record).await?;
                 configure_process_data(ctx, record).await
             }
@@ -349,6 +358,11 @@ pub(crate) async fn bring_to(
             _ => Ok(()),
         };
         prepared?;
+        // INIT -> PREOP's commands need the mailbox, which works from PREOP on: they run
+        // once the slave is there; every other transition's run before it is requested.
+        if transition != Transition::INIT_PREOP && transition != Transition::PREOP_SAFEOP {
+            startup::run(ctx, record, transition).await?;
+        }
         match al::change_state(&ctx.bus, &ctx.config, who, step).await {
             Ok(status) => {
                 ctx.update(info.position, |r| {
@@ -364,6 +378,9 @@ pub(crate) async fn bring_to(
                     to: step,
                 });
                 current = step;
+                if transition == Transition::INIT_PREOP {
+                    startup::run(ctx, record, transition).await?;
+                }
             }
             Err(err) => {
                 if let MasterError::StateRefused { code, .. } = &err {

@@ -25,6 +25,7 @@ use crate::master::error::MasterError;
 use crate::master::record::SlaveRecord;
 
 use super::dc_settings::DcSlave;
+use super::slave_config::{SlaveDc, SyncSignal};
 
 /// Reference-time datagrams submitted at once during static drift compensation.
 const DRIFT_BATCH: u32 = 32;
@@ -361,13 +362,33 @@ async fn compensate_static_drift(
     Ok(())
 }
 
-/// Starts SYNC0 on the slave of `record` if the settings ask for it and the slave has DC
-/// and process data (SOEM's `ecx_dcsync0` sequence, ETG.1000.4, spec-notes §dc).
+/// Starts SYNC0 (and SYNC1) on the slave of `record` if its configuration or the master's
+/// settings ask for it and the slave has DC and process data (SOEM's `ecx_dcsync0`
+/// sequence, ETG.1000.4 §6.8.5, Table 60, spec-notes §dc). A slave configured with DC
+/// off gets its SYNC unit stopped.
 pub(crate) async fn activate_sync0(ctx: &Context, record: &SlaveRecord) -> Result<(), MasterError> {
     let settings = ctx.config.dc;
     let info = &record.info;
-    let Some(cycle) = settings.sync0_cycle else {
-        return Ok(());
+    let bus = &ctx.bus;
+    let station = info.station;
+    let (sync0, sync1) = match ctx.slave_config_for(info).and_then(|c| c.dc) {
+        Some(SlaveDc::Off) => {
+            if info.esc.features.dc_supported() {
+                fpwr(bus, station, reg::DC_ACTIVATION, [0u8], "SYNC stop").await?;
+            }
+            return Ok(());
+        }
+        Some(SlaveDc::Sync { sync0, sync1 }) => (sync0, sync1),
+        None => match settings.sync0_cycle {
+            Some(cycle) => (
+                SyncSignal {
+                    cycle,
+                    shift: settings.sync0_shift,
+                },
+                None,
+            ),
+            None => return Ok(()),
+        },
     };
     if !settings.enabled
         || !info.esc.features.dc_supported()
@@ -375,13 +396,19 @@ pub(crate) async fn activate_sync0(ctx: &Context, record: &SlaveRecord) -> Resul
     {
         return Ok(());
     }
-    let bus = &ctx.bus;
-    let station = info.station;
-    let cycle_ns = u64::try_from(cycle.as_nanos()).unwrap_or(u64::MAX).max(1);
+    let nanos = |d: std::time::Duration| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX);
+    let cycle_ns = nanos(sync0.cycle).max(1);
     let cycle_reg = u32::try_from(cycle_ns)
         .map_err(|_| MasterError::InvalidArgument("SYNC0 cycle longer than 2^32 ns"))?;
     fpwr(bus, station, reg::DC_ACTIVATION, [0u8], "SYNC0 stop").await?;
-    let (unit_control, activation) = assign_activate(record);
+    let (unit_control, mut activation) = assign_activate(record);
+    let raw = fprd(bus, station, reg::DC_SYSTEM_TIME, 8, "DC system time").await?;
+    let now = read_time(&raw).map_err(|source| MasterError::Malformed {
+        position: info.position,
+        what: "DC system time",
+        source,
+    })?;
+    let start = sync0_start(now, settings.sync0_start_delay, cycle_ns, sync0.shift);
     fpwr(
         bus,
         station,
@@ -390,18 +417,6 @@ pub(crate) async fn activate_sync0(ctx: &Context, record: &SlaveRecord) -> Resul
         "SYNC unit control",
     )
     .await?;
-    let raw = fprd(bus, station, reg::DC_SYSTEM_TIME, 8, "DC system time").await?;
-    let now = read_time(&raw).map_err(|source| MasterError::Malformed {
-        position: info.position,
-        what: "DC system time",
-        source,
-    })?;
-    let start = sync0_start(
-        now,
-        settings.sync0_start_delay,
-        cycle_ns,
-        settings.sync0_shift,
-    );
     fpwr(
         bus,
         station,
@@ -418,6 +433,25 @@ pub(crate) async fn activate_sync0(ctx: &Context, record: &SlaveRecord) -> Resul
         "SYNC0 cycle",
     )
     .await?;
+    if let Some(sync1) = sync1 {
+        // 0x09A4 is the time from a SYNC0 pulse to the SYNC1 pulse: the cycle plus the
+        // shift, as IgH writes it.
+        let sync1_reg = u32::try_from(nanos(sync1.cycle).saturating_add(nanos(sync1.shift)))
+            .map_err(|_| MasterError::InvalidArgument("SYNC1 cycle longer than 2^32 ns"))?;
+        fpwr(
+            bus,
+            station,
+            reg::DC_SYNC1_CYCLE,
+            sync1_reg.to_le_bytes(),
+            "SYNC1 cycle",
+        )
+        .await?;
+        activation |= DcActivation {
+            sync1: true,
+            ..DcActivation::default()
+        }
+        .encode();
+    }
     fpwr(
         bus,
         station,

@@ -14,6 +14,7 @@ use super::configure::{bring_to, identify};
 use super::dc;
 use super::mailboxes;
 use super::reset::reset_all;
+use super::startup;
 use crate::mailbox::SlaveMailbox;
 use crate::master::context::Context;
 use crate::master::error::MasterError;
@@ -121,6 +122,10 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
         }
     }
     all.sort_by_key(|r| r.info.position);
+    // Before anything is written: a configured PDO the slave does not have fails the scan
+    // with every slave still in INIT.
+    startup::check_pdos(&ctx, &all)?;
+    startup::check_segment(&ctx, &mut all)?;
     let identified: Vec<SlaveRecord> = all.iter().filter(|r| !r.sii.is_empty()).cloned().collect();
     for record in &identified {
         let i = &record.info;
@@ -155,8 +160,13 @@ pub(crate) async fn scan(ctx: Arc<Context>) -> Result<ScanReport, MasterError> {
     if first == AlState::PreOp {
         let ready = lay_out(&ctx, &ready, &mut failures).await?;
         let records: Vec<SlaveRecord> = ready.iter().filter_map(|&p| ctx.record(p)).collect();
+        // The requested state: the target, or PREOP for a slave held by the configuration.
         for (_, result) in for_each(&ctx, records, move |ctx, record| async move {
-            bring_to(&ctx, &record, target).await
+            let to = match record.info.requested_state {
+                AlState::PreOp => AlState::PreOp,
+                _ => target,
+            };
+            bring_to(&ctx, &record, to).await
         })
         .await
         {

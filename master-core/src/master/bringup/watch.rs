@@ -20,11 +20,13 @@ use super::configure::{bring_to, identify};
 use super::dc;
 use super::mailboxes;
 use super::reset::reset_one;
+use super::startup;
 use crate::master::access::datagram::apwr;
 use crate::master::context::Context;
 use crate::master::error::MasterError;
 use crate::master::event::MasterEvent;
 use crate::master::record::SlaveRecord;
+use crate::wire::register::AlState;
 
 /// Looks at the segment every `interval` until the master's runtime stops.
 pub(crate) async fn watch(ctx: Arc<Context>, interval: Duration) {
@@ -169,7 +171,7 @@ async fn still_there(
             r.info.al_status_code = status.code;
         }
     });
-    if (state != info.requested_state || error) && !info.al_error {
+    if (state != info.requested_state || error) && !info.al_error && !record.held {
         let mut current = record.clone();
         current.info.al_state = state;
         bring_to(ctx, &current, info.requested_state).await?;
@@ -210,6 +212,12 @@ async fn come_back(ctx: &Context, old: SlaveRecord) -> Result<(), MasterError> {
         });
     }
     record.info.present = true;
+    // A device other than the one configured is held in PREOP (ETG.1020 §6.4).
+    if startup::check_identity(ctx, &record).is_some()
+        && matches!(record.info.requested_state, AlState::SafeOp | AlState::Op)
+    {
+        record.info.requested_state = AlState::PreOp;
+    }
     ctx.update(info.position, |r| *r = record.clone());
     // Its clock restarted with the power: delay and offset again before SAFEOP.
     dc::restore(ctx, &record).await?;

@@ -1,6 +1,7 @@
 //! REST handlers under `/api/v1`: the same operations as gRPC, one core call each, one file
-//! per resource as in `grpc/` (`slaves`, `bus` (counters and the caller's role), `registers`, `sii`, `coe`, `soe`, `foe`, `voe`,
-//! `eoe`). Binary values are hex strings; numbers in paths are decimal or `0x` hex; slave
+//! per resource as in `grpc/` (`slaves`, `bus` (counters and the caller's role), `config`,
+//! `registers`, `sii`, `coe`, `soe`, `foe`, `voe`, `eoe`). Binary values are hex strings;
+//! numbers in paths are decimal or `0x` hex; slave
 //! names use the common syntax (`3`, `%231004` for `#1004`, `@0x777`).
 //!
 //! Each route is declared once, in its handler's `#[utoipa::path]` (method and path
@@ -9,6 +10,7 @@
 
 pub mod bus;
 pub mod coe;
+pub mod config;
 pub mod eoe;
 pub mod foe;
 pub mod registers;
@@ -69,6 +71,7 @@ pub fn routes() -> OpenApiRouter<Core> {
         .merge(foe::routes())
         .merge(voe::routes())
         .merge(eoe::routes())
+        .merge(config::routes())
 }
 
 /// The routes that stream for as long as the client listens (no time limit).

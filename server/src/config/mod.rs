@@ -1,5 +1,15 @@
 //! ecatd's configuration: a TOML file, then `ECATD_*` environment variables, then flags
-//! (flags win). `--print-config` shows the result.
+//! (flags win). `--print-config` shows the result, `--check-config` checks it and exits.
+//!
+//! The segment's configuration has files of its own: `[bus]` (`bus`), `[[slave]]`
+//! (`slaves`), `[[group]]` (`groups`), durations (`duration`), and the ENI import that
+//! becomes the same `[bus] cycle` and `[[slave]]` entries (`eni`).
+
+pub mod bus;
+pub mod duration;
+pub mod eni;
+pub mod groups;
+pub mod slaves;
 
 use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
@@ -91,9 +101,17 @@ pub struct Args {
     /// `/metrics` needs a token (read role) when tokens are configured.
     #[arg(long, env = "ECATD_METRICS_TOKEN")]
     pub metrics_token: bool,
+    /// An ENI file (ETG.2100 EtherCAT Network Information) describing the segment: its
+    /// cycle time and slaves, instead of `[[slave]]` entries.
+    #[arg(long, env = "ECATD_ENI", value_name = "FILE")]
+    pub eni: Option<PathBuf>,
     /// Print the effective configuration as TOML and exit.
     #[arg(long)]
     pub print_config: bool,
+    /// Check the configuration (and the ENI file), say what is wrong, and exit: 0 when
+    /// it is good, 2 when not.
+    #[arg(long, conflicts_with = "print_config")]
+    pub check_config: bool,
 }
 
 /// The state ecatd leaves the slaves in when it stops.
@@ -324,6 +342,27 @@ pub struct TlsSettings {
     pub key: PathBuf,
 }
 
+/// What the bus and the master are started with, from `[bus]`, `[[slave]]` and
+/// `[[group]]` (or the ENI).
+#[derive(Debug, Clone)]
+pub struct SegmentSetup {
+    /// The bus.
+    pub bus: master_core::bus::BusConfig,
+    /// The master.
+    pub master: master_core::master::MasterConfig,
+    /// The CPU the bus thread is pinned to.
+    pub cpu: Option<usize>,
+    /// Expected identities, start-up commands, DC, watchdog.
+    pub slaves: master_core::master::SlaveConfigs,
+    /// PDO assignments, by slave.
+    pub pdos: Vec<(
+        master_core::master::SlaveAddress,
+        Vec<master_core::master::PdoAssignment>,
+    )>,
+    /// Slave groups.
+    pub groups: Vec<master_core::master::SlaveGroup>,
+}
+
 /// The effective configuration.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -359,9 +398,23 @@ pub struct Config {
     pub audit_log: Option<PathBuf>,
     /// Whether `/metrics` needs a token (read role) when tokens are configured.
     pub metrics_token: bool,
+    /// The bus: cycle, scheduling, timeouts, target state, watchdog, mismatch policy.
+    pub bus: bus::BusSettings,
+    /// An ENI file to take the cycle and the slaves from (instead of `[[slave]]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eni: Option<PathBuf>,
+    /// The expected slaves and what each gets at bring-up.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub slave: Vec<slaves::SlaveEntry>,
+    /// Slave groups with periods of their own.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub group: Vec<groups::GroupEntry>,
     /// The configuration file this came from (SIGHUP reloads its tokens).
     #[serde(skip)]
     pub file: Option<PathBuf>,
+    /// The parts of the ENI file ecatd does not use (logged once at start).
+    #[serde(skip)]
+    pub eni_unused: Vec<String>,
 }
 
 impl Default for Config {
@@ -382,7 +435,12 @@ impl Default for Config {
             allowed_hosts: Vec::new(),
             audit_log: None,
             metrics_token: false,
+            bus: bus::BusSettings::default(),
+            eni: None,
+            slave: Vec::new(),
+            group: Vec::new(),
             file: None,
+            eni_unused: Vec::new(),
         }
     }
 }
@@ -459,7 +517,90 @@ impl Config {
         for token in &mut config.tokens {
             token.resolve()?;
         }
+        if let Some(eni) = &args.eni {
+            config.eni = Some(eni.clone());
+        }
+        config.import_eni()?;
+        let named = |err: String| match &config.file {
+            Some(path) => format!("{}: {err}", path.display()),
+            None => err,
+        };
+        config.segment_setup().map_err(named)?;
         Ok(config)
+    }
+
+    /// Takes the cycle and the slaves from the ENI file, if one is configured (a relative
+    /// path in the configuration file is taken from the file's folder). ENI slaves are
+    /// the exact network: unless `[bus] on_mismatch` says otherwise, a mismatch stops.
+    fn import_eni(&mut self) -> Result<(), String> {
+        let Some(path) = self.eni.clone() else {
+            return Ok(());
+        };
+        if !self.slave.is_empty() {
+            return Err(format!(
+                "{}: give the slaves as [[slave]] entries or as an ENI file ({}), not both",
+                self.file
+                    .as_ref()
+                    .map_or("the configuration".into(), |f| f.display().to_string()),
+                path.display()
+            ));
+        }
+        let path = match (&self.file, path.is_relative()) {
+            (Some(file), true) => file.parent().map_or(path.clone(), |dir| dir.join(&path)),
+            _ => path,
+        };
+        let imported = eni::load(&path)?;
+        if let Some(cycle) = imported.cycle {
+            self.bus.cycle = cycle;
+        }
+        self.bus.on_mismatch.get_or_insert(bus::OnMismatch::Stop);
+        self.slave = imported.slaves;
+        self.eni = Some(path);
+        self.eni_unused = imported.unused;
+        Ok(())
+    }
+
+    /// What the master gets from `[bus]`, `[[slave]]` and `[[group]]`, checked.
+    pub fn segment_setup(&self) -> Result<SegmentSetup, String> {
+        self.bus.check()?;
+        let mut slave_configs = Vec::new();
+        let mut pdos = Vec::new();
+        let mut addresses = Vec::new();
+        for (i, entry) in self.slave.iter().enumerate() {
+            let label = entry.label(i + 1);
+            let setup = entry.setup().map_err(|err| format!("{label}: {err}"))?;
+            let address = setup.config.address;
+            if addresses.contains(&address) {
+                return Err(format!(
+                    "{label}: another [[slave]] entry names the same slave"
+                ));
+            }
+            addresses.push(address);
+            if let (Some(address), false) = (address, setup.pdos.is_empty()) {
+                pdos.push((address, setup.pdos));
+            }
+            slave_configs.push(setup.config);
+        }
+        let groups = groups::groups(&self.group, self.bus.cycle)?;
+        let watchdog = self
+            .bus
+            .watchdog
+            .as_ref()
+            .map(bus::WatchdogSettings::watchdog)
+            .transpose()?;
+        Ok(SegmentSetup {
+            bus: self.bus.bus_config(),
+            master: self.bus.master_config(),
+            cpu: self.bus.cpu,
+            slaves: master_core::master::SlaveConfigs {
+                slaves: slave_configs,
+                policy: self.bus.on_mismatch.unwrap_or_default().policy(),
+                report_extra: self.bus.report_extra,
+                watchdog,
+            },
+            pdos,
+            groups,
+        })
     }
 
     /// The tokens of the configuration file `path` again, resolved and checked (SIGHUP):
@@ -530,7 +671,16 @@ impl Config {
                 "***".into()
             };
         }
-        toml::to_string(&shown).unwrap_or_else(|err| format!("# cannot show: {err}\n"))
+        // The slaves and cycle of an ENI are shown as entries: the text reads back as a
+        // configuration of its own, without the ENI.
+        let from_eni = shown.eni.take().map(|eni| {
+            format!(
+                "# [bus] cycle and [[slave]] entries from the ENI file {}\n",
+                eni.display()
+            )
+        });
+        let text = toml::to_string(&shown).unwrap_or_else(|err| format!("# cannot show: {err}\n"));
+        from_eni.unwrap_or_default() + &text
     }
 }
 

@@ -1,0 +1,27 @@
+//! `ecat config`: the configuration ecatd runs with (IgH's `ethercat config`): the cycle,
+//! the expected slaves with their PDOs, DC and start-up commands, the groups, as TOML in
+//! the configuration file's keys; `--json` gives `{ "toml": ..., "eni": ... }`.
+
+use proto::v1 as pb;
+use serde_json::{Value, json};
+
+use crate::client::Clients;
+
+/// Asks ecatd for its effective configuration: as JSON and as text.
+pub async fn run(c: &mut Clients) -> Result<(Value, String), String> {
+    let config = c
+        .bus
+        .get_config(pb::GetConfigRequest {})
+        .await
+        .map_err(|s| format!("{:?}: {}", s.code(), s.message()))?
+        .into_inner();
+    let human = if config.eni.is_empty() {
+        config.toml.clone()
+    } else {
+        format!(
+            "# slaves and cycle from the ENI file {}\n{}",
+            config.eni, config.toml
+        )
+    };
+    Ok((json!({ "toml": config.toml, "eni": config.eni }), human))
+}
