@@ -177,6 +177,9 @@ fn sighup_reloads_the_certificate_and_refuses_a_bad_one() {
     for (addr, alpn) in ports {
         assert_eq!(served_fingerprint(addr, alpn), first, "{addr}");
     }
+    // A connection made before the reloads, used again after them.
+    let mut kept = KeptConnection::open(&http);
+    kept.get_health(1);
     let hangup = || {
         // SAFETY: `kill` on ecatd, our own child, which is still running.
         let sent = unsafe { libc::kill(ecatd.pid() as libc::pid_t, libc::SIGHUP) };
@@ -208,6 +211,8 @@ fn sighup_reloads_the_certificate_and_refuses_a_bad_one() {
     for (addr, alpn) in ports {
         assert_eq!(served_fingerprint(addr, alpn), second, "{addr}");
     }
+    // The connection made with the first certificate was not dropped.
+    kept.get_health(2);
     // And they still work as APIs, trusting the same CA.
     let url = format!("{}/api/v1/slaves", ecatd.http);
     let (status, body) = curl(&["-s", "--cacert", &pki.path("ca.pem"), &url]);
@@ -225,4 +230,78 @@ fn sighup_reloads_the_certificate_and_refuses_a_bad_one() {
         "{}",
         String::from_utf8_lossy(&output.stderr)
     );
+}
+
+/// One HTTP/1.1 connection over TLS (`openssl s_client`), kept open across requests.
+struct KeptConnection {
+    child: std::process::Child,
+    output: std::sync::Arc<std::sync::Mutex<String>>,
+}
+
+impl KeptConnection {
+    fn open(addr: &str) -> KeptConnection {
+        use std::io::Read;
+        let mut child = Command::new("openssl")
+            .args([
+                "s_client",
+                "-quiet",
+                "-connect",
+                addr,
+                "-servername",
+                "localhost",
+            ])
+            .args(["-alpn", "http/1.1"])
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("openssl runs");
+        let mut stdout = child.stdout.take().unwrap();
+        let output = std::sync::Arc::new(std::sync::Mutex::new(String::new()));
+        let keep = std::sync::Arc::clone(&output);
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            while let Ok(n) = stdout.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                keep.lock()
+                    .unwrap()
+                    .push_str(&String::from_utf8_lossy(&buf[..n]));
+            }
+        });
+        KeptConnection { child, output }
+    }
+
+    /// Sends `GET /healthz` on the connection and waits for the `nth` 200 answer on it.
+    fn get_health(&mut self, nth: usize) {
+        use std::io::Write;
+        let stdin = self.child.stdin.as_mut().unwrap();
+        stdin
+            .write_all(b"GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+            .unwrap();
+        stdin.flush().unwrap();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while self.output.lock().unwrap().matches("HTTP/1.1 200").count() < nth {
+            assert!(
+                Instant::now() < deadline,
+                "no answer {nth} on the kept connection: {:?}",
+                self.output.lock().unwrap()
+            );
+            assert!(
+                self.child.try_wait().unwrap().is_none(),
+                "the kept connection was closed: {:?}",
+                self.output.lock().unwrap()
+            );
+            // Poll interval of the answer check; the loop ends on the answer or the deadline.
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for KeptConnection {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
 }

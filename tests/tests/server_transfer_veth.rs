@@ -333,14 +333,47 @@ fn foe_errors_sent(pcap: &Path) -> Vec<String> {
     errors
 }
 
-/// Waits until the event stream shows file `name` under way (some bytes moved, not all).
-fn wait_under_way(events: &Streaming, name: &str) {
+/// Waits until the event stream shows file `name` under way in `direction` (`read` or
+/// `write`): some bytes moved, not all.
+fn wait_under_way(events: &Streaming, name: &str, direction: &str) {
     events.wait_for(&format!("{name} under way"), |text| {
-        progress_events(text, name)
-            .iter()
-            .any(|s| s.0 > 0 && !s.2)
+        text.lines()
+            .filter_map(|line| line.strip_prefix("data:"))
+            .filter_map(|data| serde_json::from_str::<serde_json::Value>(data.trim()).ok())
+            .any(|event| {
+                let t = &event["transfer"];
+                event["kind"] == "foe_progress"
+                    && t["file"] == name
+                    && t["direction"] == direction
+                    && t["bytes"].as_u64() > Some(0)
+                    && t["done"] == false
+            })
             .then_some(())
     });
+}
+
+/// The drive's (station 1001) count of requests its callers gave up, from `/metrics`.
+fn cancelled(ecatd: &Ecatd) -> f64 {
+    let (status, text) = curl(&["-s", &format!("{}/metrics", ecatd.http)]);
+    assert_eq!(status, 200);
+    text.lines()
+        .find(|l| l.starts_with("ecat_mailbox_cancelled_requests_total{") && l.contains("\"1001\""))
+        .and_then(|l| l.rsplit(' ').next()?.parse().ok())
+        .unwrap_or_else(|| panic!("no cancelled count for the drive in:\n{text}"))
+}
+
+/// Waits until the drive's engine counted one more cancelled request than `before`: the
+/// transfer of the client that left was ended.
+fn wait_cancelled(ecatd: &Ecatd, before: f64, what: &str) {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    while cancelled(ecatd) < before + 1.0 {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "{what}: the transfer was not cancelled"
+        );
+        // Poll interval of the counter check; the loop ends on the count or the deadline.
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
 }
 
 /// A small file through REST, read back equal: the slave takes transfers again.
@@ -375,8 +408,10 @@ fn a_client_that_leaves_mid_transfer_leaves_the_slave_ready() {
             .arg(format!("@{}", scratch.str("big.bin")))
             .arg(format!("{}/api/v1/slaves/0/foe/rest-cut.bin", ecatd.http)),
     );
-    wait_under_way(&events, "rest-cut.bin");
+    wait_under_way(&events, "rest-cut.bin", "write");
+    let before = cancelled(&ecatd);
     drop(put);
+    wait_cancelled(&ecatd, before, "REST write");
     next_transfer_works(&ecatd, &scratch, "after-rest.bin");
 
     // gRPC write with progress: the client is killed once the slave is taking the file.
@@ -395,10 +430,12 @@ fn a_client_that_leaves_mid_transfer_leaves_the_slave_ready() {
         drop(input);
         child
     };
-    wait_under_way(&events, "grpc-cut.bin");
+    wait_under_way(&events, "grpc-cut.bin", "write");
+    let before = cancelled(&ecatd);
     let mut writer = writer;
     writer.kill().unwrap();
     writer.wait().unwrap();
+    wait_cancelled(&ecatd, before, "gRPC write");
     next_transfer_works(&ecatd, &scratch, "after-grpc-write.bin");
 
     // gRPC read of a big file: the client is killed once the slave is sending it.
@@ -409,8 +446,10 @@ fn a_client_that_leaves_mid_transfer_leaves_the_slave_ready() {
         "ecat.v1.FoeService/Read",
         r#"{"slave": "0", "name": "whole.bin"}"#,
     ));
-    wait_under_way(&events, "whole.bin");
+    wait_under_way(&events, "whole.bin", "read");
+    let before = cancelled(&ecatd);
     drop(reader);
+    wait_cancelled(&ecatd, before, "gRPC read");
     next_transfer_works(&ecatd, &scratch, "after-grpc-read.bin");
 
     // Once the simulator has stopped its capture is complete: one FoE ERROR per client

@@ -308,6 +308,11 @@ impl Ecatd {
         veth.rig
             .sim
             .ip(&["link", "set", "dev", ecat_tests::rig::SIM_IFACE, state]);
+        if up {
+            // Both ends carry frames again (the master's end lost its carrier meanwhile).
+            veth.rig.sim.wait_until_ready(ecat_tests::rig::SIM_IFACE);
+            ecat_tests::netns::wait_link_ready(None, &veth.rig.master_iface);
+        }
     }
 
     /// On veth ([`on_veth`]), once ecatd has stopped: stops ecat-sim with SIGTERM, so that
