@@ -62,7 +62,7 @@ fn topology(scratch: &Scratch, mailbox: u16) -> String {
     drive.mailbox = Some(MailboxSpec {
         rx_size: mailbox,
         tx_size: mailbox,
-        ..drive.mailbox.clone().expect("the drive has a mailbox")
+        ..drive.mailbox.expect("the drive has a mailbox")
     });
     let path = scratch.path("topology.toml");
     std::fs::write(&path, topology.to_toml().unwrap()).unwrap();

@@ -84,22 +84,19 @@ pub fn reporter(
             }
             *last = Some(now);
         }
-        let mut view = EventView::lagged(0);
-        view.kind = "foe_progress".into();
-        view.position = position;
-        view.station = station;
-        view.text = match total {
+        let text = match total {
             Some(total) => format!("FoE {direction} {file}: {bytes} of {total} bytes"),
             None => format!("FoE {direction} {file}: {bytes} bytes"),
         };
-        view.transfer = Some(TransferView {
+        let transfer = TransferView {
             id,
             file: file.clone(),
             direction: direction.into(),
             bytes: bytes as u64,
             total: total.map(|t| t as u64),
             done,
-        });
+        };
+        let view = EventView::foe_progress(position, station, text, transfer);
         // Nobody listening is fine: the stream is "from now on".
         let _ = events.send(view);
     })

@@ -173,6 +173,23 @@ pub struct EmergencyView {
 }
 
 impl EventView {
+    /// The progress of an FoE transfer with the slave at `position` / `station`.
+    pub fn foe_progress(
+        position: u16,
+        station: u16,
+        text: String,
+        transfer: TransferView,
+    ) -> EventView {
+        EventView {
+            kind: "foe_progress".into(),
+            position,
+            station,
+            text,
+            transfer: Some(transfer),
+            ..EventView::lagged(0)
+        }
+    }
+
     /// The event for a subscriber that fell behind and missed `missed` events.
     pub fn lagged(missed: u64) -> EventView {
         EventView {
