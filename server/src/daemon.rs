@@ -66,7 +66,7 @@ pub async fn run(config: Config) -> Result<(), String> {
     // Before the scan: its findings against the configuration are counted too.
     let findings = metrics.config.follow(core.master());
     let tokens = Tokens::new(config.tokens.clone());
-    reload_tokens_on_sighup(&config, &tokens)?;
+    reload_on_sighup(&config, &tokens, tls.clone())?;
     tracing::info!(
         grpc = %config.grpc_listen_of(&grpc_listener),
         http = %config.http_listen_of(&http_listener),
@@ -82,7 +82,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         core.clone(),
         tokens.clone(),
         grpc_listener,
-        tls.as_ref().map(crate::tls::TlsFiles::grpc),
+        tls.as_ref().map(crate::tls::TlsFiles::grpc).transpose()?,
         stopped(stop_rx.clone()),
     ));
     let hosts = http::browser::AllowedHosts::new(
@@ -213,10 +213,15 @@ pub async fn run(config: Config) -> Result<(), String> {
     Ok(())
 }
 
-/// On SIGHUP, reads the configuration file's tokens again and swaps them in; the bus and
-/// everything else stay as they are. A file that does not pass the start-up checks keeps
-/// the tokens in use, and the log says why.
-fn reload_tokens_on_sighup(config: &Config, tokens: &Tokens) -> Result<(), String> {
+/// On SIGHUP, reads the configuration file's tokens again and swaps them in, and reads the
+/// TLS certificate and key again (when TLS is on) for new connections; the bus, established
+/// connections and everything else stay as they are. A file that does not pass the
+/// start-up checks keeps what is in use, and the log says why.
+fn reload_on_sighup(
+    config: &Config,
+    tokens: &Tokens,
+    tls: Option<crate::tls::TlsFiles>,
+) -> Result<(), String> {
     use tokio::signal::unix::{SignalKind, signal};
     let mut hangup =
         signal(SignalKind::hangup()).map_err(|err| format!("cannot handle SIGHUP: {err}"))?;
@@ -224,11 +229,25 @@ fn reload_tokens_on_sighup(config: &Config, tokens: &Tokens) -> Result<(), Strin
     let tokens = tokens.clone();
     tokio::spawn(async move {
         while hangup.recv().await.is_some() {
+            if let Some(tls) = &tls {
+                // Reading files: off the async workers.
+                let tls = tls.clone();
+                match tokio::task::spawn_blocking(move || tls.reload()).await {
+                    Ok(Ok(())) => tracing::info!("SIGHUP: TLS certificate reloaded"),
+                    Ok(Err(err)) => {
+                        tracing::error!(%err, "SIGHUP: TLS certificate not reloaded; the previous one stays")
+                    }
+                    Err(err) => {
+                        tracing::error!(%err, "SIGHUP: TLS certificate not reloaded; the previous one stays")
+                    }
+                }
+            }
             let Some(file) = &config.file else {
-                tracing::warn!("SIGHUP: no configuration file to reload the tokens from");
+                if tls.is_none() {
+                    tracing::warn!("SIGHUP: no configuration file to reload the tokens from");
+                }
                 continue;
             };
-            // Reading a file: off the async workers.
             let (reload, path) = (config.clone(), file.clone());
             match tokio::task::spawn_blocking(move || reload.reload_tokens(&path)).await {
                 Ok(Ok(set)) => {

@@ -132,6 +132,7 @@ pub const GRPC: &[(&str, Access)] = &[
     ("/ecat.v1.SoeService/Write", Write),
     ("/ecat.v1.FoeService/Read", Read),
     ("/ecat.v1.FoeService/Write", Write),
+    ("/ecat.v1.FoeService/WriteWithProgress", Write),
     ("/ecat.v1.VoeService/Transfer", Write),
     ("/ecat.v1.EoeService/SetIp", Write),
     ("/ecat.v1.EoeService/GetIp", Read),

@@ -20,7 +20,7 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use clap::Parser;
-use master_core::link::{Link, PcapTap, RawSocket, RawSocketOptions};
+use master_core::link::{FaultConfig, FaultInjector, Link, PcapTap, RawSocket, RawSocketOptions};
 use sim::topology::{Built, Topology, build_with_handles};
 
 use frontend::counter::FrameCounter;
@@ -49,6 +49,25 @@ struct Args {
     /// Report digital outputs on stdout and take `input`/`emergency` commands on stdin.
     #[arg(long)]
     control: bool,
+    /// Lose this fraction of the frames (0.0 to 1.0), half of it on the way in and half on
+    /// the way out, so that about this fraction of the master's round trips fail: a bad
+    /// cable, repeatably (see `--loss-seed`).
+    #[arg(long, value_name = "FRACTION", default_value = "0", value_parser = loss_fraction)]
+    loss: f64,
+    /// Seed of the loss's random choices (the same seed and traffic lose the same frames).
+    #[arg(long, value_name = "N", default_value = "1")]
+    loss_seed: u64,
+}
+
+fn loss_fraction(text: &str) -> Result<f64, String> {
+    let value: f64 = text
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    if (0.0..=1.0).contains(&value) {
+        Ok(value)
+    } else {
+        Err(format!("{value} is not between 0 and 1"))
+    }
 }
 
 /// Why the simulator stopped with an error, and the exit code that goes with it.
@@ -101,6 +120,13 @@ fn run(args: &Args) -> Result<(), Failure> {
     };
     let socket =
         RawSocket::open(&args.iface, options).map_err(|err| Failure::Io(err.to_string()))?;
+    // Lost frames are lost before the capture sees them, as on a cable before the slave.
+    let faults = FaultConfig {
+        drop_tx: args.loss / 2.0,
+        drop_rx: args.loss / 2.0,
+        ..FaultConfig::default()
+    };
+    let socket = FaultInjector::new(socket, faults, args.loss_seed);
 
     // Registered before the ready line, so a signal sent right after it is never lost.
     let stop = Arc::new(AtomicBool::new(false));

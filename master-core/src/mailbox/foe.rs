@@ -4,7 +4,9 @@
 //! On BUSY the last message is sent again (a WRQ, or the DATA packet the slave is not
 //! ready for), after [`MailboxConfig::poll_interval`](crate::mailbox::MailboxConfig::poll_interval).
 //! A transfer given up half-way (the caller went away, the deadline passed, a wrong packet
-//! number) is ended towards the slave with an FoE ERROR.
+//! number) is ended towards the slave with an FoE ERROR (ETG.1000.6, spec-notes §foe),
+//! so the slave is ready for the next transfer. With progress deadlines
+//! ([`SlaveMailbox::with_progress_deadlines`]) each ACK, DATA and BUSY starts a new window.
 
 use std::sync::Arc;
 
@@ -143,6 +145,7 @@ async fn write_packets(
     loop {
         match receive_foe(x).await? {
             Answer::Ack(acked) if acked == packet => {
+                x.progressed();
                 options.report(FoeProgress::Transferred {
                     bytes: chunk.end,
                     total: Some(data.len()),
@@ -162,6 +165,7 @@ async fn write_packets(
             }
             Answer::Ack(_) => return Err(x.violation("an FoE ACK with the wrong packet number")),
             Answer::Busy(done, entire, text) => {
+                x.progressed();
                 options.report(FoeProgress::Busy { done, entire, text });
                 if x.cancelled() {
                     return Err(MailboxError::Cancelled);
@@ -217,6 +221,7 @@ async fn read_packets(
                 }
                 file.extend_from_slice(&data);
                 acked = packet;
+                x.progressed();
                 send_foe(x, &FoeRepr::Ack { packet }).await?;
                 options.report(FoeProgress::Transferred {
                     bytes: file.len(),
@@ -231,7 +236,11 @@ async fn read_packets(
             }
             Answer::Data(..) => return Err(x.violation("an FoE DATA packet out of sequence")),
             Answer::Busy(done, entire, text) => {
+                x.progressed();
                 options.report(FoeProgress::Busy { done, entire, text });
+                if x.cancelled() {
+                    return Err(MailboxError::Cancelled);
+                }
                 tokio::time::sleep(x.config().poll_interval).await;
                 if acked == 0 {
                     send_foe(x, request).await?;
@@ -246,7 +255,9 @@ async fn read_packets(
 
 impl SlaveMailbox {
     /// Writes `data` to the slave's file `name` (ASCII, no NUL). Give the handle a deadline
-    /// long enough for the file ([`SlaveMailbox::with_timeout`]).
+    /// long enough for the file ([`SlaveMailbox::with_timeout`]), or deadlines that follow
+    /// the transfer's progress ([`SlaveMailbox::with_progress_deadlines`]: each ACK and BUSY
+    /// restarts the window).
     pub async fn foe_write(&self, name: &str, data: &[u8], options: FoeOptions) -> Result<()> {
         let subject = Subject::File(name.to_string());
         let name = name.as_bytes().to_vec();

@@ -75,5 +75,13 @@ pub fn event(view: &EventView) -> pb::Event {
             error_register: u32::from(e.error_register),
             data: hex::decode(&e.data).unwrap_or_default(),
         }),
+        transfer: view.transfer.as_ref().map(|t| pb::TransferProgress {
+            id: t.id,
+            file: t.file.clone(),
+            direction: t.direction.clone(),
+            bytes: t.bytes,
+            total: t.total,
+            done: t.done,
+        }),
     }
 }

@@ -1,5 +1,7 @@
 //! `ecat.v1.FoeService`: file read as a stream of chunks (progress first, then the data),
-//! file write from a client stream.
+//! file write from a client stream, with its progress streamed back (`WriteWithProgress`).
+//! A client that goes away ends its transfer: the call is dropped, and the engine sends
+//! the slave an FoE ERROR.
 
 use std::pin::Pin;
 use std::sync::Arc;
@@ -14,6 +16,7 @@ use tonic::{Request, Response, Status, Streaming};
 
 use super::status::status;
 use crate::security::{Caller, authorize_write};
+use crate::service::transfer::PROGRESS_PERIOD;
 use crate::service::{ApiError, Core};
 
 /// Largest file a client may write in one call.
@@ -51,10 +54,13 @@ impl FoeService for Foe {
         });
         let core = self.core.clone();
         tokio::spawn(async move {
-            match core
-                .foe_read(&r.slave, &r.name, r.password, Some(progress))
-                .await
-            {
+            // The client leaving closes the stream's receiver: the read is dropped then,
+            // which ends the transfer towards the slave.
+            let read = tokio::select! {
+                read = core.foe_read(&r.slave, &r.name, r.password, Some(progress)) => read,
+                () = tx.closed() => return,
+            };
+            match read {
                 Ok(data) => {
                     let total = data.len() as u64;
                     let mut sent = 0u64;
@@ -83,42 +89,104 @@ impl FoeService for Foe {
         request: Request<Streaming<pb::FoeWriteChunk>>,
     ) -> Reply<pb::FoeWriteResponse> {
         let caller = request.extensions().get::<Caller>().cloned();
-        let mut stream = request.into_inner();
-        let mut target: Option<(String, String, u32)> = None;
-        let mut data = Vec::new();
-        while let Some(chunk) = stream.next().await {
-            let chunk = chunk?;
-            if target.is_none() {
-                // The first chunk names the slave and the file: the check and its audit
-                // line come before any data is kept.
-                authorize_write(
-                    caller.as_ref(),
-                    "foe_write",
-                    &format!("{} {}", chunk.slave, chunk.name),
-                )
-                .map_err(status)?;
-                target = Some((chunk.slave, chunk.name, chunk.password));
-            }
-            if data.len() + chunk.data.len() > MAX_FOE_WRITE {
-                return Err(status(ApiError::too_large(format!(
-                    "FoE write above {MAX_FOE_WRITE} bytes"
-                ))));
-            }
-            data.extend_from_slice(&chunk.data);
-        }
-        if target.is_none() {
-            // Nothing to write, but the caller still needs the right to try.
-            authorize_write(caller.as_ref(), "foe_write", "").map_err(status)?;
-        }
-        let (slave, name, password) =
-            target.ok_or_else(|| status(ApiError::invalid("empty FoE write stream")))?;
-        crate::audit::note_value(&data);
+        let (slave, name, password, data) =
+            receive_file(caller.as_ref(), request.into_inner()).await?;
         self.core
-            .foe_write(&slave, &name, password, &data)
+            .foe_write(&slave, &name, password, &data, None)
             .await
             .map_err(status)?;
         Ok(Response::new(pb::FoeWriteResponse {
             written: data.len() as u64,
         }))
     }
+
+    type WriteWithProgressStream =
+        Pin<Box<dyn Stream<Item = Result<pb::FoeWriteProgress, Status>> + Send>>;
+
+    async fn write_with_progress(
+        &self,
+        request: Request<Streaming<pb::FoeWriteChunk>>,
+    ) -> Reply<Self::WriteWithProgressStream> {
+        let caller = request.extensions().get::<Caller>().cloned();
+        let (slave, name, password, data) =
+            receive_file(caller.as_ref(), request.into_inner()).await?;
+        let (tx, rx) = mpsc::channel(QUEUE);
+        let progress_tx = tx.clone();
+        // Progress messages are spaced like the events; a full queue drops one (the next,
+        // or the final message, still comes).
+        let last = std::sync::Mutex::new(None::<std::time::Instant>);
+        let progress = Arc::new(move |p: FoeProgress| {
+            let FoeProgress::Transferred { bytes, total } = p else {
+                return;
+            };
+            let now = std::time::Instant::now();
+            let mut last = last
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            if last.is_some_and(|at| now.duration_since(at) < PROGRESS_PERIOD) {
+                return;
+            }
+            *last = Some(now);
+            let _ = progress_tx.try_send(Ok(pb::FoeWriteProgress {
+                transferred: bytes as u64,
+                total: total.unwrap_or(bytes) as u64,
+                done: false,
+            }));
+        });
+        let core = self.core.clone();
+        tokio::spawn(async move {
+            // The client leaving closes the stream's receiver: the write is dropped then,
+            // which ends the transfer towards the slave with an FoE ERROR.
+            let written = tokio::select! {
+                written = core.foe_write(&slave, &name, password, &data, Some(progress)) => written,
+                () = tx.closed() => return,
+            };
+            let last = match written {
+                Ok(()) => Ok(pb::FoeWriteProgress {
+                    transferred: data.len() as u64,
+                    total: data.len() as u64,
+                    done: true,
+                }),
+                Err(err) => Err(status(err)),
+            };
+            let _ = tx.send(last).await;
+        });
+        Ok(Response::new(Box::pin(ReceiverStream::new(rx))))
+    }
+}
+
+/// Takes a whole file from a write stream: the first chunk names the slave and the file,
+/// and the caller's right to write is checked (and audited) before any data is kept.
+async fn receive_file(
+    caller: Option<&Caller>,
+    mut stream: Streaming<pb::FoeWriteChunk>,
+) -> Result<(String, String, u32, Vec<u8>), Status> {
+    let mut target: Option<(String, String, u32)> = None;
+    let mut data = Vec::new();
+    while let Some(chunk) = stream.next().await {
+        let chunk = chunk?;
+        if target.is_none() {
+            authorize_write(
+                caller,
+                "foe_write",
+                &format!("{} {}", chunk.slave, chunk.name),
+            )
+            .map_err(status)?;
+            target = Some((chunk.slave, chunk.name, chunk.password));
+        }
+        if data.len() + chunk.data.len() > MAX_FOE_WRITE {
+            return Err(status(ApiError::too_large(format!(
+                "FoE write above {MAX_FOE_WRITE} bytes"
+            ))));
+        }
+        data.extend_from_slice(&chunk.data);
+    }
+    if target.is_none() {
+        // Nothing to write, but the caller still needs the right to try.
+        authorize_write(caller, "foe_write", "").map_err(status)?;
+    }
+    let (slave, name, password) =
+        target.ok_or_else(|| status(ApiError::invalid("empty FoE write stream")))?;
+    crate::audit::note_value(&data);
+    Ok((slave, name, password, data))
 }

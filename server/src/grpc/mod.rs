@@ -9,6 +9,7 @@ pub mod auth;
 pub mod bus;
 pub mod coe;
 pub mod convert;
+pub mod deadline;
 pub mod foe;
 pub mod gateway;
 pub mod protocols;
@@ -34,7 +35,8 @@ use auth::grpc_interceptor;
 
 /// Largest request message accepted (FoE writes come in chunks below this).
 pub const MAX_MESSAGE: usize = 4 << 20;
-/// Time limit of one call (a streaming call counts from its start).
+/// Time limit of one call (a streaming call counts from its start; FoE transfers are
+/// exempt, see [`deadline`]).
 pub const TIMEOUT: Duration = Duration::from_secs(60);
 
 /// Serves every gRPC service on `listener` until `shutdown` completes.
@@ -52,7 +54,7 @@ pub async fn serve_tls(
     core: Core,
     tokens: Tokens,
     listener: tokio::net::TcpListener,
-    tls: Option<tonic::transport::ServerTlsConfig>,
+    tls: Option<tokio_rustls::TlsAcceptor>,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
     let reflection = || {
@@ -88,22 +90,15 @@ pub async fn serve_tls(
             )
         };
     }
-    // Nagle off: a reply goes out in several small writes (HEADERS, DATA, trailers) that
-    // must not wait for the client's ACK of the first. `Server::tcp_nodelay` applies only to
-    // sockets tonic binds itself, so the accepted ones are set here.
-    let incoming = TcpIncoming::from(listener).with_nodelay(Some(true));
-    let mut builder = Server::builder();
-    if let Some(tls) = tls {
-        builder = builder
-            .tls_config(tls)
-            .map_err(|err| format!("gRPC TLS: {err}"))?;
-    }
-    builder
-        .timeout(TIMEOUT)
+    let router = Server::builder()
         .layer(tower::util::MapRequestLayer::new(
             auth::with_path::<tonic::body::Body>,
         ))
         .layer(audit::AuditLayer)
+        // The time limit of each call, except FoE transfers (they have their own deadlines,
+        // which follow the transfer's progress); inside the audit layer, which records the
+        // timeout as the outcome.
+        .layer(deadline::DeadlineLayer::new(TIMEOUT))
         .add_service(reflection_v1)
         .add_service(reflection_v1alpha)
         .add_service(health_service)
@@ -122,8 +117,26 @@ pub async fn serve_tls(
             VoeServiceServer,
             protocols::Protocols { core: core.clone() }
         ))
-        .add_service(svc!(EoeServiceServer, protocols::Protocols { core }))
-        .serve_with_incoming_shutdown(incoming, shutdown)
-        .await
-        .map_err(|err| format!("gRPC server: {err}"))
+        .add_service(svc!(EoeServiceServer, protocols::Protocols { core }));
+    let served = match tls {
+        // The certificate comes from the acceptor's resolver per handshake, so a reload
+        // (SIGHUP) reaches new connections without a restart.
+        Some(acceptor) => {
+            let incoming = crate::tls::TlsListener::new(listener, acceptor).into_incoming();
+            router
+                .serve_with_incoming_shutdown(incoming, shutdown)
+                .await
+        }
+        None => {
+            // Nagle off: a reply goes out in several small writes (HEADERS, DATA,
+            // trailers) that must not wait for the client's ACK of the first.
+            // `Server::tcp_nodelay` applies only to sockets tonic binds itself, so the
+            // accepted ones are set here.
+            let incoming = TcpIncoming::from(listener).with_nodelay(Some(true));
+            router
+                .serve_with_incoming_shutdown(incoming, shutdown)
+                .await
+        }
+    };
+    served.map_err(|err| format!("gRPC server: {err}"))
 }

@@ -36,7 +36,7 @@ use crate::sim_hooks::SimHooks;
 
 /// Largest request body (an FoE file).
 pub const MAX_BODY: usize = 16 << 20;
-/// Time limit of one request (the event stream excepted).
+/// Time limit of one request (the event stream and FoE transfers excepted).
 pub const TIMEOUT: Duration = Duration::from_secs(60);
 
 /// Every HTTP route: the API over `core`, the metrics from `core` and `metrics`, and the
@@ -63,6 +63,7 @@ pub fn router(
             StatusCode::GATEWAY_TIMEOUT,
             TIMEOUT,
         ))
+        .merge(rest::transfer_routes())
         .merge(rest::stream_routes())
         .layer(axum::middleware::from_fn_with_state(
             tokens.clone(),

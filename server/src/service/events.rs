@@ -57,6 +57,11 @@ impl EventHub {
     pub fn subscribe(&self) -> broadcast::Receiver<EventView> {
         self.tx.subscribe()
     }
+
+    /// Where the service layer publishes events of its own (FoE progress) into the stream.
+    pub fn sender(&self) -> broadcast::Sender<EventView> {
+        self.tx.clone()
+    }
 }
 
 type Emergencies = StreamMap<u16, BroadcastStream<Emergency>>;

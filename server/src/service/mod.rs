@@ -3,7 +3,8 @@
 //!
 //! Files: `address` (slave names), `error` (the one error type), `view` (what the APIs
 //! serialise), `ip` (EoE IP parameter text forms), `gateway` (the mailbox gateway's state,
-//! start and stop), `bus` (frame and cycle counters), `read_effects` (register reads that need the write role).
+//! start and stop), `bus` (frame and cycle counters), `read_effects` (register reads that
+//! need the write role), `transfer` (deadlines and progress of FoE and SDO transfers).
 
 pub mod address;
 pub mod bus;
@@ -13,6 +14,7 @@ pub mod gateway;
 pub mod ip;
 pub mod read_effects;
 mod sii_checksum;
+pub mod transfer;
 pub mod value;
 pub mod view;
 
@@ -288,6 +290,8 @@ impl Core {
         complete: bool,
     ) -> Result<Vec<u8>> {
         self.call(slave, Protocol::Coe, |mailbox| async move {
+            // A segmented upload's window restarts with each segment.
+            let mailbox = transfer::with_progress_deadlines(&mailbox, transfer::READ_CAP_SIZE);
             if complete {
                 mailbox.sdo_upload_complete(index, subindex).await
             } else {
@@ -307,6 +311,8 @@ impl Core {
         complete: bool,
     ) -> Result<()> {
         self.call(slave, Protocol::Coe, |mailbox| async move {
+            // A segmented download's window restarts with each segment.
+            let mailbox = transfer::with_progress_deadlines(&mailbox, data.len());
             if complete {
                 mailbox.sdo_download_complete(index, subindex, data).await
             } else {
@@ -457,37 +463,76 @@ impl Core {
         .await
     }
 
-    /// Reads file `name`; `progress` hears the bytes transferred so far.
+    /// Reads file `name`; `progress` hears the bytes transferred so far, and so does the
+    /// event stream (`foe_progress`). Deadlines follow the transfer ([`transfer`]);
+    /// dropping the call ends the transfer towards the slave with an FoE ERROR.
     pub async fn foe_read(
         &self,
         slave: &str,
         name: &str,
         password: u32,
-        progress: Option<Arc<dyn Fn(FoeProgress) + Send + Sync>>,
+        progress: Option<transfer::ProgressFn>,
     ) -> Result<Vec<u8>> {
-        let options = FoeOptions { password, progress };
         self.call(slave, Protocol::Foe, |m| async move {
-            m.foe_read(name, options).await
+            let report = self.foe_reporter(&m, name, None, progress);
+            let options = FoeOptions {
+                password,
+                progress: Some(Arc::clone(&report)),
+            };
+            let m = transfer::with_progress_deadlines(&m, transfer::READ_CAP_SIZE);
+            let data = m.foe_read(name, options).await?;
+            // The size is known now: the last report says the read is complete.
+            report(FoeProgress::Transferred {
+                bytes: data.len(),
+                total: Some(data.len()),
+            });
+            Ok(data)
         })
         .await
     }
 
-    /// Writes file `name`.
+    /// Writes file `name`; `progress` hears the bytes the slave acknowledged so far, and so
+    /// does the event stream (`foe_progress`). Deadlines follow the transfer
+    /// ([`transfer`]); dropping the call ends the transfer towards the slave with an FoE
+    /// ERROR.
     pub async fn foe_write(
         &self,
         slave: &str,
         name: &str,
         password: u32,
         data: &[u8],
+        progress: Option<transfer::ProgressFn>,
     ) -> Result<()> {
-        let options = FoeOptions {
-            password,
-            progress: None,
-        };
         self.call(slave, Protocol::Foe, |m| async move {
+            let report = self.foe_reporter(&m, name, Some(data.len()), progress);
+            let options = FoeOptions {
+                password,
+                progress: Some(report),
+            };
+            let m = transfer::with_progress_deadlines(&m, data.len());
             m.foe_write(name, data, options).await
         })
         .await
+    }
+
+    /// The progress reporter of an FoE transfer on `mailbox` (events only once somebody
+    /// subscribed to the stream).
+    fn foe_reporter(
+        &self,
+        mailbox: &SlaveMailbox,
+        name: &str,
+        write_size: Option<usize>,
+        also: Option<transfer::ProgressFn>,
+    ) -> transfer::ProgressFn {
+        let station = mailbox.station();
+        let position = self
+            .master
+            .slaves()
+            .iter()
+            .find(|s| s.station == station)
+            .map_or(0, |s| s.position);
+        let events = self.events.get().map(events::EventHub::sender);
+        transfer::reporter(events, (position, station), name, write_size, also)
     }
 
     /// Sends one VoE message and returns the answer.

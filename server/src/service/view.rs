@@ -115,7 +115,7 @@ impl From<&SlaveInfo> for SlaveView {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 pub struct EventView {
     /// `slave_found`, `slave_lost`, `slave_replaced`, `state_changed`, `al_error`,
-    /// `emergency`, `lagged`.
+    /// `emergency`, `foe_progress`, `lagged`.
     pub kind: String,
     /// Ring position.
     pub position: u16,
@@ -134,8 +134,31 @@ pub struct EventView {
     /// The CoE emergency (kind `emergency`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub emergency: Option<EmergencyView>,
+    /// The progress of an FoE transfer (kind `foe_progress`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transfer: Option<TransferView>,
     /// Summary.
     pub text: String,
+}
+
+/// How far an FoE transfer through the API has come: what a progress bar needs
+/// (`bytes` of `total`). Published as `foe_progress` events at most every
+/// [`PROGRESS_PERIOD`](super::transfer::PROGRESS_PERIOD), and once more when the last byte
+/// moved.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct TransferView {
+    /// Number of the transfer, unique while ecatd runs (the events of one transfer share it).
+    pub id: u64,
+    /// The file on the slave.
+    pub file: String,
+    /// `read` or `write`.
+    pub direction: String,
+    /// File bytes acknowledged by the slave (write) or received from it (read) so far.
+    pub bytes: u64,
+    /// Size of the file: known for writes, absent for reads until the last packet.
+    pub total: Option<u64>,
+    /// Whether the last packet moved (the transfer's result follows on its own call).
+    pub done: bool,
 }
 
 /// A CoE emergency a slave sent (ETG.1000.6, spec-notes §coe.emcy).
@@ -150,6 +173,23 @@ pub struct EmergencyView {
 }
 
 impl EventView {
+    /// The progress of an FoE transfer with the slave at `position` / `station`.
+    pub fn foe_progress(
+        position: u16,
+        station: u16,
+        text: String,
+        transfer: TransferView,
+    ) -> EventView {
+        EventView {
+            kind: "foe_progress".into(),
+            position,
+            station,
+            text,
+            transfer: Some(transfer),
+            ..EventView::lagged(0)
+        }
+    }
+
     /// The event for a subscriber that fell behind and missed `missed` events.
     pub fn lagged(missed: u64) -> EventView {
         EventView {
@@ -162,6 +202,7 @@ impl EventView {
             al_status_code: None,
             identity: None,
             emergency: None,
+            transfer: None,
             text: format!("{missed} events were missed"),
         }
     }
@@ -185,6 +226,7 @@ impl From<&MasterEvent> for EventView {
             al_status_code: None,
             identity: None,
             emergency: None,
+            transfer: None,
             text: String::new(),
         };
         let mut view = match event {

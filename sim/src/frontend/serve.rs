@@ -66,7 +66,8 @@ impl PowerCycles {
 /// `time` is the segment's time base: it is set to the time since the loop started before
 /// each frame, so the slaves' distributed clocks run in real time. Rate lines go to `report`
 /// about once per second. A frame the kernel cannot queue for sending is counted and lost
-/// (as on a wire); any other link error ends the loop.
+/// (as on a wire); an interface that goes down (a cut cable) is waited out; any other link
+/// error ends the loop.
 pub fn serve(
     link: &mut impl Link,
     segment: &mut Segment,
@@ -84,7 +85,17 @@ pub fn serve(
             // A closed stderr must not stop the simulator.
             let _ = counter.write_line(rate, report);
         }
-        let Some(len) = link.recv(&mut buf, Wait::Until(now + TICK))? else {
+        let received = match link.recv(&mut buf, Wait::Until(now + TICK)) {
+            Ok(received) => received,
+            // The interface went down (a cut cable): the slaves keep their state and answer
+            // again once it is back up. Polled at the tick, not spun on.
+            Err(err) if err.kind() == ErrorKind::NetworkDown => {
+                std::thread::sleep(TICK);
+                continue;
+            }
+            Err(err) => return Err(err),
+        };
+        let Some(len) = received else {
             continue;
         };
         counter.frames_in += 1;
@@ -98,7 +109,10 @@ pub fn serve(
         }
         match link.send(frame) {
             Ok(()) => counter.frames_out += 1,
-            Err(err) if err.kind() == ErrorKind::WouldBlock => counter.send_dropped += 1,
+            // No room in the kernel's queue, or the interface is down: lost, as on a wire.
+            Err(err) if matches!(err.kind(), ErrorKind::WouldBlock | ErrorKind::NetworkDown) => {
+                counter.send_dropped += 1
+            }
             Err(err) => return Err(err),
         }
     }

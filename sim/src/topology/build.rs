@@ -146,7 +146,10 @@ fn build_slave(position: usize, spec: &SlaveSpec) -> Result<SlaveParts, BuildErr
             stack = stack.with(soe_service(spec).map_err(invalid)?);
         }
         if has(Protocol::Foe) {
-            let store = FileStore::new(1 << 20);
+            let store = FileStore::new(
+                spec.foe_capacity
+                    .unwrap_or(super::model::DEFAULT_FOE_CAPACITY),
+            );
             for file in &spec.foe_files {
                 let data = match &file.content {
                     Some(text) => text.as_bytes().to_vec(),

@@ -55,6 +55,7 @@ fn base(name: &str, product_code: u32) -> SlaveSpec {
         eoe: None,
         voe_vendor_id: None,
         foe_busy: None,
+        foe_capacity: None,
     }
 }
 

@@ -100,7 +100,14 @@ pub struct SlaveSpec {
     /// as pysoem, do not handle BUSY on writes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub foe_busy: Option<FoeBusySpec>,
+    /// FoE store capacity in bytes, all files together (default 1 MiB, what a small
+    /// slave's flash would hold); a write beyond it is refused with "disk full".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub foe_capacity: Option<usize>,
 }
+
+/// FoE store capacity without `foe_capacity`.
+pub const DEFAULT_FOE_CAPACITY: usize = 1 << 20;
 
 fn one() -> u8 {
     1

@@ -117,10 +117,14 @@ impl Ecatd {
     pub fn start_listening(segment: &[&str], extra: &[&str]) -> Ecatd {
         let veth = (on_veth() && segment.first() == Some(&"--simulate")).then(|| {
             let rig = ecat_tests::rig::HostRig::new();
-            let topology: Vec<&str> = match segment.get(1) {
-                Some(file) => vec!["--topology", file],
-                None => Vec::new(),
+            // `--simulate [TOPOLOGY] [ECAT-SIM OPTIONS]`: options such as `--loss` or
+            // `--pcap` go to ecat-sim.
+            let (file, options) = match segment.get(1) {
+                Some(file) if !file.starts_with("--") => (Some(*file), &segment[2..]),
+                _ => (None, segment.get(1..).unwrap_or_default()),
             };
+            let mut topology: Vec<&str> = file.map_or_else(Vec::new, |f| vec!["--topology", f]);
+            topology.extend_from_slice(options);
             // With `--control`, so that tests can reach the slaves' physical side.
             let sim = ecat_tests::sim_process::SimProcess::start_controlled(
                 &rig.sim,
@@ -290,6 +294,37 @@ impl Ecatd {
             Ok(())
         } else {
             Err(format!("{status} {text}"))
+        }
+    }
+
+    /// On veth ([`on_veth`]): takes the simulator's end of the veth pair down (`up` false)
+    /// or up again, as a cut cable would, with `ip link set` in the simulator's namespace.
+    pub fn set_sim_link(&self, up: bool) {
+        let veth = self
+            .veth
+            .as_ref()
+            .expect("a link to cut exists on veth only");
+        let state = if up { "up" } else { "down" };
+        veth.rig
+            .sim
+            .ip(&["link", "set", "dev", ecat_tests::rig::SIM_IFACE, state]);
+        if up {
+            // Both ends carry frames again (the master's end lost its carrier meanwhile).
+            veth.rig.sim.wait_until_ready(ecat_tests::rig::SIM_IFACE);
+            ecat_tests::netns::wait_link_ready(None, &veth.rig.master_iface);
+        }
+    }
+
+    /// On veth ([`on_veth`]), once ecatd has stopped: stops ecat-sim with SIGTERM, so that
+    /// what it writes at the end (a `--pcap` capture) is complete on disk.
+    pub fn stop_sim(&mut self) {
+        assert!(self.child.is_none(), "stop ecatd first");
+        if let Some(veth) = &mut self.veth {
+            assert!(
+                veth.sim.stop().success(),
+                "ecat-sim failed:\n{}",
+                veth.sim.stderr()
+            );
         }
     }
 

@@ -84,7 +84,12 @@ async fn await_response<T>(
         }
         match SdoResponse::parse(&frame) {
             Ok(response) => match accept(&response) {
-                Some(result) => return result,
+                Some(result) => {
+                    // An answer that belongs to the transfer: it moved on (with progress
+                    // deadlines the next exchange gets a whole window).
+                    x.progressed();
+                    return result;
+                }
                 None => x.count_unexpected(MailboxType::Coe),
             },
             // Not an SDO response (an SDO Information answer, a PDO): not ours.

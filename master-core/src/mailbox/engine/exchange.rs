@@ -20,7 +20,7 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use crate::bus::{BusError, BusHandle, DatagramData, DatagramRequest, DatagramResult, Pending};
 use crate::mailbox::config::MailboxConfig;
@@ -95,6 +95,8 @@ pub(crate) struct Exchange {
     /// The receiver of EoE fragments (the side traffic's, spec-notes §mbx.demux).
     eoe_rx: Box<dyn Reassembly>,
     deadline: Instant,
+    /// With progress deadlines: the window each exchange gets and the request's cap.
+    progress: Option<(Duration, Instant)>,
     cancelled: Option<Arc<AtomicBool>>,
     /// A read of SM1 sent right behind the last write, with what it was sent for; it must
     /// be settled before anything else is read or written.
@@ -116,6 +118,7 @@ impl Exchange {
             stash: VecDeque::with_capacity(STASH_LEN),
             eoe_rx,
             deadline: Instant::now(),
+            progress: None,
             cancelled: None,
             ahead: None,
         }
@@ -150,10 +153,26 @@ impl Exchange {
         usize::from(self.shared.config.read.len)
     }
 
-    /// Starts a transaction that must end by `deadline`; `cancelled` is the caller's flag.
-    pub fn begin(&mut self, deadline: Instant, cancelled: Option<Arc<AtomicBool>>) {
+    /// Starts a transaction that must end by `deadline`, or with `progress` (window, cap)
+    /// within a window of its last progress and by the cap; `cancelled` is the caller's flag.
+    pub fn begin(
+        &mut self,
+        deadline: Instant,
+        progress: Option<(Duration, Instant)>,
+        cancelled: Option<Arc<AtomicBool>>,
+    ) {
         self.deadline = deadline;
+        self.progress = progress;
         self.cancelled = cancelled;
+    }
+
+    /// The transfer moved on (an answer that advances it): with progress deadlines the
+    /// next exchange gets a whole window again, never beyond the request's cap. Without
+    /// them the request's single deadline stays.
+    pub fn progressed(&mut self) {
+        if let Some((window, cap)) = self.progress {
+            self.deadline = (Instant::now() + window).min(cap);
+        }
     }
 
     /// Ends the transaction: the read sent ahead is settled (a bus error there is seen
@@ -165,6 +184,7 @@ impl Exchange {
             self.rx = message;
         }
         self.cancelled = None;
+        self.progress = None;
         while let Some(message) = self.stash.pop_front() {
             self.drop_unclaimed(&message);
         }

@@ -32,8 +32,11 @@ type Work = Box<dyn for<'a> FnOnce(&'a mut Exchange) -> BoxFuture<'a, ()> + Send
 
 /// One queued request.
 pub(crate) struct Job {
-    /// The request fails with a timeout once this passes.
+    /// The request fails with a timeout once this passes (with progress deadlines: unless
+    /// the transfer moved on before).
     pub deadline: Instant,
+    /// With progress deadlines: the window of each exchange and the end of the whole request.
+    pub progress: Option<(std::time::Duration, Instant)>,
     /// Set when the caller went away.
     pub cancelled: Arc<AtomicBool>,
     work: Work,
@@ -94,8 +97,10 @@ where
     }
     let (reply, answer) = oneshot::channel();
     let cancelled = Arc::new(AtomicBool::new(false));
+    let now = Instant::now();
     let job = Job {
-        deadline: Instant::now() + slave.timeout(),
+        deadline: now + slave.timeout(),
+        progress: slave.progress_cap().map(|cap| (slave.timeout(), now + cap)),
         cancelled: Arc::clone(&cancelled),
         work: Box::new(move |exchange: &mut Exchange| {
             Box::pin(async move {
@@ -104,6 +109,8 @@ where
                 let result = if exchange.expired() {
                     Err(exchange.timeout("its turn at the mailbox"))
                 } else {
+                    // With progress deadlines the first exchange gets a whole window.
+                    exchange.progressed();
                     work(&mut *exchange).await
                 };
                 if let Err(err) = &result

@@ -96,7 +96,7 @@ async fn run_job(exchange: &mut Exchange, job: Job) {
         exchange.count_cancelled();
         return;
     }
-    exchange.begin(job.deadline, Some(Arc::clone(&job.cancelled)));
+    exchange.begin(job.deadline, job.progress, Some(Arc::clone(&job.cancelled)));
     job.run(exchange).await;
     if exchange.cancelled() {
         exchange.count_cancelled();

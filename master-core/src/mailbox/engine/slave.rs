@@ -45,6 +45,9 @@ pub(crate) struct SlaveShared {
 pub struct SlaveMailbox {
     shared: Arc<SlaveShared>,
     timeout: Duration,
+    /// With progress deadlines: the cap on the whole request (see
+    /// [`SlaveMailbox::with_progress_deadlines`]).
+    cap: Option<Duration>,
 }
 
 impl std::fmt::Debug for SlaveMailbox {
@@ -52,6 +55,7 @@ impl std::fmt::Debug for SlaveMailbox {
         f.debug_struct("SlaveMailbox")
             .field("config", &self.shared.config)
             .field("timeout", &self.timeout)
+            .field("cap", &self.cap)
             .finish()
     }
 }
@@ -59,7 +63,11 @@ impl std::fmt::Debug for SlaveMailbox {
 impl SlaveMailbox {
     pub(crate) fn new(shared: Arc<SlaveShared>) -> SlaveMailbox {
         let timeout = shared.engine.timeout;
-        SlaveMailbox { shared, timeout }
+        SlaveMailbox {
+            shared,
+            timeout,
+            cap: None,
+        }
     }
 
     pub(crate) fn shared(&self) -> &SlaveShared {
@@ -72,12 +80,33 @@ impl SlaveMailbox {
         SlaveMailbox {
             shared: Arc::clone(&self.shared),
             timeout,
+            cap: None,
         }
     }
 
-    /// The deadline requests through this handle get.
+    /// The same handle with deadlines that follow a transfer's progress: a request may wait
+    /// `exchange` for its turn and then `exchange` for each answer, the window starting
+    /// again whenever the transfer moves on (an FoE ACK, DATA or BUSY, an SDO segment), and
+    /// the whole request ends at the latest `cap` after the call. A multi-megabyte FoE
+    /// transfer then runs as long as the slave keeps answering, and a stalled one still
+    /// fails after `exchange`.
+    pub fn with_progress_deadlines(&self, exchange: Duration, cap: Duration) -> SlaveMailbox {
+        SlaveMailbox {
+            shared: Arc::clone(&self.shared),
+            timeout: exchange,
+            cap: Some(cap.max(exchange)),
+        }
+    }
+
+    /// The deadline requests through this handle get (with progress deadlines: the window
+    /// of each exchange).
     pub fn timeout(&self) -> Duration {
         self.timeout
+    }
+
+    /// The cap on a whole request with progress deadlines, `None` without them.
+    pub fn progress_cap(&self) -> Option<Duration> {
+        self.cap
     }
 
     /// The slave's station address.

@@ -55,7 +55,7 @@ impl EoeTx {
             return;
         };
         let deadline = Instant::now() + exchange.config().timeout;
-        exchange.begin(deadline, None);
+        exchange.begin(deadline, None, None);
         let size = exchange.write_size();
         let fragment = Fragmenter::new(&send.frame, size, self.frame_number)
             .map(|f| f.with_port(send.port).nth(index));

@@ -1,4 +1,6 @@
-//! FoE: reading and writing files (raw bodies).
+//! FoE: reading and writing files (raw bodies). These routes have no request time limit:
+//! the transfer's own deadlines follow its progress (`service::transfer`), and a client
+//! that disconnects drops the call, which ends the transfer towards the slave.
 
 use axum::Json;
 use axum::body::Bytes;
@@ -47,7 +49,7 @@ pub async fn foe_write(
     Query(q): Query<PasswordQuery>,
     body: Bytes,
 ) -> Result<Json<Done>> {
-    core.foe_write(&slave, &name, q.password.unwrap_or(0), &body)
+    core.foe_write(&slave, &name, q.password.unwrap_or(0), &body, None)
         .await
         .map(|()| DONE)
 }

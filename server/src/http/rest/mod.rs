@@ -59,7 +59,7 @@ pub struct Done {
 
 const DONE: Json<Done> = Json(Done { ok: true });
 
-/// The routes that run under the request time limit: every resource's.
+/// The routes that run under the request time limit: every resource's but FoE's.
 pub fn routes() -> OpenApiRouter<Core> {
     OpenApiRouter::new()
         .merge(slaves::routes())
@@ -68,10 +68,15 @@ pub fn routes() -> OpenApiRouter<Core> {
         .merge(sii::routes())
         .merge(coe::routes())
         .merge(soe::routes())
-        .merge(foe::routes())
         .merge(voe::routes())
         .merge(eoe::routes())
         .merge(config::routes())
+}
+
+/// The routes of transfers that take as long as the slave needs (no request time limit:
+/// their deadlines follow their progress).
+pub fn transfer_routes() -> OpenApiRouter<Core> {
+    foe::routes()
 }
 
 /// The routes that stream for as long as the client listens (no time limit).
