@@ -16,7 +16,6 @@ pub mod value;
 pub mod view;
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use master_core::gateway::{MailboxGateway, MailboxGatewayStats};
 use master_core::mailbox::{FoeOptions, FoeProgress, MailboxError, SlaveMailbox, VoeMessage};
@@ -27,7 +26,7 @@ use tokio::sync::broadcast;
 
 use crate::metrics::calls::{MailboxCalls, Outcome, Protocol};
 use crate::security::{Caller, authorize_write};
-pub use address::parse_slave;
+pub use address::{SlaveName, parse_name, parse_slave};
 pub use error::{ApiError, ErrorKind};
 pub use gateway::GatewayView;
 use value::ValueType;
@@ -42,7 +41,9 @@ pub const MAX_REGISTER_LEN: usize = 0x1000;
 #[derive(Clone)]
 pub struct Core {
     master: Arc<Master>,
-    ready: Arc<AtomicBool>,
+    /// Ready: the first scan is done and the service is not shutting down (a watch, so the
+    /// gRPC health service can follow it).
+    ready: Arc<tokio::sync::watch::Sender<bool>>,
     /// The mailbox gateway, when one runs (its statistics feed the metrics).
     gateway: Arc<std::sync::Mutex<Option<MailboxGateway>>>,
     /// The merged event stream, started with its first subscriber.
@@ -63,7 +64,7 @@ impl Core {
     pub fn new(master: Arc<Master>, calls: Arc<MailboxCalls>) -> Core {
         Core {
             master,
-            ready: Arc::new(AtomicBool::new(false)),
+            ready: Arc::new(tokio::sync::watch::Sender::new(false)),
             gateway: Arc::default(),
             events: Arc::default(),
             calls,
@@ -101,7 +102,7 @@ impl Core {
 
     /// Marks the service ready (after the first scan) or not (shutting down).
     pub fn set_ready(&self, ready: bool) {
-        self.ready.store(ready, Ordering::Release);
+        self.ready.send_replace(ready);
     }
 
     /// Starts the shutdown: the service is no longer ready and every event stream ends
@@ -121,11 +122,21 @@ impl Core {
 
     /// Whether the first scan is done and the service is not shutting down.
     pub fn ready(&self) -> bool {
-        self.ready.load(Ordering::Acquire)
+        *self.ready.borrow()
+    }
+
+    /// Readiness from now on: the current value, then every change.
+    pub fn readiness(&self) -> tokio::sync::watch::Receiver<bool> {
+        self.ready.subscribe()
+    }
+
+    /// The master's address of `slave` (any form of [`address`]).
+    fn address(&self, slave: &str) -> Result<master_core::master::SlaveAddress> {
+        parse_name(slave)?.resolve(|| self.master.slaves())
     }
 
     fn mailbox(&self, slave: &str) -> Result<SlaveMailbox> {
-        Ok(self.master.mailbox(parse_slave(slave)?)?)
+        Ok(self.master.mailbox(self.address(slave)?)?)
     }
 
     /// Runs `op` on the mailbox of `slave` and records it in the metrics (per slave and
@@ -160,12 +171,12 @@ impl Core {
 
     /// One slave.
     pub fn get_slave(&self, slave: &str) -> Result<SlaveView> {
-        Ok(SlaveView::from(&self.master.slave(parse_slave(slave)?)?))
+        Ok(SlaveView::from(&self.master.slave(self.address(slave)?)?))
     }
 
     /// Moves a slave to `state` (a state name) and returns it afterwards.
     pub async fn request_state(&self, slave: &str, state: &str) -> Result<SlaveView> {
-        let address = parse_slave(slave)?;
+        let address = self.address(slave)?;
         let state = view::parse_state(state)
             .ok_or_else(|| ApiError::invalid(format!("unknown AL state {state:?}")))?;
         self.master.request_state(address, state).await?;
@@ -202,7 +213,7 @@ impl Core {
                 "register length must be 1..={MAX_REGISTER_LEN}"
             )));
         }
-        let target = parse_slave(slave)?;
+        let target = self.address(slave)?;
         let info = self.master.slave(target)?;
         if let Some(effect) = read_effects::side_effect(&info, address, len) {
             let operation = format!("read_register 0x{address:04X}+{len} over {effect}");
@@ -220,13 +231,13 @@ impl Core {
         }
         Ok(self
             .master
-            .write_register(parse_slave(slave)?, address, data)
+            .write_register(self.address(slave)?, address, data)
             .await?)
     }
 
     /// Reads the whole SII image.
     pub async fn read_sii(&self, slave: &str) -> Result<Vec<u8>> {
-        Ok(self.master.read_sii(parse_slave(slave)?).await?)
+        Ok(self.master.read_sii(self.address(slave)?).await?)
     }
 
     /// Writes SII words from `word` on; `data` is little-endian bytes, an even number. A
@@ -239,7 +250,7 @@ impl Core {
                 "SII data must be a non-empty even number of bytes",
             ));
         }
-        let address = parse_slave(slave)?;
+        let address = self.address(slave)?;
         let words: Vec<u16> = data
             .chunks_exact(2)
             .map(|w| u16::from_le_bytes([w[0], w[1]]))
@@ -260,7 +271,7 @@ impl Core {
 
     /// Sets the station alias; returns the alias register read back.
     pub async fn set_alias(&self, slave: &str, alias: u16) -> Result<u16> {
-        Ok(self.master.set_alias(parse_slave(slave)?, alias).await?)
+        Ok(self.master.set_alias(self.address(slave)?, alias).await?)
     }
 
     /// SDO upload (complete access from `subindex` when `complete`).

@@ -3,7 +3,7 @@
 use master_core::wire::soe::Idn;
 use serde::{Deserialize, Serialize};
 
-use crate::service::parse_slave;
+use crate::service::parse_name;
 use crate::service::value::ValueType;
 
 /// The most watches one configuration may list (one task each).
@@ -26,7 +26,7 @@ fn is_zero(drive: &u8) -> bool {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WatchSpec {
-    /// The slave, in the common syntax (`3`, `#1004`, `@0x777`).
+    /// The slave, in the common syntax (`3`, `pos:3`, `station:1004`, `alias:0x777+2`).
     pub slave: String,
     /// A CoE entry, `index:subindex`, both hex (`"0x6041:00"`, `"1018:02"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -132,7 +132,7 @@ impl WatchSpec {
 
     /// Checks everything a watch needs before ecatd starts.
     pub fn check(&self) -> Result<(), String> {
-        parse_slave(&self.slave).map_err(|err| format!("watch slave {:?}: {err}", self.slave))?;
+        parse_name(&self.slave).map_err(|err| format!("watch slave {:?}: {err}", self.slave))?;
         self.target()?;
         self.value_type()?;
         if !(MIN_PERIOD_MS..=MAX_PERIOD_MS).contains(&self.period_ms) {
