@@ -155,4 +155,25 @@ impl BusService for Bus {
             alias: u32::from(alias),
         }))
     }
+
+    async fn get_master(
+        &self,
+        _: Request<pb::GetMasterRequest>,
+    ) -> Reply<pb::GetMasterResponse> {
+        let m = self.core.master_view();
+        Ok(Response::new(pb::GetMasterResponse {
+            version: m.version,
+            link: m.link,
+            mac: m.mac,
+            cycle_period_ns: m.cycle_period_ns,
+            ready: m.ready,
+            slave_count: m.slave_count,
+            dc_reference: m.dc_reference,
+            dc_reference_time_ns: m.dc_reference_time_ns,
+            frames_sent: m.frames_sent,
+            frames_received: m.frames_received,
+            frames_lost: m.frames_lost,
+            link_errors: m.link_errors,
+        }))
+    }
 }

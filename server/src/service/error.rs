@@ -241,7 +241,7 @@ impl From<MailboxError> for ApiError {
     }
 }
 
-/// The class of an SDO abort code (ETG.1000.6 §5.6.2.7.2, Table 40 "SDO abort codes").
+/// The class of an SDO abort code (ETG.1000.6, spec-notes §coe.abort).
 fn sdo_class(code: AbortCode) -> ErrorKind {
     match u32::from(code) {
         0x0602_0000 | 0x0609_0011 | 0x0800_0023 => ErrorKind::NotFound,
@@ -258,8 +258,7 @@ fn sdo_class(code: AbortCode) -> ErrorKind {
     }
 }
 
-/// The class of an SoE error code (ETG.1000.6 §5.6.3, Table 63 "Error codes"): the low
-/// nibble says what is wrong with the element (1 absent, 2/3 too short/long, 4/5 read-only
+/// The class of an SoE error code (ETG.1000.6, spec-notes §soe): the low nibble says what is wrong with the element (1 absent, 2/3 too short/long, 4/5 read-only
 /// or write-protected), 0x7006-0x7008 a value out of range.
 fn soe_class(code: SoeError) -> ErrorKind {
     let raw = u16::from(code);
@@ -276,7 +275,7 @@ fn soe_class(code: SoeError) -> ErrorKind {
     }
 }
 
-/// The class of an FoE error code (ETG.1000.6 §5.9.5, Table 93 "Error codes").
+/// The class of an FoE error code (ETG.1000.6, spec-notes §foe).
 fn foe_class(code: FoeError) -> ErrorKind {
     match code {
         FoeError::NotFound => ErrorKind::NotFound,
@@ -286,7 +285,7 @@ fn foe_class(code: FoeError) -> ErrorKind {
     }
 }
 
-/// The class of a mailbox error reply (ETG.1000.4 §5.6, Table 29 "Mailbox error codes").
+/// The class of a mailbox error reply (ETG.1000.4, spec-notes §mbx.error).
 fn mailbox_class(code: MailboxErrorCode) -> ErrorKind {
     match code {
         MailboxErrorCode::NoMoreMemory => ErrorKind::Unavailable,

@@ -10,6 +10,7 @@ pub mod error;
 pub mod events;
 pub mod gateway;
 pub mod ip;
+pub mod master_view;
 pub mod read_effects;
 mod sii_checksum;
 pub mod value;
@@ -29,6 +30,7 @@ use crate::security::{Caller, authorize_write};
 pub use address::{SlaveName, parse_name, parse_slave};
 pub use error::{ApiError, ErrorKind};
 pub use gateway::GatewayView;
+pub use master_view::MasterView;
 use value::ValueType;
 pub use view::{
     EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
@@ -50,6 +52,8 @@ pub struct Core {
     events: Arc<std::sync::OnceLock<events::EventHub>>,
     /// Where the mailbox requests are recorded (shared with the metrics, which own it).
     calls: Arc<MailboxCalls>,
+    /// The link's name for [`master_view`] (`simulate` or the interface).
+    link: Arc<std::sync::OnceLock<String>>,
     /// Set once at shutdown: every event stream ends when it is.
     stopping: Arc<tokio::sync::watch::Sender<bool>>,
 }
@@ -68,6 +72,7 @@ impl Core {
             gateway: Arc::default(),
             events: Arc::default(),
             calls,
+            link: Arc::default(),
             stopping: Arc::new(tokio::sync::watch::Sender::new(false)),
         }
     }
@@ -93,6 +98,16 @@ impl Core {
         self.gateway
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Names the link (`simulate` or the interface) once, for [`Core::master_view`].
+    pub fn set_link(&self, name: &str) {
+        let _ = self.link.set(name.to_owned());
+    }
+
+    /// The link's name; empty until [`Core::set_link`].
+    pub fn link(&self) -> String {
+        self.link.get().cloned().unwrap_or_default()
     }
 
     /// The master.
