@@ -92,8 +92,8 @@ fn every_route_answers_with_the_simulators_values() {
     assert_eq!(slave["position"], 3);
     let (status, missing) = get(&ecatd, "/api/v1/slaves/9");
     assert_eq!(
-        (status, missing["error"]["kind"].as_str()),
-        (404, Some("unknown_slave"))
+        (status, missing["reason"].as_str()),
+        (404, Some("UNKNOWN_SLAVE"))
     );
 
     let (status, state) = send(
@@ -109,7 +109,7 @@ fn every_route_answers_with_the_simulators_values() {
         "/api/v1/slaves/2/state",
         r#"{"state":"FLYING"}"#,
     );
-    assert_eq!((status, bad["error"]["grpc_code"].as_i64()), (400, Some(3)));
+    assert_eq!((status, bad["grpc_code"].as_i64()), (400, Some(3)));
     let (status, rescan) = send(&ecatd, "POST", "/api/v1/rescan", "");
     assert_eq!(status, 200);
     assert_eq!(
@@ -169,13 +169,13 @@ fn every_route_answers_with_the_simulators_values() {
         r#"{"value":"-1","type":"auto"}"#,
     );
     assert_eq!(
-        (status, bad["error"]["kind"].as_str()),
-        (400, Some("invalid_argument"))
+        (status, bad["reason"].as_str()),
+        (400, Some("INVALID_ARGUMENT"))
     );
     let (status, abort) = get(&ecatd, "/api/v1/slaves/0/coe/sdo/0x6000/1");
-    assert_eq!(status, 409);
-    assert_eq!(abort["error"]["kind"], "sdo_abort");
-    assert_eq!(abort["error"]["code"], 0x0602_0000);
+    assert_eq!(status, 404, "an unknown object is NOT_FOUND");
+    assert_eq!(abort["reason"], "SDO_ABORT");
+    assert_eq!(abort["protocol_code"], 0x0602_0000);
     let (status, _) = send(
         &ecatd,
         "PUT",
@@ -206,8 +206,8 @@ fn every_route_answers_with_the_simulators_values() {
         r#"{"data":"0100"}"#,
     );
     assert_eq!(
-        (status, soe_err["error"]["kind"].as_str()),
-        (409, Some("soe_error"))
+        (status, soe_err["reason"].as_str()),
+        (409, Some("SOE_ERROR"))
     );
 
     let url = format!("{}/api/v1/slaves/0/foe/firmware.bin", ecatd.http);
@@ -254,8 +254,8 @@ fn every_route_answers_with_the_simulators_values() {
         r#"{"ip":"300.1.1.1"}"#,
     );
     assert_eq!(
-        (status, bad_ip["error"]["kind"].as_str()),
-        (400, Some("invalid_argument"))
+        (status, bad_ip["reason"].as_str()),
+        (400, Some("INVALID_ARGUMENT"))
     );
 }
 

@@ -42,8 +42,9 @@ pub struct Alias {
     /// The slave.
     #[command(flatten)]
     pub select: Selection,
-    /// The alias.
-    pub alias: String,
+    /// The new alias.
+    #[arg(value_name = "ALIAS")]
+    pub new_alias: String,
 }
 
 /// `ecat crc`.
@@ -96,7 +97,7 @@ impl Run for Alias {
             .bus
             .set_alias(pb::SetAliasRequest {
                 slave,
-                alias: num(&self.alias, "alias")?,
+                alias: num(&self.new_alias, "alias")?,
             })
             .await
             .map_err(failed)?
