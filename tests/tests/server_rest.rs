@@ -15,7 +15,8 @@ use server_support::{Ecatd, curl, curl_as_browser};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
-const ROUTES: [(&str, &str); 25] = [
+const ROUTES: [(&str, &str); 26] = [
+    ("get", "/api/v1/master"),
     ("get", "/api/v1/slaves"),
     ("get", "/api/v1/slaves/{slave}"),
     ("put", "/api/v1/slaves/{slave}/state"),

@@ -27,13 +27,9 @@ pub fn unhex(text: &str) -> Result<Vec<u8>, String> {
 
 /// An SoE IDN: `S-0-0011`, `P-0-0100` or a number (`0x8064`).
 pub fn idn(text: &str) -> Result<u32, String> {
-    if text.contains('-') {
-        let idn: master_core::wire::soe::Idn =
-            text.parse().map_err(|err| format!("IDN {text:?}: {err}"))?;
-        Ok(u32::from(idn.raw()))
-    } else {
-        num(text, "IDN")
-    }
+    server::service::value::parse_idn(text, "IDN")
+        .map(u32::from)
+        .map_err(|e| e.message)
 }
 
 /// An AL state by name (`INIT`, `PREOP`, `BOOT`, `SAFEOP`, `OP`, any case).

@@ -156,3 +156,47 @@ async fn set_health(health: &tonic_health::server::HealthReporter, ready: bool) 
         health.set_service_status(name, status).await;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use tonic_health::pb::health_server::Health;
+    use tonic_health::pb::{HealthCheckRequest, health_check_response::ServingStatus};
+
+    use super::*;
+
+    async fn check(service: &impl Health, name: &str) -> ServingStatus {
+        let answer = service
+            .check(tonic::Request::new(HealthCheckRequest {
+                service: name.to_owned(),
+            }))
+            .await
+            .expect("every service is registered");
+        answer.into_inner().status()
+    }
+
+    async fn until(service: &impl Health, name: &str, want: ServingStatus) {
+        let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs(5);
+        while check(service, name).await != want {
+            assert!(tokio::time::Instant::now() < deadline, "{name:?} never {want:?}");
+            tokio::task::yield_now().await;
+        }
+    }
+
+    #[tokio::test]
+    async fn health_is_not_serving_until_ready_and_again_at_shutdown() {
+        let (reporter, _) = tonic_health::server::health_reporter();
+        let service = tonic_health::server::HealthService::from_health_reporter(reporter.clone());
+        let (ready, rx) = tokio::sync::watch::channel(false);
+        set_health(&reporter, false).await;
+        tokio::spawn(follow_readiness(reporter, rx));
+        for name in HEALTH_NAMES {
+            assert_eq!(check(&service, name).await, ServingStatus::NotServing, "{name:?}");
+        }
+        ready.send_replace(true);
+        until(&service, "", ServingStatus::Serving).await;
+        until(&service, "ecat.v1.CoeService", ServingStatus::Serving).await;
+        ready.send_replace(false);
+        until(&service, "", ServingStatus::NotServing).await;
+        until(&service, "ecat.v1.BusService", ServingStatus::NotServing).await;
+    }
+}
