@@ -78,12 +78,17 @@ fn lint_enum(e: &EnumDescriptorProto, scope: &str, problems: &mut Vec<String>) {
     let prefix = format!("{}_", upper_snake(e.name()));
     for v in &e.value {
         if !is_upper_snake(v.name()) || !v.name().starts_with(&prefix) {
-            problems.push(format!("enum value {name}.{}: not {prefix}UPPER_SNAKE", v.name()));
+            problems.push(format!(
+                "enum value {name}.{}: not {prefix}UPPER_SNAKE",
+                v.name()
+            ));
         }
     }
     match e.value.first() {
         Some(zero) if zero.number() == 0 && zero.name() == format!("{prefix}UNSPECIFIED") => {}
-        _ => problems.push(format!("enum {name}: the zero value must be {prefix}UNSPECIFIED")),
+        _ => problems.push(format!(
+            "enum {name}: the zero value must be {prefix}UNSPECIFIED"
+        )),
     }
 }
 
@@ -124,10 +129,18 @@ fn lint_method(service: &str, m: &MethodDescriptorProto, problems: &mut Vec<Stri
         ]
     };
     if !standard("Request").contains(&m.input_type().to_owned()) {
-        problems.push(format!("rpc {name}: request {} is not {}Request", m.input_type(), m.name()));
+        problems.push(format!(
+            "rpc {name}: request {} is not {}Request",
+            m.input_type(),
+            m.name()
+        ));
     }
     if !standard("Response").contains(&m.output_type().to_owned()) {
-        problems.push(format!("rpc {name}: response {} is not {}Response", m.output_type(), m.name()));
+        problems.push(format!(
+            "rpc {name}: response {} is not {}Response",
+            m.output_type(),
+            m.name()
+        ));
     }
 }
 
@@ -139,7 +152,11 @@ fn the_contract_follows_the_lint_rules() {
     for file in ours(&set) {
         let dir = file.name().rsplit_once('/').map_or("", |(d, _)| d);
         if dir.replace('/', ".") != file.package() {
-            problems.push(format!("{}: package {} is not its directory", file.name(), file.package()));
+            problems.push(format!(
+                "{}: package {} is not its directory",
+                file.name(),
+                file.package()
+            ));
         }
         if !file.package().ends_with(".v1") {
             problems.push(format!("{}: package without a version suffix", file.name()));
@@ -152,13 +169,21 @@ fn the_contract_follows_the_lint_rules() {
         }
         for s in &file.service {
             if !is_pascal(s.name()) || !s.name().ends_with("Service") {
-                problems.push(format!("service {}: not PascalCase ending in Service", s.name()));
+                problems.push(format!(
+                    "service {}: not PascalCase ending in Service",
+                    s.name()
+                ));
             }
             for m in &s.method {
                 lint_method(s.name(), m, &mut problems);
                 // One request type per RPC, so each can grow on its own.
-                if let Some(other) = requests.insert(m.input_type().to_owned(), m.name().to_owned()) {
-                    problems.push(format!("{} is the request of both {other} and {}", m.input_type(), m.name()));
+                if let Some(other) = requests.insert(m.input_type().to_owned(), m.name().to_owned())
+                {
+                    problems.push(format!(
+                        "{} is the request of both {other} and {}",
+                        m.input_type(),
+                        m.name()
+                    ));
                 }
             }
         }
@@ -226,7 +251,10 @@ fn surface(set: &FileDescriptorSet) -> BTreeMap<String, String> {
     fn enumeration(e: &EnumDescriptorProto, scope: &str, out: &mut BTreeMap<String, String>) {
         let name = format!("{scope}.{}", e.name());
         for v in &e.value {
-            out.insert(format!("enum value {name} = {}", v.number()), v.name().to_owned());
+            out.insert(
+                format!("enum value {name} = {}", v.number()),
+                v.name().to_owned(),
+            );
         }
     }
     let mut out = BTreeMap::new();
@@ -272,7 +300,11 @@ fn nothing_of_the_last_release_is_broken() {
     let now = surface(&current());
     assert!(then.len() > 100, "the release has {} items", then.len());
     let broken = breaking(&then, &now);
-    assert!(broken.is_empty(), "breaking changes:\n{}", broken.join("\n"));
+    assert!(
+        broken.is_empty(),
+        "breaking changes:\n{}",
+        broken.join("\n")
+    );
 }
 
 #[test]
@@ -285,9 +317,19 @@ fn the_breaking_check_sees_a_renumbered_field_and_a_removed_rpc() {
         .find(|f| f.name() == "ecat/v1/bus.proto")
         .unwrap();
     bus.service[0].method.retain(|m| m.name() != "Rescan");
-    let slave = bus.message_type.iter_mut().find(|m| m.name() == "Slave").unwrap();
+    let slave = bus
+        .message_type
+        .iter_mut()
+        .find(|m| m.name() == "Slave")
+        .unwrap();
     slave.field[0].number = Some(99);
     let broken = breaking(&then, &surface(&set));
-    assert!(broken.iter().any(|b| b.contains("BusService.Rescan")), "{broken:?}");
-    assert!(broken.iter().any(|b| b.contains("ecat.v1.Slave #1")), "{broken:?}");
+    assert!(
+        broken.iter().any(|b| b.contains("BusService.Rescan")),
+        "{broken:?}"
+    );
+    assert!(
+        broken.iter().any(|b| b.contains("ecat.v1.Slave #1")),
+        "{broken:?}"
+    );
 }

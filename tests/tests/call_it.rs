@@ -89,8 +89,9 @@ fn run(line: &str, ecatd: &Ecatd, dir: &Path) -> (bool, String, String) {
 
 #[test]
 fn every_line_of_the_call_it_page_works_as_printed() {
-    let page = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/call-it.md"))
-        .expect("docs/call-it.md");
+    let page =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/call-it.md"))
+            .expect("docs/call-it.md");
     let operations = operations(&page);
     assert!(operations.len() >= 15, "{} operations", operations.len());
     let ecatd = Ecatd::start(&[]);
@@ -102,7 +103,12 @@ fn every_line_of_the_call_it_page_works_as_printed() {
             .iter()
             .map(|l| l.split_whitespace().next().unwrap_or(""))
             .collect();
-        assert_eq!(tools, ["ecat", "grpcurl", "curl"], "{}: one line each", op.heading);
+        assert_eq!(
+            tools,
+            ["ecat", "grpcurl", "curl"],
+            "{}: one line each",
+            op.heading
+        );
         for line in &op.lines {
             let (ok, stdout, stderr) = run(line, &ecatd, &dir);
             assert!(ok, "{}: `{line}` failed:\n{stdout}{stderr}", op.heading);

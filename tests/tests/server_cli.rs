@@ -132,7 +132,14 @@ fn every_subcommand() {
     let dir = std::env::temp_dir().join(format!("ecat-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let firmware = dir.join("firmware.bin");
-    ecat.ok(&["foe_read", "-p", "0", "firmware.bin", "-o", firmware.to_str().unwrap()]);
+    ecat.ok(&[
+        "foe_read",
+        "-p",
+        "0",
+        "firmware.bin",
+        "-o",
+        firmware.to_str().unwrap(),
+    ]);
     let expected: Vec<u8> = (0..topology.slaves[0].foe_files[0].size)
         .map(|i| (i % 251) as u8)
         .collect();
@@ -220,7 +227,13 @@ fn igh_line(line: &str) -> Option<(u32, u32, u32, String, String)> {
     let flag = fields.next()?;
     let name = fields.collect::<Vec<_>>().join("  ");
     (flag == "+" || flag == "E").then_some(())?;
-    Some((position, alias.parse().ok()?, relpos.parse().ok()?, state, name))
+    Some((
+        position,
+        alias.parse().ok()?,
+        relpos.parse().ok()?,
+        state,
+        name,
+    ))
 }
 
 #[test]
@@ -230,11 +243,18 @@ fn slaves_in_igh_columns_and_every_slave_name_form() {
     let topology = Topology::default_segment();
     ecat.ok(&["alias", "-p", "2", "66"]);
     let table = ecat.ok(&["slaves"]);
-    let rows: Vec<_> = table.lines().map(|l| igh_line(l).unwrap_or_else(|| panic!("{l:?}"))).collect();
+    let rows: Vec<_> = table
+        .lines()
+        .map(|l| igh_line(l).unwrap_or_else(|| panic!("{l:?}")))
+        .collect();
     assert_eq!(rows.len(), topology.slaves.len(), "{table}");
     // Slaves 0 and 1 count from the start, 2 carries the alias, 3 and 4 count from it.
     let relpos: Vec<(u32, u32)> = rows.iter().map(|r| (r.1, r.2)).collect();
-    assert_eq!(relpos, [(0, 0), (0, 1), (66, 0), (66, 1), (66, 2)], "{table}");
+    assert_eq!(
+        relpos,
+        [(0, 0), (0, 1), (66, 0), (66, 1), (66, 2)],
+        "{table}"
+    );
     for (row, spec) in rows.iter().zip(&topology.slaves) {
         assert_eq!(row.4, spec.name);
     }
@@ -258,7 +278,10 @@ fn slaves_in_igh_columns_and_every_slave_name_form() {
             "station register of {args:?}"
         );
     }
-    assert_eq!(ecat.json(&["reg_read", "-a", "66", "0x10", "2"])["data"], hex_le(1003));
+    assert_eq!(
+        ecat.json(&["reg_read", "-a", "66", "0x10", "2"])["data"],
+        hex_le(1003)
+    );
     let (ok, _, stderr) = ecat.run(&["reg_read", "-p", "alias:66+9", "0x10", "2"]);
     assert!(!ok && stderr.contains("NotFound"), "{stderr}");
     let (ok, _, stderr) = ecat.run(&["reg_read", "-p", "slot:3", "0x10", "2"]);
@@ -282,7 +305,11 @@ fn slaves_in_igh_columns_and_every_slave_name_form() {
 }
 
 fn hex_le(value: u16) -> String {
-    value.to_le_bytes().iter().map(|b| format!("{b:02x}")).collect()
+    value
+        .to_le_bytes()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 #[test]
@@ -306,8 +333,15 @@ fn a_write_without_a_slave_on_a_multi_slave_segment_is_refused_and_changes_nothi
             );
         }
     }
-    assert_eq!(ecat.json(&["upload", "-p", "3", "0x2001", "0"])["data"], before);
-    assert_eq!(ecat.json(&["reg_read", "-p", "0", "0x12", "2"])["data"], "0000", "no alias set");
+    assert_eq!(
+        ecat.json(&["upload", "-p", "3", "0x2001", "0"])["data"],
+        before
+    );
+    assert_eq!(
+        ecat.json(&["reg_read", "-p", "0", "0x12", "2"])["data"],
+        "0000",
+        "no alias set"
+    );
 }
 
 #[test]
@@ -320,7 +354,10 @@ fn foe_read_and_sii_read_print_the_exact_bytes() {
         .collect();
     assert_eq!(ecat.raw(&["foe_read", "-p", "0", "firmware.bin"]), expected);
     let sii = ecat.raw(&["sii_read", "-p", "0"]);
-    let hex = ecat.json(&["sii_read", "-p", "0"])["data"].as_str().unwrap().to_owned();
+    let hex = ecat.json(&["sii_read", "-p", "0"])["data"]
+        .as_str()
+        .unwrap()
+        .to_owned();
     let text: String = sii.iter().map(|b| format!("{b:02x}")).collect();
     assert_eq!(text, hex);
     // Words 8-11: vendor id, product code of the simulated drive.
@@ -341,7 +378,11 @@ fn sii_write_checks_the_checksum_of_the_image() {
     std::fs::write(&file, &image).unwrap();
     let (ok, _, stderr) = ecat.run(&["sii_write", "-p", "2", file.to_str().unwrap()]);
     assert!(!ok && stderr.contains("checksum"), "{stderr}");
-    assert_eq!(ecat.raw(&["sii_read", "-p", "2"]), original, "nothing written");
+    assert_eq!(
+        ecat.raw(&["sii_read", "-p", "2"]),
+        original,
+        "nothing written"
+    );
     ecat.ok(&["sii_write", "-p", "2", "--fix", file.to_str().unwrap()]);
     let written = ecat.raw(&["sii_read", "-p", "2"]);
     assert_eq!(written[10], image[10]);
@@ -358,7 +399,10 @@ fn master_version_rescan_crc_graph_pdos_completion_and_man() {
     let ecatd = Ecatd::start(&[]);
     let ecat = Ecat { ecatd: &ecatd };
     let master = ecat.ok(&["master"]);
-    assert!(master.contains("Slaves: 5") && master.contains("(simulate)"), "{master}");
+    assert!(
+        master.contains("Slaves: 5") && master.contains("(simulate)"),
+        "{master}"
+    );
     let status = ecat.json(&["master"]);
     assert_eq!(status["ready"], true);
     assert_eq!(status["dc_reference"], 0, "the drive is the first DC slave");
@@ -376,9 +420,19 @@ fn master_version_rescan_crc_graph_pdos_completion_and_man() {
         assert!(graph.contains(edge), "{edge}: {graph}");
     }
     let pdos = ecat.ok(&["pdos", "-p", "0"]);
-    assert!(pdos.contains("RxPDO 0x1600") && pdos.contains("PDO entry 0x6040:00, 16 bit"), "{pdos}");
+    assert!(
+        pdos.contains("RxPDO 0x1600") && pdos.contains("PDO entry 0x6040:00, 16 bit"),
+        "{pdos}"
+    );
     let bash = ecat.ok(&["completion", "bash"]);
-    assert!(bash.contains("foe_read") && bash.contains("sii_write"), "bash completion");
+    assert!(
+        bash.contains("foe_read") && bash.contains("sii_write"),
+        "bash completion"
+    );
     let man = ecat.ok(&["man"]);
-    assert!(man.starts_with(".ie") || man.contains(".TH ecat"), "roff: {}", &man[..80.min(man.len())]);
+    assert!(
+        man.starts_with(".ie") || man.contains(".TH ecat"),
+        "roff: {}",
+        &man[..80.min(man.len())]
+    );
 }

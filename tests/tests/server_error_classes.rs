@@ -54,7 +54,10 @@ fn each_class_of_fault_has_its_code_through_grpc_and_rest() {
         },
         Fault {
             what: "a slave that is not there",
-            grpc: ("ecat.v1.BusService/GetSlave", r#"{"slave":"station:4242"}"#.into()),
+            grpc: (
+                "ecat.v1.BusService/GetSlave",
+                r#"{"slave":"station:4242"}"#.into(),
+            ),
             rest: ("GET", "/api/v1/slaves/station:4242", ""),
             code: 5,
             http: 404,
@@ -64,7 +67,10 @@ fn each_class_of_fault_has_its_code_through_grpc_and_rest() {
         },
         Fault {
             what: "a malformed slave name",
-            grpc: ("ecat.v1.BusService/GetSlave", r#"{"slave":"slot:3"}"#.into()),
+            grpc: (
+                "ecat.v1.BusService/GetSlave",
+                r#"{"slave":"slot:3"}"#.into(),
+            ),
             rest: ("GET", "/api/v1/slaves/slot:3", ""),
             code: 3,
             http: 400,
@@ -101,7 +107,11 @@ fn each_class_of_fault_has_its_code_through_grpc_and_rest() {
                     b64::encode(&[1, 0])
                 ),
             ),
-            rest: ("PUT", "/api/v1/slaves/pos:0/soe/0/P-0-0100", r#"{"data":"0100"}"#),
+            rest: (
+                "PUT",
+                "/api/v1/slaves/pos:0/soe/0/P-0-0100",
+                r#"{"data":"0100"}"#,
+            ),
             code: 9,
             http: 409,
             reason: "SOE_ERROR",
@@ -123,9 +133,13 @@ fn each_class_of_fault_has_its_code_through_grpc_and_rest() {
         },
     ];
     for f in &faults {
-        let status = call_status(&ecatd.grpc, &[], f.grpc.0, &f.grpc.1)
-            .expect_err(f.what);
-        assert_eq!(status["code"].as_u64(), Some(f.code), "{}: {status}", f.what);
+        let status = call_status(&ecatd.grpc, &[], f.grpc.0, &f.grpc.1).expect_err(f.what);
+        assert_eq!(
+            status["code"].as_u64(),
+            Some(f.code),
+            "{}: {status}",
+            f.what
+        );
         let details = status["details"].as_array().cloned().unwrap_or_default();
         let info = details
             .iter()
@@ -157,9 +171,18 @@ fn each_class_of_fault_has_its_code_through_grpc_and_rest() {
         assert_eq!(body["status"], f.http, "{}", f.what);
         assert_eq!(body["reason"], f.reason, "{}", f.what);
         assert_eq!(body["grpc_code"].as_u64(), Some(f.code), "{}", f.what);
-        assert!(body["type"].as_str().is_some_and(|t| t.starts_with("urn:ecat:error:")));
+        assert!(
+            body["type"]
+                .as_str()
+                .is_some_and(|t| t.starts_with("urn:ecat:error:"))
+        );
         assert!(body["detail"].as_str().is_some_and(|d| !d.is_empty()));
-        assert_eq!(body["protocol_code"].as_u64(), f.protocol_code, "{}: {body}", f.what);
+        assert_eq!(
+            body["protocol_code"].as_u64(),
+            f.protocol_code,
+            "{}: {body}",
+            f.what
+        );
         assert_eq!(body["field"].as_str(), f.field, "{}: {body}", f.what);
     }
 }

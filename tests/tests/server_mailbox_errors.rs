@@ -112,7 +112,13 @@ fn every_refusal_reaches_rest_ecat_and_the_gateway_as_the_slave_abort() {
     // REST.
     // Each abort with the status of its class (docs/call-it.md, "Errors").
     let cases = [
-        ("GET", format!("{base}/{MISSING:#x}/0"), "", MISSING_CODE, 404),
+        (
+            "GET",
+            format!("{base}/{MISSING:#x}/0"),
+            "",
+            MISSING_CODE,
+            404,
+        ),
         (
             "GET",
             format!("{base}/{WRITE_ONLY:#x}/0"),

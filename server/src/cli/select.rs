@@ -13,7 +13,12 @@ use crate::session::Session;
 pub struct Selection {
     /// The slave: a position (`3`), `alias:relpos` (`0x777:2`), `station:1004`, `pos:3`,
     /// `alias:0x777`; with `-a`, the position after the slave with that alias.
-    #[arg(short = 'p', long = "position", visible_alias = "slave", value_name = "SLAVE")]
+    #[arg(
+        short = 'p',
+        long = "position",
+        visible_alias = "slave",
+        value_name = "SLAVE"
+    )]
     pub position: Option<String>,
     /// The slave's alias (IgH's `-a`).
     #[arg(short = 'a', long, value_name = "ALIAS")]

@@ -27,8 +27,8 @@ impl Session {
     /// The gRPC clients, connecting on the first call.
     pub async fn clients(&mut self) -> Result<&mut Clients, String> {
         if self.clients.is_none() {
-            let clients = connect(&self.address, self.token.as_deref(), self.tls_ca.as_deref())
-                .await?;
+            let clients =
+                connect(&self.address, self.token.as_deref(), self.tls_ca.as_deref()).await?;
             self.clients = Some(clients);
         }
         Ok(self.clients.as_mut().expect("connected just above"))

@@ -156,10 +156,7 @@ impl BusService for Bus {
         }))
     }
 
-    async fn get_master(
-        &self,
-        _: Request<pb::GetMasterRequest>,
-    ) -> Reply<pb::GetMasterResponse> {
+    async fn get_master(&self, _: Request<pb::GetMasterRequest>) -> Reply<pb::GetMasterResponse> {
         let m = self.core.master_view();
         Ok(Response::new(pb::GetMasterResponse {
             version: m.version,

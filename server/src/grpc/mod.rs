@@ -177,7 +177,10 @@ mod tests {
     async fn until(service: &impl Health, name: &str, want: ServingStatus) {
         let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs(5);
         while check(service, name).await != want {
-            assert!(tokio::time::Instant::now() < deadline, "{name:?} never {want:?}");
+            assert!(
+                tokio::time::Instant::now() < deadline,
+                "{name:?} never {want:?}"
+            );
             tokio::task::yield_now().await;
         }
     }
@@ -190,7 +193,11 @@ mod tests {
         set_health(&reporter, false).await;
         tokio::spawn(follow_readiness(reporter, rx));
         for name in HEALTH_NAMES {
-            assert_eq!(check(&service, name).await, ServingStatus::NotServing, "{name:?}");
+            assert_eq!(
+                check(&service, name).await,
+                ServingStatus::NotServing,
+                "{name:?}"
+            );
         }
         ready.send_replace(true);
         until(&service, "", ServingStatus::Serving).await;

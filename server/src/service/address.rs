@@ -32,7 +32,10 @@ pub enum SlaveName {
 impl SlaveName {
     /// The master's address of the named slave; `slaves` is the last scan, needed only for
     /// `alias:relpos`.
-    pub fn resolve(self, slaves: impl FnOnce() -> Vec<SlaveInfo>) -> Result<SlaveAddress, ApiError> {
+    pub fn resolve(
+        self,
+        slaves: impl FnOnce() -> Vec<SlaveInfo>,
+    ) -> Result<SlaveAddress, ApiError> {
         match self {
             SlaveName::Address(address) => Ok(address),
             SlaveName::AliasOffset { alias, offset } => {
@@ -40,7 +43,9 @@ impl SlaveName {
                 let base = slaves
                     .iter()
                     .find(|s| alias != 0 && s.alias == alias)
-                    .ok_or_else(|| ApiError::unknown_slave(format!("no slave has alias {alias:#06x}")))?;
+                    .ok_or_else(|| {
+                        ApiError::unknown_slave(format!("no slave has alias {alias:#06x}"))
+                    })?;
                 let position = base
                     .position
                     .checked_add(offset)
@@ -78,9 +83,15 @@ pub fn parse_name(text: &str) -> Result<SlaveName, ApiError> {
     };
     if let Some(rest) = text.strip_prefix("pos:") {
         Ok(SlaveName::Address(SlaveAddress::Position(number(rest)?)))
-    } else if let Some(rest) = text.strip_prefix("station:").or_else(|| text.strip_prefix('#')) {
+    } else if let Some(rest) = text
+        .strip_prefix("station:")
+        .or_else(|| text.strip_prefix('#'))
+    {
         Ok(SlaveName::Address(SlaveAddress::Station(number(rest)?)))
-    } else if let Some(rest) = text.strip_prefix("alias:").or_else(|| text.strip_prefix('@')) {
+    } else if let Some(rest) = text
+        .strip_prefix("alias:")
+        .or_else(|| text.strip_prefix('@'))
+    {
         alias(rest)
     } else if let Some((alias, offset)) = text.split_once(':') {
         Ok(alias_offset(number(alias)?, number(offset)?))
@@ -137,19 +148,38 @@ mod tests {
         assert_eq!(address("alias:0x777+0"), SlaveAddress::Alias(0x777));
         assert_eq!(
             parse_name("alias:0x777+2").unwrap(),
-            SlaveName::AliasOffset { alias: 0x777, offset: 2 }
+            SlaveName::AliasOffset {
+                alias: 0x777,
+                offset: 2
+            }
         );
         assert_eq!(
             parse_name("1911:1").unwrap(),
-            SlaveName::AliasOffset { alias: 1911, offset: 1 }
+            SlaveName::AliasOffset {
+                alias: 1911,
+                offset: 1
+            }
         );
     }
 
     #[test]
     fn junk_is_refused() {
         for bad in [
-            "", "#", "@", "x3", "70000", "#0xg", "-1", "3.0", "pos:", "station:x", "alias:1+",
-            "alias:+1", "pos:1+1", "1:2:3", "foo:3",
+            "",
+            "#",
+            "@",
+            "x3",
+            "70000",
+            "#0xg",
+            "-1",
+            "3.0",
+            "pos:",
+            "station:x",
+            "alias:1+",
+            "alias:+1",
+            "pos:1+1",
+            "1:2:3",
+            "foo:3",
         ] {
             assert!(parse_name(bad).is_err(), "{bad:?} accepted");
         }

@@ -221,14 +221,10 @@ impl From<MailboxError> for ApiError {
             MailboxError::SdoInfoAbortMissing { .. } => {
                 ApiError::new(ErrorKind::Aborted, "sdo_info_error", message)
             }
-            MailboxError::Soe { code, .. } => {
-                ApiError::new(soe_class(code), "soe_error", message)
-                    .with_code(u32::from(u16::from(code)), code.description())
-            }
-            MailboxError::Foe { code, .. } => {
-                ApiError::new(foe_class(code), "foe_error", message)
-                    .with_code(u32::from(code), code.description())
-            }
+            MailboxError::Soe { code, .. } => ApiError::new(soe_class(code), "soe_error", message)
+                .with_code(u32::from(u16::from(code)), code.description()),
+            MailboxError::Foe { code, .. } => ApiError::new(foe_class(code), "foe_error", message)
+                .with_code(u32::from(code), code.description()),
             MailboxError::Eoe(result) => {
                 ApiError::new(ErrorKind::FailedPrecondition, "eoe_error", message)
                     .with_code(u32::from(u16::from(result)), result.description())
@@ -340,13 +336,33 @@ mod tests {
             let err = sdo(code);
             assert_eq!((err.kind.grpc(), err.kind.http()), (grpc, http), "{code:?}");
         }
-        let soe = |code| ApiError::from(MailboxError::Soe { drive: 0, idn: Idn::from_raw(0x8064), code });
+        let soe = |code| {
+            ApiError::from(MailboxError::Soe {
+                drive: 0,
+                idn: Idn::from_raw(0x8064),
+                code,
+            })
+        };
         assert_eq!(soe(SoeError::NoIdn).kind, ErrorKind::NotFound);
-        assert_eq!(soe(SoeError::DataReadOnly).kind, ErrorKind::FailedPrecondition);
-        assert_eq!(soe(SoeError::DataAboveMaximum).kind, ErrorKind::InvalidArgument);
+        assert_eq!(
+            soe(SoeError::DataReadOnly).kind,
+            ErrorKind::FailedPrecondition
+        );
+        assert_eq!(
+            soe(SoeError::DataAboveMaximum).kind,
+            ErrorKind::InvalidArgument
+        );
         assert_eq!(soe(SoeError::DataTooLong).kind, ErrorKind::InvalidArgument);
-        let foe = |code| ApiError::from(MailboxError::Foe { code, text: String::new() });
+        let foe = |code| {
+            ApiError::from(MailboxError::Foe {
+                code,
+                text: String::new(),
+            })
+        };
         assert_eq!(foe(FoeError::NotFound).kind, ErrorKind::NotFound);
-        assert_eq!(foe(FoeError::AccessDenied).kind, ErrorKind::FailedPrecondition);
+        assert_eq!(
+            foe(FoeError::AccessDenied).kind,
+            ErrorKind::FailedPrecondition
+        );
     }
 }

@@ -102,7 +102,11 @@ fn access(bits: u32) -> String {
         .flat_map(|state| {
             [
                 if bits & (1 << state) != 0 { 'r' } else { '-' },
-                if bits & (1 << (state + 3)) != 0 { 'w' } else { '-' },
+                if bits & (1 << (state + 3)) != 0 {
+                    'w'
+                } else {
+                    '-'
+                },
             ]
         })
         .collect()
@@ -126,7 +130,11 @@ async fn resolve_type(c: &mut Clients, slave: &str, index: u32, subindex: u32, t
     {
         Ok(entry) => {
             let name = igh_type(entry.into_inner().data_type);
-            if typed(&name).is_ok() { name } else { "auto".into() }
+            if typed(&name).is_ok() {
+                name
+            } else {
+                "auto".into()
+            }
         }
         Err(_) => "auto".into(),
     }
@@ -168,7 +176,10 @@ impl Run for Upload {
             .map_err(failed)?
             .into_inner();
         let human = igh_value(&ty, &r.data, &r.value);
-        Ok(out(json!({"data": hex::encode(&r.data), "value": r.value}), human))
+        Ok(out(
+            json!({"data": hex::encode(&r.data), "value": r.value}),
+            human,
+        ))
     }
 }
 
@@ -256,8 +267,10 @@ impl Run for Sdos {
                         "name": e.description}));
                 }
             }
-            objects.push(json!({"index": o.index, "name": o.name, "data_type": o.data_type_name,
-                "max_subindex": o.max_subindex, "entries": entries}));
+            objects.push(
+                json!({"index": o.index, "name": o.name, "data_type": o.data_type_name,
+                "max_subindex": o.max_subindex, "entries": entries}),
+            );
         }
         Ok(out(Value::Array(objects), human.join("\n")))
     }

@@ -23,7 +23,10 @@ impl Run for Completion {
     async fn run(self, _: &mut Session) -> Result<Out, String> {
         let mut script = Vec::new();
         clap_complete::generate(self.shell, &mut Cli::command(), "ecat", &mut script);
-        Ok(bytes(json!({"shell": self.shell.to_string(), "script": String::from_utf8_lossy(&script)}), script))
+        Ok(bytes(
+            json!({"shell": self.shell.to_string(), "script": String::from_utf8_lossy(&script)}),
+            script,
+        ))
     }
 }
 

@@ -34,7 +34,12 @@ pub struct Port {
 }
 
 /// Reads a register block of `slave`.
-pub async fn register(c: &mut Clients, slave: &str, address: u32, length: u32) -> Result<Vec<u8>, String> {
+pub async fn register(
+    c: &mut Clients,
+    slave: &str,
+    address: u32,
+    length: u32,
+) -> Result<Vec<u8>, String> {
     Ok(c.bus
         .read_register(pb::ReadRegisterRequest {
             slave: slave.to_owned(),

@@ -47,7 +47,9 @@ impl Run for Graph {
             free[i] = open[i];
             edges.push(parent);
         }
-        let mut dot = String::from("digraph ethercat {\n  rankdir=LR;\n  master [shape=box, label=\"Master0\"];\n");
+        let mut dot = String::from(
+            "digraph ethercat {\n  rankdir=LR;\n  master [shape=box, label=\"Master0\"];\n",
+        );
         for s in &slaves {
             dot.push_str(&format!(
                 "  slave{} [label=\"{}\\n{}\"];\n",

@@ -37,9 +37,16 @@ pub struct Ip {
 
 impl Run for Ip {
     async fn run(self, session: &mut Session) -> Result<Out, String> {
-        let setting = [&self.ip, &self.mask, &self.gateway, &self.dns, &self.name, &self.mac]
-            .iter()
-            .any(|o| o.is_some());
+        let setting = [
+            &self.ip,
+            &self.mask,
+            &self.gateway,
+            &self.dns,
+            &self.name,
+            &self.mac,
+        ]
+        .iter()
+        .any(|o| o.is_some());
         let slave = self.select.one(session, "ip").await?;
         let c = session.clients().await?;
         if setting {

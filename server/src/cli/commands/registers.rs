@@ -66,7 +66,10 @@ impl Run for RegRead {
             .await
             .map_err(failed)?
             .into_inner();
-        Ok(out(json!({"data": hex::encode(&r.data)}), hex::encode(&r.data)))
+        Ok(out(
+            json!({"data": hex::encode(&r.data)}),
+            hex::encode(&r.data),
+        ))
     }
 }
 

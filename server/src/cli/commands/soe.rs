@@ -63,7 +63,10 @@ impl Run for SoeRead {
             .map_err(failed)?
             .into_inner();
         let value = decode(ty, &r.data).map_err(|e| e.message)?;
-        Ok(out(json!({"data": hex::encode(&r.data), "value": value}), value))
+        Ok(out(
+            json!({"data": hex::encode(&r.data), "value": value}),
+            value,
+        ))
     }
 }
 
