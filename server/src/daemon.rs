@@ -39,6 +39,7 @@ pub async fn run(config: Config) -> Result<(), String> {
     // What the metrics record lives beside the core; the core only records its requests.
     let metrics = Arc::new(crate::metrics::Store::default());
     let core = Core::new(running.master.clone(), Arc::clone(&metrics.calls));
+    core.set_capture(Arc::clone(&running.capture));
     core.set_link(match &segment_config {
         crate::config::Segment::Simulate { .. } => "simulate",
         crate::config::Segment::Iface { name } => name,

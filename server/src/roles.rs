@@ -86,6 +86,7 @@ pub const REST: &[(&str, &str, Access)] = &[
     ("GET", "/api/v1/slaves/{slave}/eoe/ip", Read),
     ("PUT", "/api/v1/slaves/{slave}/eoe/ip", Write),
     ("GET", "/api/v1/master", Read),
+    ("GET", "/api/v1/capture", Write),
     ("GET", "/api/v1/gateway", Read),
     ("POST", "/api/v1/gateway/start", Write),
     ("POST", "/api/v1/gateway/stop", Write),
@@ -118,6 +119,8 @@ pub const GRPC: &[(&str, Access)] = &[
     ("/ecat.v1.BusService/WriteSii", Write),
     ("/ecat.v1.BusService/SetAlias", Write),
     ("/ecat.v1.BusService/GetMaster", Read),
+    // The frames carry every mailbox transfer, FoE passwords included.
+    ("/ecat.v1.BusService/Capture", Write),
     ("/ecat.v1.CoeService/Upload", Read),
     ("/ecat.v1.CoeService/Download", Write),
     ("/ecat.v1.CoeService/ObjectList", Read),

@@ -4,7 +4,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 
 use master_core::bus::{Bus, BusConfig, BusHandle};
-use master_core::link::{RawSocket, RawSocketOptions};
+use master_core::link::{CaptureHub, CaptureTap, RawSocket, RawSocketOptions};
 use master_core::master::{Master, MasterConfig};
 
 use crate::config::Segment;
@@ -16,6 +16,8 @@ pub struct Running {
     pub master: Arc<Master>,
     /// Hooks into the simulated slaves (`--simulate` only).
     pub sim: Option<SimHooks>,
+    /// The live capture of the bus's frames (`ecat pcap`).
+    pub capture: Arc<CaptureHub>,
     bus: BusHandle,
     thread: Box<dyn FnOnce() + Send>,
 }
@@ -44,16 +46,17 @@ fn joiner<L: Send + 'static>(thread: JoinHandle<L>) -> Box<dyn FnOnce() + Send> 
 /// Starts the bus and master on `segment`.
 pub fn open(segment: &Segment) -> Result<Running, String> {
     let mut sim = None;
+    let capture = CaptureHub::new();
     let (bus, thread) = match segment {
         Segment::Simulate { topology } => {
-            let (bus, thread, hooks) = simulate(topology.as_deref())?;
+            let (bus, thread, hooks) = simulate(topology.as_deref(), &capture)?;
             sim = Some(hooks);
             (bus, thread)
         }
         Segment::Iface { name } => {
             let socket = RawSocket::open(name, RawSocketOptions::default())
                 .map_err(|err| format!("cannot open {name}: {err}"))?;
-            let (bus, thread) = Bus::start(socket, BusConfig::default())
+            let (bus, thread) = Bus::start(CaptureTap::new(socket, Arc::clone(&capture)), BusConfig::default())
                 .map_err(|err| format!("cannot start the bus: {err}"))?;
             (bus, joiner(thread))
         }
@@ -63,6 +66,7 @@ pub fn open(segment: &Segment) -> Result<Running, String> {
     Ok(Running {
         master: Arc::new(master),
         sim,
+        capture,
         bus,
         thread,
     })
@@ -72,7 +76,7 @@ type Started = (BusHandle, Box<dyn FnOnce() + Send>, SimHooks);
 
 /// The bus on the in-process simulator: the built-in segment, or the topology file given.
 #[cfg(feature = "simulate")]
-fn simulate(topology: Option<&std::path::Path>) -> Result<Started, String> {
+fn simulate(topology: Option<&std::path::Path>, capture: &Arc<CaptureHub>) -> Result<Started, String> {
     use sim::link::InProcessLink;
     use sim::topology::{Topology, build_with_handles};
 
@@ -87,14 +91,15 @@ fn simulate(topology: Option<&std::path::Path>) -> Result<Started, String> {
     };
     let built = build_with_handles(&topology).map_err(|err| format!("topology: {err}"))?;
     let hooks = SimHooks::new(&built.slaves);
-    let (bus, thread) = Bus::start(InProcessLink::new(built.segment), BusConfig::default())
+    let link = CaptureTap::new(InProcessLink::new(built.segment), Arc::clone(capture));
+    let (bus, thread) = Bus::start(link, BusConfig::default())
         .map_err(|err| format!("cannot start the bus: {err}"))?;
     Ok((bus, joiner(thread), hooks))
 }
 
 /// Without the simulator built in, `--simulate` is refused before anything starts.
 #[cfg(not(feature = "simulate"))]
-fn simulate(_topology: Option<&std::path::Path>) -> Result<Started, String> {
+fn simulate(_topology: Option<&std::path::Path>, _: &Arc<CaptureHub>) -> Result<Started, String> {
     Err(NO_SIMULATOR.into())
 }
 

@@ -117,6 +117,8 @@ command_set! {
     SiiRead(commands::sii::SiiRead),
     /// Write an SII image file (checksum checked; `--force` writes it as it is).
     SiiWrite(commands::sii::SiiWrite),
+    /// Capture the live bus to pcapng: `ecat pcap -c 1000 -w bus.pcapng`.
+    Pcap(commands::pcap::Pcap),
     /// Print the topology as a Graphviz graph (`ecat graph | dot -Tsvg`).
     Graph(commands::graph::Graph),
     /// The mailbox gateway's state and statistics; `start` or `stop` it.

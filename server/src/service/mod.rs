@@ -6,6 +6,7 @@
 //! start and stop), `read_effects` (register reads that need the write role).
 
 pub mod address;
+pub mod capture;
 pub mod error;
 pub mod events;
 pub mod gateway;
@@ -54,6 +55,8 @@ pub struct Core {
     calls: Arc<MailboxCalls>,
     /// The link's name for [`master_view`] (`simulate` or the interface).
     link: Arc<std::sync::OnceLock<String>>,
+    /// The bus's capture hub ([`capture`]).
+    capture: Arc<std::sync::OnceLock<Arc<master_core::link::CaptureHub>>>,
     /// Set once at shutdown: every event stream ends when it is.
     stopping: Arc<tokio::sync::watch::Sender<bool>>,
 }
@@ -73,6 +76,7 @@ impl Core {
             events: Arc::default(),
             calls,
             link: Arc::default(),
+            capture: Arc::default(),
             stopping: Arc::new(tokio::sync::watch::Sender::new(false)),
         }
     }

@@ -8,6 +8,7 @@ pub mod foe;
 pub mod graph;
 pub mod ip;
 pub mod master;
+pub mod pcap;
 pub mod registers;
 pub mod sii;
 pub mod slaves;

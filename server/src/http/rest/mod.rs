@@ -7,6 +7,7 @@
 //! relative to `/api/v1`): the router is built from those annotations, so the OpenAPI
 //! document lists exactly the routes served.
 
+pub mod capture;
 pub mod coe;
 pub mod eoe;
 pub mod foe;
@@ -69,7 +70,8 @@ pub fn routes() -> OpenApiRouter<Core> {
         .merge(eoe::routes())
 }
 
-/// The routes that stream for as long as the client listens (no time limit).
+/// The routes that stream or run for as long as asked (no request time limit): events and
+/// captures.
 pub fn stream_routes() -> OpenApiRouter<Core> {
-    slaves::stream_routes()
+    slaves::stream_routes().merge(capture::routes())
 }
