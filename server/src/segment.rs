@@ -56,8 +56,11 @@ pub fn open(segment: &Segment) -> Result<Running, String> {
         Segment::Iface { name } => {
             let socket = RawSocket::open(name, RawSocketOptions::default())
                 .map_err(|err| format!("cannot open {name}: {err}"))?;
-            let (bus, thread) = Bus::start(CaptureTap::new(socket, Arc::clone(&capture)), BusConfig::default())
-                .map_err(|err| format!("cannot start the bus: {err}"))?;
+            let (bus, thread) = Bus::start(
+                CaptureTap::new(socket, Arc::clone(&capture)),
+                BusConfig::default(),
+            )
+            .map_err(|err| format!("cannot start the bus: {err}"))?;
             (bus, joiner(thread))
         }
     };
@@ -76,7 +79,10 @@ type Started = (BusHandle, Box<dyn FnOnce() + Send>, SimHooks);
 
 /// The bus on the in-process simulator: the built-in segment, or the topology file given.
 #[cfg(feature = "simulate")]
-fn simulate(topology: Option<&std::path::Path>, capture: &Arc<CaptureHub>) -> Result<Started, String> {
+fn simulate(
+    topology: Option<&std::path::Path>,
+    capture: &Arc<CaptureHub>,
+) -> Result<Started, String> {
     use sim::link::InProcessLink;
     use sim::topology::{Topology, build_with_handles};
 

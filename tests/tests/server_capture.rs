@@ -13,11 +13,21 @@ use server_support::{Ecatd, bin_dir, curl};
 
 /// The frame numbers tshark prints for `filter` (all frames when empty).
 fn tshark_frames(file: &std::path::Path, filter: &str) -> usize {
-    let mut args = vec!["-r", file.to_str().unwrap(), "-T", "fields", "-e", "frame.number"];
+    let mut args = vec![
+        "-r",
+        file.to_str().unwrap(),
+        "-T",
+        "fields",
+        "-e",
+        "frame.number",
+    ];
     if !filter.is_empty() {
         args.extend(["-Y", filter]);
     }
-    let output = Command::new("tshark").args(&args).output().expect("tshark runs");
+    let output = Command::new("tshark")
+        .args(&args)
+        .output()
+        .expect("tshark runs");
     assert!(
         output.status.success(),
         "tshark {args:?}: {}",
@@ -64,12 +74,21 @@ fn a_capture_during_gateway_load_has_every_frame_and_nothing_malformed() {
     );
     let summary: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(summary["frames"], 1000, "{summary}");
-    assert!(answered.load(Ordering::Relaxed) > 0, "the gateway was under load");
+    assert!(
+        answered.load(Ordering::Relaxed) > 0,
+        "the gateway was under load"
+    );
     assert_eq!(tshark_frames(&file, ""), 1000);
-    assert_eq!(tshark_frames(&file, "_ws.malformed || _ws.expert.severity >= error"), 0);
+    assert_eq!(
+        tshark_frames(&file, "_ws.malformed || _ws.expert.severity >= error"),
+        0
+    );
     assert!(tshark_frames(&file, "ecat") > 0, "EtherCAT decoded");
     // The gateway's mailbox traffic is in the capture.
-    assert!(tshark_frames(&file, "ecat_mailbox.coe") > 0, "CoE mailbox frames captured");
+    assert!(
+        tshark_frames(&file, "ecat_mailbox.coe") > 0,
+        "CoE mailbox frames captured"
+    );
 
     // REST: the same format, with the counts in headers.
     let rest = dir.join("rest.pcapng");

@@ -156,8 +156,14 @@ mod tests {
         }
         let first = capture.next(Duration::from_millis(10)).unwrap();
         assert!(first.sent);
-        assert_eq!(first.frame, [0; 60], "the frame before the capture is not in it");
-        assert_eq!(capture.next(Duration::from_millis(10)).unwrap().frame, [1; 60]);
+        assert_eq!(
+            first.frame, [0; 60],
+            "the frame before the capture is not in it"
+        );
+        assert_eq!(
+            capture.next(Duration::from_millis(10)).unwrap().frame,
+            [1; 60]
+        );
         assert!(capture.next(Duration::from_millis(10)).is_none());
         assert_eq!(capture.dropped(), 2, "queue of 2: frames 2 and 3 dropped");
         let mut buf = [0; 64];

@@ -181,10 +181,17 @@ impl BusService for Bus {
         let r = request.get_ref();
         let done = self
             .core
-            .capture(r.frames, std::time::Duration::from_millis(u64::from(r.duration_ms)))
+            .capture(
+                r.frames,
+                std::time::Duration::from_millis(u64::from(r.duration_ms)),
+            )
             .await
             .map_err(status)?;
-        let pieces: Vec<Vec<u8>> = done.pcapng.chunks(CAPTURE_CHUNK).map(<[u8]>::to_vec).collect();
+        let pieces: Vec<Vec<u8>> = done
+            .pcapng
+            .chunks(CAPTURE_CHUNK)
+            .map(<[u8]>::to_vec)
+            .collect();
         let last = pieces.len().saturating_sub(1);
         let (frames, dropped) = (done.frames, done.dropped);
         let chunks = pieces.into_iter().enumerate().map(move |(i, data)| {

@@ -63,12 +63,18 @@ impl Core {
             .get()
             .ok_or_else(|| ApiError::unavailable("this segment has no capture tap"))?;
         let capture = hub.open(QUEUE).ok_or_else(|| {
-            let mut err = ApiError::unavailable("another capture is running; try again when it ends");
+            let mut err =
+                ApiError::unavailable("another capture is running; try again when it ends");
             err.tag = "capture_busy";
             err
         })?;
         let limit = if frames == 0 { MAX_FRAMES } else { frames };
-        let until = Instant::now() + if duration.is_zero() { MAX_DURATION } else { duration };
+        let until = Instant::now()
+            + if duration.is_zero() {
+                MAX_DURATION
+            } else {
+                duration
+            };
         tokio::task::spawn_blocking(move || {
             let mut writer = PcapNgWriter::new(Vec::new()).map_err(internal)?;
             writer

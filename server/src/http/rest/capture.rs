@@ -39,7 +39,10 @@ pub async fn capture(
     };
     let seconds = q.seconds.unwrap_or(0.0);
     if !(0.0..=600.0).contains(&seconds) {
-        return Err(crate::service::ApiError::invalid_field("seconds", "seconds must be 0..=600"));
+        return Err(crate::service::ApiError::invalid_field(
+            "seconds",
+            "seconds must be 0..=600",
+        ));
     }
     let done = core
         .capture(frames, std::time::Duration::from_secs_f64(seconds))
@@ -47,8 +50,14 @@ pub async fn capture(
     Ok((
         [
             (CONTENT_TYPE, "application/x-pcapng".to_owned()),
-            (HeaderName::from_static("x-ecat-frames"), done.frames.to_string()),
-            (HeaderName::from_static("x-ecat-dropped"), done.dropped.to_string()),
+            (
+                HeaderName::from_static("x-ecat-frames"),
+                done.frames.to_string(),
+            ),
+            (
+                HeaderName::from_static("x-ecat-dropped"),
+                done.dropped.to_string(),
+            ),
         ],
         done.pcapng,
     ))
