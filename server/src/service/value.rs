@@ -198,7 +198,16 @@ mod tests {
         assert!(encode(ValueType::U8, "256").is_err());
         assert!(encode(ValueType::I8, "-129").is_err());
         assert!(decode(ValueType::U16, &[1, 2, 3]).is_err());
-        assert!("float".parse::<ValueType>().is_err());
+        assert!("quad".parse::<ValueType>().is_err());
+        // IgH's type names.
+        assert_eq!("float".parse::<ValueType>().unwrap(), ValueType::F32);
+        assert_eq!("double".parse::<ValueType>().unwrap(), ValueType::F64);
+        assert_eq!("uint16".parse::<ValueType>().unwrap(), ValueType::U16);
+        assert_eq!("octet_string".parse::<ValueType>().unwrap(), ValueType::Hex);
+        assert_eq!(parse_idn("P-0-0100", "idn").unwrap(), 0x8064);
+        assert_eq!(parse_idn("S-0-0011", "idn").unwrap(), 11);
+        assert_eq!(parse_idn("0x8064", "idn").unwrap(), 0x8064);
+        assert!(parse_idn("X-0-0011", "idn").is_err());
         assert_eq!(for_data_type(DataType::Unsigned32), ValueType::U32);
         assert_eq!(for_data_type(DataType::OctetString), ValueType::Hex);
     }
