@@ -65,6 +65,11 @@ pub async fn run(config: Config) -> Result<(), String> {
     );
     // Before the scan: its findings against the configuration are counted too.
     let findings = metrics.config.follow(core.master());
+    core.set_capture(Arc::clone(&running.capture));
+    core.set_link(match &segment_config {
+        crate::config::Segment::Simulate { .. } => "simulate",
+        crate::config::Segment::Iface { name } => name,
+    });
     let tokens = Tokens::new(config.tokens.clone());
     reload_on_sighup(&config, &tokens, tls.clone())?;
     tracing::info!(

@@ -90,6 +90,8 @@ pub const REST: &[(&str, &str, Access)] = &[
     ("POST", "/api/v1/slaves/{slave}/voe", Write),
     ("GET", "/api/v1/slaves/{slave}/eoe/ip", Read),
     ("PUT", "/api/v1/slaves/{slave}/eoe/ip", Write),
+    ("GET", "/api/v1/master", Read),
+    ("GET", "/api/v1/capture", Write),
     ("GET", "/api/v1/gateway", Read),
     ("GET", "/api/v1/config", Read),
     ("POST", "/api/v1/gateway/start", Write),
@@ -123,6 +125,9 @@ pub const GRPC: &[(&str, Access)] = &[
     ("/ecat.v1.BusService/WriteSii", Write),
     ("/ecat.v1.BusService/SetAlias", Write),
     ("/ecat.v1.BusService/GetConfig", Read),
+    ("/ecat.v1.BusService/GetMaster", Read),
+    // The frames carry every mailbox transfer, FoE passwords included.
+    ("/ecat.v1.BusService/Capture", Write),
     ("/ecat.v1.CoeService/Upload", Read),
     ("/ecat.v1.CoeService/Download", Write),
     ("/ecat.v1.CoeService/ObjectList", Read),

@@ -4,7 +4,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 
 use master_core::bus::{Bus, BusHandle};
-use master_core::link::{RawSocket, RawSocketOptions};
+use master_core::link::{CaptureHub, CaptureTap, RawSocket, RawSocketOptions};
 use master_core::master::Master;
 
 use crate::config::{Segment, SegmentSetup};
@@ -16,6 +16,8 @@ pub struct Running {
     pub master: Arc<Master>,
     /// Hooks into the simulated slaves (`--simulate` only).
     pub sim: Option<SimHooks>,
+    /// The live capture of the bus's frames (`ecat pcap`).
+    pub capture: Arc<CaptureHub>,
     bus: BusHandle,
     thread: Box<dyn FnOnce() + Send>,
 }
@@ -45,15 +47,17 @@ fn joiner<L: Send + 'static>(thread: JoinHandle<L>) -> Box<dyn FnOnce() + Send> 
 /// configuration from its first scan on).
 pub fn open(segment: &Segment, setup: &SegmentSetup) -> Result<Running, String> {
     let mut sim = None;
+    let capture = CaptureHub::new();
     let (bus, thread) = match segment {
         Segment::Simulate { topology } => {
-            let (bus, thread, hooks) = simulate(topology.as_deref(), setup)?;
+            let (bus, thread, hooks) = simulate(topology.as_deref(), setup, &capture)?;
             sim = Some(hooks);
             (bus, thread)
         }
         Segment::Iface { name } => {
             let socket = RawSocket::open(name, RawSocketOptions::default())
                 .map_err(|err| format!("cannot open {name}: {err}"))?;
+            let socket = CaptureTap::new(socket, Arc::clone(&capture));
             let (bus, thread) = on_cpu(setup.cpu, || Bus::start(socket, setup.bus))?
                 .map_err(|err| format!("cannot start the bus: {err}"))?;
             (bus, joiner(thread))
@@ -69,6 +73,7 @@ pub fn open(segment: &Segment, setup: &SegmentSetup) -> Result<Running, String> 
     Ok(Running {
         master: Arc::new(master),
         sim,
+        capture,
         bus,
         thread,
     })
@@ -111,7 +116,11 @@ fn on_cpu<T>(cpu: Option<usize>, start: impl FnOnce() -> T) -> Result<T, String>
 
 /// The bus on the in-process simulator: the built-in segment, or the topology file given.
 #[cfg(feature = "simulate")]
-fn simulate(topology: Option<&std::path::Path>, setup: &SegmentSetup) -> Result<Started, String> {
+fn simulate(
+    topology: Option<&std::path::Path>,
+    setup: &SegmentSetup,
+    capture: &Arc<CaptureHub>,
+) -> Result<Started, String> {
     use sim::link::InProcessLink;
     use sim::topology::{Topology, build_with_handles};
 
@@ -126,7 +135,7 @@ fn simulate(topology: Option<&std::path::Path>, setup: &SegmentSetup) -> Result<
     };
     let built = build_with_handles(&topology).map_err(|err| format!("topology: {err}"))?;
     let hooks = SimHooks::new(&built.slaves);
-    let link = InProcessLink::new(built.segment);
+    let link = CaptureTap::new(InProcessLink::new(built.segment), Arc::clone(capture));
     let (bus, thread) = on_cpu(setup.cpu, || Bus::start(link, setup.bus))?
         .map_err(|err| format!("cannot start the bus: {err}"))?;
     Ok((bus, joiner(thread), hooks))
@@ -134,7 +143,11 @@ fn simulate(topology: Option<&std::path::Path>, setup: &SegmentSetup) -> Result<
 
 /// Without the simulator built in, `--simulate` is refused before anything starts.
 #[cfg(not(feature = "simulate"))]
-fn simulate(_topology: Option<&std::path::Path>, _setup: &SegmentSetup) -> Result<Started, String> {
+fn simulate(
+    _topology: Option<&std::path::Path>,
+    _setup: &SegmentSetup,
+    _: &Arc<CaptureHub>,
+) -> Result<Started, String> {
     Err(NO_SIMULATOR.into())
 }
 

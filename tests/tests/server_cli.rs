@@ -27,6 +27,21 @@ impl Ecat<'_> {
         )
     }
 
+    /// Standard output as bytes, after checking the command succeeded.
+    fn raw(&self, args: &[&str]) -> Vec<u8> {
+        let output = Command::new(bin_dir().join("ecat"))
+            .args(["--address", &format!("http://{}", self.ecatd.grpc)])
+            .args(args)
+            .output()
+            .expect("ecat runs");
+        assert!(
+            output.status.success(),
+            "ecat {args:?} failed: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        output.stdout
+    }
+
     fn ok(&self, args: &[&str]) -> String {
         let (ok, stdout, stderr) = self.run(args);
         assert!(ok, "ecat {args:?} failed: {stderr}");
@@ -59,14 +74,15 @@ fn every_subcommand() {
     assert_eq!(slaves[0]["vendor_id"], SIM_VENDOR_ID);
 
     assert_eq!(
-        ecat.ok(&["upload", "-p", "0", "0x1018", "1", "--type", "u32"])
+        ecat.ok(&["upload", "-p", "0", "0x1018", "1", "--type", "uint32"])
             .trim(),
-        SIM_VENDOR_ID.to_string()
+        format!("0x{SIM_VENDOR_ID:08x} {SIM_VENDOR_ID}"),
+        "IgH's upload line"
     );
     // Without --type the slave's SDO Information names the type (0x1018:01 is UNSIGNED32).
     assert_eq!(
         ecat.ok(&["upload", "-p", "0", "0x1018", "1"]).trim(),
-        SIM_VENDOR_ID.to_string()
+        format!("0x{SIM_VENDOR_ID:08x} {SIM_VENDOR_ID}")
     );
     assert_eq!(
         ecat.ok(&["upload", "-p", "0", "0x1008", "0"]).trim(),
@@ -90,29 +106,58 @@ fn every_subcommand() {
     assert!(!ok && stderr.contains("0x06020000"), "{stderr}");
 
     let sdos = ecat.ok(&["sdos", "-p", "3"]);
-    assert!(sdos.contains("0x2001, \"Parameter\""), "{sdos}");
+    assert!(sdos.contains("SDO 0x2001, \"Parameter\""), "{sdos}");
+    assert!(
+        sdos.contains("  0x2001:00, rwrwrw, uint32, 32 bit, \"Parameter\""),
+        "entries with access, type, bit length and name:\n{sdos}"
+    );
 
     assert_eq!(
-        ecat.ok(&["soe_read", "0x8064", "--type", "u16"]).trim(),
+        ecat.ok(&["soe_read", "-p", "0", "0x8064", "--type", "u16"])
+            .trim(),
         "253"
     );
-    let (ok, _, stderr) = ecat.run(&["soe_write", "0x8064", "1", "--type", "u16"]);
-    assert!(!ok && stderr.contains("Aborted"), "read-only IDN: {stderr}");
+    assert_eq!(
+        ecat.ok(&["soe_read", "-p", "0", "P-0-0100", "-t", "uint16"])
+            .trim(),
+        "253",
+        "IDN syntax"
+    );
+    let (ok, _, stderr) = ecat.run(&["soe_write", "-p", "0", "P-0-0100", "1", "--type", "u16"]);
+    assert!(
+        !ok && stderr.contains("FailedPrecondition"),
+        "read-only IDN: {stderr}"
+    );
 
     let dir = std::env::temp_dir().join(format!("ecat-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let firmware = dir.join("firmware.bin");
-    ecat.ok(&["foe_read", "firmware.bin", "-o", firmware.to_str().unwrap()]);
+    ecat.ok(&[
+        "foe_read",
+        "-p",
+        "0",
+        "firmware.bin",
+        "-o",
+        firmware.to_str().unwrap(),
+    ]);
     let expected: Vec<u8> = (0..topology.slaves[0].foe_files[0].size)
         .map(|i| (i % 251) as u8)
         .collect();
     assert_eq!(std::fs::read(&firmware).unwrap(), expected);
-    let written = ecat.json(&["foe_write", "update.bin", firmware.to_str().unwrap()]);
+    // IgH's order: the local file, then -o for the name on the slave.
+    let written = ecat.json(&[
+        "foe_write",
+        "-p",
+        "0",
+        firmware.to_str().unwrap(),
+        "-o",
+        "update.bin",
+    ]);
     assert_eq!(written["written"], expected.len());
     std::fs::remove_dir_all(&dir).unwrap();
 
     assert_eq!(
-        ecat.json(&["voe", "0x1164", "1", "00ff0f"])["data"],
+        ecat.json(&["voe", "-p", "0", "0x1164", "1", "00ff0f"])["data"],
         "ff00f0"
     );
 
@@ -138,13 +183,6 @@ fn every_subcommand() {
     ecat.ok(&["reg_write", "-p", "1", "0xa00", "a5"]);
     let sii = ecat.json(&["sii_read", "-p", "0"]);
     assert_eq!(&sii["data"].as_str().unwrap()[32..40], "010000e0");
-    ecat.ok(&["sii_write", "-p", "2", "0x20", "3412"]);
-    assert_eq!(
-        &ecat.json(&["sii_read", "-p", "2"])["data"]
-            .as_str()
-            .unwrap()[0x80..0x84],
-        "3412"
-    );
 
     let states = ecat.json(&["states", "-p", "1", "PREOP"]);
     assert_eq!(states[0]["state"], "PREOP");
@@ -177,5 +215,227 @@ fn every_subcommand() {
     assert_eq!(
         started["bound_address"],
         format!("127.0.0.1:{}", started["port"])
+    );
+}
+
+/// Every line of `ecat slaves` in IgH's columns: position, alias:relpos, state, flag, name.
+fn igh_line(line: &str) -> Option<(u32, u32, u32, String, String)> {
+    let mut fields = line.split("  ").filter(|f| !f.is_empty()).map(str::trim);
+    let position = fields.next()?.parse().ok()?;
+    let (alias, relpos) = fields.next()?.split_once(':')?;
+    let state = fields.next()?.to_owned();
+    let flag = fields.next()?;
+    let name = fields.collect::<Vec<_>>().join("  ");
+    (flag == "+" || flag == "E").then_some(())?;
+    Some((
+        position,
+        alias.parse().ok()?,
+        relpos.parse().ok()?,
+        state,
+        name,
+    ))
+}
+
+#[test]
+fn slaves_in_igh_columns_and_every_slave_name_form() {
+    let ecatd = Ecatd::start(&[]);
+    let ecat = Ecat { ecatd: &ecatd };
+    let topology = Topology::default_segment();
+    ecat.ok(&["alias", "-p", "2", "66"]);
+    let table = ecat.ok(&["slaves"]);
+    let rows: Vec<_> = table
+        .lines()
+        .map(|l| igh_line(l).unwrap_or_else(|| panic!("{l:?}")))
+        .collect();
+    assert_eq!(rows.len(), topology.slaves.len(), "{table}");
+    // Slaves 0 and 1 count from the start, 2 carries the alias, 3 and 4 count from it.
+    let relpos: Vec<(u32, u32)> = rows.iter().map(|r| (r.1, r.2)).collect();
+    assert_eq!(
+        relpos,
+        [(0, 0), (0, 1), (66, 0), (66, 1), (66, 2)],
+        "{table}"
+    );
+    for (row, spec) in rows.iter().zip(&topology.slaves) {
+        assert_eq!(row.4, spec.name);
+    }
+    // The same slave (position 3, station 1004) by each name form.
+    for args in [
+        vec!["-p", "3"],
+        vec!["-p", "pos:3"],
+        vec!["-p", "station:1004"],
+        vec!["-p", "#0x3ec"],
+        vec!["-p", "66:1"],
+        vec!["-p", "alias:66+1"],
+        vec!["-p", "alias:0x42+1"],
+        vec!["-a", "0x42", "-p", "1"],
+    ] {
+        let mut all = vec!["reg_read"];
+        all.extend(&args);
+        all.extend(["0x10", "2"]);
+        assert_eq!(
+            ecat.json(&all)["data"],
+            hex_le(1004),
+            "station register of {args:?}"
+        );
+    }
+    assert_eq!(
+        ecat.json(&["reg_read", "-a", "66", "0x10", "2"])["data"],
+        hex_le(1003)
+    );
+    let (ok, _, stderr) = ecat.run(&["reg_read", "-p", "alias:66+9", "0x10", "2"]);
+    assert!(!ok && stderr.contains("NotFound"), "{stderr}");
+    let (ok, _, stderr) = ecat.run(&["reg_read", "-p", "slot:3", "0x10", "2"]);
+    assert!(!ok && stderr.contains("bad slave name"), "{stderr}");
+
+    let verbose = ecat.ok(&["slaves", "-v", "-p", "1"]);
+    for part in [
+        "=== Master 0, Slave 1 ===",
+        "Vendor Id:       0x",
+        "Distributed clocks: yes",
+        "Port  Type  Link  Loop    Signal",
+        "   0  MII   up    open    yes",
+        "Mailboxes:",
+        "Name: ECATD-SIM DO8",
+    ] {
+        assert!(verbose.contains(part), "{part:?} missing:\n{verbose}");
+    }
+    assert!(!verbose.contains("Slave 2 ==="), "-p selects one slave");
+    let one = ecat.json(&["slaves", "-v", "-p", "0"]);
+    assert_eq!(one[0]["esc"]["mailboxes"]["protocols"][0], "CoE", "{one}");
+}
+
+fn hex_le(value: u16) -> String {
+    value
+        .to_le_bytes()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+#[test]
+fn a_write_without_a_slave_on_a_multi_slave_segment_is_refused_and_changes_nothing() {
+    let ecatd = Ecatd::start(&[]);
+    let ecat = Ecat { ecatd: &ecatd };
+    let before = ecat.json(&["upload", "-p", "3", "0x2001", "0"])["data"].clone();
+    for args in [
+        vec!["download", "0x2001", "0", "0x55", "--type", "u32"],
+        vec!["reg_write", "0xa00", "a5"],
+        vec!["alias", "0x99"],
+        vec!["sii_write", "/nonexistent/image.bin"],
+    ] {
+        let (ok, _, stderr) = ecat.run(&args);
+        assert!(!ok, "{args:?} ran without a slave");
+        if args[0] != "sii_write" {
+            assert!(
+                stderr.contains("works on one slave and the segment has 5")
+                    && stderr.contains("-p POSITION"),
+                "{args:?}: {stderr}"
+            );
+        }
+    }
+    assert_eq!(
+        ecat.json(&["upload", "-p", "3", "0x2001", "0"])["data"],
+        before
+    );
+    assert_eq!(
+        ecat.json(&["reg_read", "-p", "0", "0x12", "2"])["data"],
+        "0000",
+        "no alias set"
+    );
+}
+
+#[test]
+fn foe_read_and_sii_read_print_the_exact_bytes() {
+    let ecatd = Ecatd::start(&[]);
+    let ecat = Ecat { ecatd: &ecatd };
+    let topology = Topology::default_segment();
+    let expected: Vec<u8> = (0..topology.slaves[0].foe_files[0].size)
+        .map(|i| (i % 251) as u8)
+        .collect();
+    assert_eq!(ecat.raw(&["foe_read", "-p", "0", "firmware.bin"]), expected);
+    let sii = ecat.raw(&["sii_read", "-p", "0"]);
+    let hex = ecat.json(&["sii_read", "-p", "0"])["data"]
+        .as_str()
+        .unwrap()
+        .to_owned();
+    let text: String = sii.iter().map(|b| format!("{b:02x}")).collect();
+    assert_eq!(text, hex);
+    // Words 8-11: vendor id, product code of the simulated drive.
+    assert_eq!(&sii[16..20], &SIM_VENDOR_ID.to_le_bytes());
+}
+
+#[test]
+fn sii_write_checks_the_checksum_of_the_image() {
+    let ecatd = Ecatd::start(&[]);
+    let ecat = Ecat { ecatd: &ecatd };
+    let dir = std::env::temp_dir().join(format!("ecat-sii-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let original = ecat.raw(&["sii_read", "-p", "2"]);
+    // Word 5 (reserved) changed, word 7 left: the checksum no longer matches.
+    let mut image = original.clone();
+    image[10] ^= 0x5a;
+    let file = dir.join("changed.bin");
+    std::fs::write(&file, &image).unwrap();
+    let (ok, _, stderr) = ecat.run(&["sii_write", "-p", "2", file.to_str().unwrap()]);
+    assert!(!ok && stderr.contains("checksum"), "{stderr}");
+    assert_eq!(
+        ecat.raw(&["sii_read", "-p", "2"]),
+        original,
+        "nothing written"
+    );
+    ecat.ok(&["sii_write", "-p", "2", "--fix", file.to_str().unwrap()]);
+    let written = ecat.raw(&["sii_read", "-p", "2"]);
+    assert_eq!(written[10], image[10]);
+    assert_ne!(written[14], original[14], "checksum recomputed");
+    assert_eq!(&written[15..], &image[15..]);
+    // The recomputed image is valid: writing it back unchanged is accepted.
+    std::fs::write(&file, &written).unwrap();
+    ecat.ok(&["sii_write", "-p", "2", file.to_str().unwrap()]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn master_version_rescan_crc_graph_pdos_completion_and_man() {
+    let ecatd = Ecatd::start(&[]);
+    let ecat = Ecat { ecatd: &ecatd };
+    let master = ecat.ok(&["master"]);
+    let status = ecat.json(&["master"]);
+    // `simulate`, or the interface when the suite runs over veth.
+    let link = status["link"].as_str().unwrap().to_owned();
+    assert!(!link.is_empty());
+    assert!(
+        master.contains("Slaves: 5") && master.contains(&format!("({link})")),
+        "{master}"
+    );
+    assert_eq!(status["ready"], true);
+    assert_eq!(status["dc_reference"], 0, "the drive is the first DC slave");
+    assert!(status["frames_sent"].as_u64().unwrap() > 0);
+    let version = ecat.ok(&["version"]);
+    let expected = format!("ecat {0}\necatd {0}\n", env!("CARGO_PKG_VERSION"));
+    assert_eq!(version, expected);
+    assert_eq!(ecat.json(&["rescan"])["slaves"], 5);
+    let crc = ecat.ok(&["crc"]);
+    assert!(crc.starts_with("Pos  |CRC A|"), "{crc}");
+    assert_eq!(crc.lines().count(), 6, "{crc}");
+    let graph = ecat.ok(&["graph"]);
+    assert!(graph.starts_with("digraph"), "{graph}");
+    for edge in ["master -> slave0", "slave0 -> slave1", "slave3 -> slave4"] {
+        assert!(graph.contains(edge), "{edge}: {graph}");
+    }
+    let pdos = ecat.ok(&["pdos", "-p", "0"]);
+    assert!(
+        pdos.contains("RxPDO 0x1600") && pdos.contains("PDO entry 0x6040:00, 16 bit"),
+        "{pdos}"
+    );
+    let bash = ecat.ok(&["completion", "bash"]);
+    assert!(
+        bash.contains("foe_read") && bash.contains("sii_write"),
+        "bash completion"
+    );
+    let man = ecat.ok(&["man"]);
+    assert!(
+        man.starts_with(".ie") || man.contains(".TH ecat"),
+        "roff: {}",
+        &man[..80.min(man.len())]
     );
 }

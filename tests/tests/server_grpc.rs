@@ -231,7 +231,7 @@ fn mailbox_calls_match_the_simulator() {
         r#"{"slave":"0","index":24576,"subindex":1}"#,
     )
     .unwrap_err();
-    assert_eq!(abort.0, "10", "ABORTED: {abort:?}");
+    assert_eq!(abort.0, "5", "NOT_FOUND: {abort:?}");
     assert!(
         abort.1.contains("0x06020000"),
         "the abort code is in the message: {abort:?}"
@@ -249,7 +249,7 @@ fn mailbox_calls_match_the_simulator() {
         info["@type"], "type.googleapis.com/google.rpc.ErrorInfo",
         "{status}"
     );
-    assert_eq!(info["reason"], "sdo_abort");
+    assert_eq!(info["reason"], "SDO_ABORT");
     assert_eq!(info["domain"], "ecat.v1");
     assert_eq!(info["metadata"]["code"], "0x6020000");
     assert_eq!(
@@ -307,8 +307,8 @@ fn mailbox_calls_match_the_simulator() {
     )
     .unwrap_err();
     assert_eq!(
-        refused.0, "10",
-        "a read-only IDN is an SoE error: {refused:?}"
+        refused.0, "9",
+        "a read-only IDN is FAILED_PRECONDITION: {refused:?}"
     );
 
     // FoE: the drive's firmware.bin is the test pattern of 1024 bytes.
@@ -331,7 +331,7 @@ fn mailbox_calls_match_the_simulator() {
         r#"{"slave":"0","name":"nope.bin"}"#,
     )
     .unwrap_err();
-    assert_eq!(missing.0, "10", "{missing:?}");
+    assert_eq!(missing.0, "5", "a missing file is NOT_FOUND: {missing:?}");
 
     // VoE echo inverts every byte.
     let voe = call(

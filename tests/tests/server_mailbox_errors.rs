@@ -110,38 +110,49 @@ fn every_refusal_reaches_rest_ecat_and_the_gateway_as_the_slave_abort() {
     let base = format!("/api/v1/slaves/{STORE}/coe/sdo");
 
     // REST.
+    // Each abort with the status of its class (docs/call-it.md, "Errors").
     let cases = [
-        ("GET", format!("{base}/{MISSING:#x}/0"), "", MISSING_CODE),
+        (
+            "GET",
+            format!("{base}/{MISSING:#x}/0"),
+            "",
+            MISSING_CODE,
+            404,
+        ),
         (
             "GET",
             format!("{base}/{WRITE_ONLY:#x}/0"),
             "",
             WRITE_ONLY_CODE,
+            409,
         ),
         (
             "PUT",
             format!("{base}/{READ_ONLY:#x}/0"),
             r#"{"data":"01020304"}"#,
             READ_ONLY_CODE,
+            409,
         ),
         (
             "PUT",
             format!("{base}/{PARAMETER:#x}/0"),
             r#"{"data":"0102"}"#,
             LENGTH_CODE,
+            400,
         ),
         (
             "GET",
             format!("{base}/0x1018/0?complete_access=true"),
             "",
             GENERAL_CODE,
+            409,
         ),
     ];
-    for (method, path, body, code) in &cases {
+    for (method, path, body, code, http) in &cases {
         let (status, answer) = rest(&ecatd, method, path, body);
-        assert_eq!(status, 409, "{method} {path}: {answer}");
-        assert_eq!(answer["error"]["kind"], "sdo_abort", "{method} {path}");
-        assert_eq!(answer["error"]["code"], *code, "{method} {path}");
+        assert_eq!(status, *http, "{method} {path}: {answer}");
+        assert_eq!(answer["reason"], "SDO_ABORT", "{method} {path}");
+        assert_eq!(answer["protocol_code"], *code, "{method} {path}");
     }
 
     // `ecat` (the upload of the missing object with the default `--type auto`).
@@ -271,9 +282,9 @@ fn an_auto_typed_upload_of_a_missing_object_prints_the_slave_abort_not_internal(
         "",
     );
     assert_eq!(status, 409, "{answer}");
-    assert_eq!(answer["error"]["kind"], "sdo_info_error");
+    assert_eq!(answer["reason"], "SDO_INFO_ERROR");
     assert!(
-        answer["error"]["message"]
+        answer["detail"]
             .as_str()
             .unwrap_or_default()
             .contains("SDO Information error (abort code missing)"),
@@ -282,7 +293,7 @@ fn an_auto_typed_upload_of_a_missing_object_prints_the_slave_abort_not_internal(
     // An object that exists still reads with its type from SDO Information.
     let (ok, text) = ecat(&ecatd, &["upload", "-p", &store, "0x2001", "0"]);
     assert!(ok, "{text}");
-    assert_eq!(text.trim(), 0x1234_5678u32.to_string());
+    assert_eq!(text.trim(), format!("0x12345678 {}", 0x1234_5678u32));
     // The failed entry description left its line, with the slave and the object.
     let lines = failure_lines(&ecatd);
     assert!(
@@ -308,7 +319,7 @@ fn a_timeout_leaves_a_warn_line_and_its_late_reply_a_debug_line() {
         "",
     );
     assert_eq!(status, 504, "{answer}");
-    assert_eq!(answer["error"]["kind"], "timeout");
+    assert_eq!(answer["reason"], "TIMEOUT");
     let (at, warned) = wait_for_line(&ecatd, 0, |v| {
         v["level"] == "WARN"
             && v["fields"]["message"] == "mailbox request failed"

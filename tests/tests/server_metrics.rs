@@ -84,7 +84,7 @@ fn counters_equal_what_was_done() {
             "-s",
             &format!("{}/api/v1/slaves/3/coe/sdo/0x6000/0", ecatd.http),
         ]);
-        assert_eq!(status, 409);
+        assert_eq!(status, 404);
     }
     let after = scrape(&ecatd);
     assert_eq!(sample(&after, requests) - r0, 8.0);
@@ -268,7 +268,7 @@ fn protocol_counters_equal_the_requests_made() {
     }
     for _ in 0..2 {
         let (status, _) = rest(&ecatd, "GET", "/api/v1/slaves/0/coe/sdo/0x5fff/0", None);
-        assert_eq!(status, 409);
+        assert_eq!(status, 404);
     }
     for _ in 0..3 {
         let (status, _) = rest(&ecatd, "GET", "/api/v1/slaves/0/soe/0/0x8064", None);

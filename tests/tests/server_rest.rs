@@ -15,7 +15,9 @@ use server_support::{Ecatd, curl, curl_as_browser};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
-const ROUTES: [(&str, &str); 28] = [
+const ROUTES: [(&str, &str); 30] = [
+    ("get", "/api/v1/master"),
+    ("get", "/api/v1/capture"),
     ("get", "/api/v1/slaves"),
     ("get", "/api/v1/slaves/{slave}"),
     ("put", "/api/v1/slaves/{slave}/state"),
@@ -95,8 +97,8 @@ fn every_route_answers_with_the_simulators_values() {
     assert_eq!(slave["position"], 3);
     let (status, missing) = get(&ecatd, "/api/v1/slaves/9");
     assert_eq!(
-        (status, missing["error"]["kind"].as_str()),
-        (404, Some("unknown_slave"))
+        (status, missing["reason"].as_str()),
+        (404, Some("UNKNOWN_SLAVE"))
     );
 
     let (status, state) = send(
@@ -112,7 +114,7 @@ fn every_route_answers_with_the_simulators_values() {
         "/api/v1/slaves/2/state",
         r#"{"state":"FLYING"}"#,
     );
-    assert_eq!((status, bad["error"]["grpc_code"].as_i64()), (400, Some(3)));
+    assert_eq!((status, bad["grpc_code"].as_i64()), (400, Some(3)));
     let (status, rescan) = send(&ecatd, "POST", "/api/v1/rescan", "");
     assert_eq!(status, 200);
     assert_eq!(
@@ -172,13 +174,13 @@ fn every_route_answers_with_the_simulators_values() {
         r#"{"value":"-1","type":"auto"}"#,
     );
     assert_eq!(
-        (status, bad["error"]["kind"].as_str()),
-        (400, Some("invalid_argument"))
+        (status, bad["reason"].as_str()),
+        (400, Some("INVALID_ARGUMENT"))
     );
     let (status, abort) = get(&ecatd, "/api/v1/slaves/0/coe/sdo/0x6000/1");
-    assert_eq!(status, 409);
-    assert_eq!(abort["error"]["kind"], "sdo_abort");
-    assert_eq!(abort["error"]["code"], 0x0602_0000);
+    assert_eq!(status, 404, "an unknown object is NOT_FOUND");
+    assert_eq!(abort["reason"], "SDO_ABORT");
+    assert_eq!(abort["protocol_code"], 0x0602_0000);
     let (status, _) = send(
         &ecatd,
         "PUT",
@@ -209,8 +211,8 @@ fn every_route_answers_with_the_simulators_values() {
         r#"{"data":"0100"}"#,
     );
     assert_eq!(
-        (status, soe_err["error"]["kind"].as_str()),
-        (409, Some("soe_error"))
+        (status, soe_err["reason"].as_str()),
+        (409, Some("SOE_ERROR"))
     );
 
     let url = format!("{}/api/v1/slaves/0/foe/firmware.bin", ecatd.http);
@@ -257,8 +259,8 @@ fn every_route_answers_with_the_simulators_values() {
         r#"{"ip":"300.1.1.1"}"#,
     );
     assert_eq!(
-        (status, bad_ip["error"]["kind"].as_str()),
-        (400, Some("invalid_argument"))
+        (status, bad_ip["reason"].as_str()),
+        (400, Some("INVALID_ARGUMENT"))
     );
 }
 

@@ -13,6 +13,7 @@
 //! device middleware):
 //! - [`PcapTap`]: writes every frame in both directions to a pcap file for Wireshark.
 //! - [`FaultInjector`]: drops, corrupts and delays frames, repeatably from a seed.
+//! - [`CaptureTap`]: copies frames to a live capture on request, off the bus thread.
 //!
 //! A link does not pad short frames to the Ethernet minimum and does not filter by MAC
 //! address: padding is the frame builder's job, and EtherCAT slaves may rewrite the source
@@ -21,11 +22,13 @@
 use std::io;
 use std::time::Instant;
 
+mod capture;
 mod fault;
 mod memory;
 mod pcap;
 mod raw_socket;
 
+pub use capture::{Capture, CaptureHub, CaptureTap, CapturedFrame};
 pub use fault::{FaultConfig, FaultCounts, FaultInjector};
 pub use memory::MemoryLink;
 pub use pcap::PcapTap;

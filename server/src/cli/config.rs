@@ -5,10 +5,24 @@
 use proto::v1 as pb;
 use serde_json::{Value, json};
 
+use crate::Run;
 use crate::client::Clients;
+use crate::out::{Out, out};
+use crate::session::Session;
+
+/// `ecat config`.
+#[derive(Debug, clap::Args)]
+pub struct Config {}
+
+impl Run for Config {
+    async fn run(self, session: &mut Session) -> Result<Out, String> {
+        let (json, human) = run(session.clients().await?).await?;
+        Ok(out(json, human))
+    }
+}
 
 /// Asks ecatd for its effective configuration: as JSON and as text.
-pub async fn run(c: &mut Clients) -> Result<(Value, String), String> {
+async fn run(c: &mut Clients) -> Result<(Value, String), String> {
     let config = c
         .bus
         .get_config(pb::GetConfigRequest {})

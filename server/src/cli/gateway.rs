@@ -4,7 +4,25 @@
 use proto::v1 as pb;
 use serde_json::{Value, json};
 
+use crate::Run;
 use crate::client::Clients;
+use crate::out::{Out, out};
+use crate::session::Session;
+
+/// `ecat gateway`.
+#[derive(Debug, clap::Args)]
+pub struct Gateway {
+    /// What to do (nothing: show the state).
+    #[command(subcommand)]
+    pub action: Option<Action>,
+}
+
+impl Run for Gateway {
+    async fn run(self, session: &mut Session) -> Result<Out, String> {
+        let (json, human) = run(session.clients().await?, self.action).await?;
+        Ok(out(json, human))
+    }
+}
 
 /// What `ecat gateway` does.
 #[derive(Debug, Clone, Copy, clap::Subcommand)]

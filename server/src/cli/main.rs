@@ -1,15 +1,28 @@
-//! `ecat`: ecatd's command-line client over gRPC, with the subcommands of IgH's `ethercat`
-//! tool. Human output by default, `--json` for scripts. Slaves are named as everywhere:
-//! `3` (position), `#1004` (station), `@0x777` (alias).
+//! `ecat`: ecatd's command-line client over gRPC, with the commands, arguments and output
+//! columns of IgH's `ethercat` tool so that scripts port. Human output by default, `--json`
+//! for scripts. Slaves are selected as in IgH (`-p 3`, `-a 0x777`, `-p 0x777:2`) or by any
+//! name of the common syntax (`-p station:1004`, `-p alias:0x777+2`).
+//!
+//! Files: `session` (the connection), `select` (slave selection), `parse` (argument
+//! forms), `out` (printing), `progress` (transfer progress bars), one file per command group
+//! under `commands/`, `gateway` (the mailbox gateway command).
 
 mod client;
 mod commands;
 mod config;
 mod gateway;
+mod out;
+mod parse;
+mod progress;
+mod select;
+mod session;
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+
+use crate::out::Out;
+use crate::session::Session;
 
 /// Command line.
 #[derive(Debug, Parser)]
@@ -33,218 +46,90 @@ pub struct Cli {
     pub command: Command,
 }
 
-/// The subcommands.
-#[derive(Debug, Subcommand)]
-#[allow(clippy::large_enum_variant)]
-pub enum Command {
-    /// List the slaves.
-    Slaves,
-    /// Request an AL state (INIT, PREOP, BOOT, SAFEOP, OP) for one slave or all.
-    States {
-        /// The slave; all slaves when absent.
-        #[arg(short = 'p', long)]
-        slave: Option<String>,
-        /// The state.
-        state: String,
-    },
-    /// SDO upload.
-    Upload {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// Object index.
-        index: String,
-        /// Subindex.
-        subindex: String,
-        /// Value type: auto (from the slave's SDO Information), u8 … u64, i8 … i64, f32,
-        /// f64, bool, string, hex.
-        #[arg(long = "type", default_value = "auto")]
-        ty: String,
-        /// Complete access.
-        #[arg(long)]
-        complete: bool,
-    },
-    /// SDO download.
-    Download {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// Object index.
-        index: String,
-        /// Subindex.
-        subindex: String,
-        /// The value, as `--type` says (hex bytes with `--complete`).
-        value: String,
-        /// Value type: auto (from the slave's SDO Information) or a type name.
-        #[arg(long = "type", default_value = "auto")]
-        ty: String,
-        /// Complete access.
-        #[arg(long)]
-        complete: bool,
-    },
-    /// List the CoE dictionary (SDO Information).
-    Sdos {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-    },
-    /// Read an SoE IDN.
-    #[command(name = "soe_read")]
-    SoeRead {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// Drive number.
-        #[arg(long, default_value = "0")]
-        drive: u8,
-        /// IDN number (`0x8064` for P-0-0100).
-        idn: String,
-        /// Value type.
-        #[arg(long = "type", default_value = "hex")]
-        ty: String,
-    },
+/// A command: its arguments, and what running it prints.
+pub(crate) trait Run {
+    /// Runs the command (connecting through `session` if it needs ecatd).
+    async fn run(self, session: &mut Session) -> Result<Out, String>;
+}
+
+/// Declares the command set: each line is a doc comment and `Name(path::Args)`, the name
+/// becoming the command in snake_case (`FoeRead` is `foe_read`). A new command group is one
+/// `mod` line above and one line here.
+macro_rules! command_set {
+    ($( $(#[$meta:meta])* $variant:ident($args:ty), )*) => {
+        /// The commands (IgH `ethercat`'s names).
+        #[derive(Debug, Subcommand)]
+        #[command(rename_all = "snake_case")]
+        #[allow(clippy::large_enum_variant)]
+        pub enum Command {
+            $( $(#[$meta])* $variant($args), )*
+        }
+
+        async fn dispatch(command: Command, session: &mut Session) -> Result<Out, String> {
+            match command {
+                $( Command::$variant(args) => args.run(session).await, )*
+            }
+        }
+    };
+}
+
+command_set! {
+    /// List the slaves: position, alias:relpos, state, error flag, name (IgH's columns);
+    /// `-v` for identity, ESC, ports, DC, mailboxes.
+    Slaves(commands::slaves::Slaves),
+    /// Show the master: link, slaves, ecatd's version.
+    Master(commands::master::MasterCmd),
+    /// Scan the segment again.
+    Rescan(commands::master::Rescan),
+    /// Print the client's and the server's versions.
+    Version(commands::master::Version),
+    /// Request an AL state (INIT, PREOP, BOOT, SAFEOP, OP) for the selected slaves (all
+    /// when none is selected).
+    States(commands::states::States),
+    /// SDO upload: print an object entry (`0x... decimal` for integers).
+    Upload(commands::coe::Upload),
+    /// SDO download: write an object entry.
+    Download(commands::coe::Download),
+    /// List the CoE dictionary (SDO Information) with its entries.
+    Sdos(commands::coe::Sdos),
+    /// Show the PDO assignment and mapping (0x1C12/0x1C13 and the PDOs they name).
+    Pdos(commands::coe::Pdos),
+    /// Read an SoE IDN (`S-0-0011`, `P-0-0100` or a number).
+    SoeRead(commands::soe::SoeRead),
     /// Write an SoE IDN.
-    #[command(name = "soe_write")]
-    SoeWrite {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// Drive number.
-        #[arg(long, default_value = "0")]
-        drive: u8,
-        /// IDN number.
-        idn: String,
-        /// The value.
-        value: String,
-        /// Value type.
-        #[arg(long = "type", default_value = "hex")]
-        ty: String,
-    },
-    /// Read a file over FoE.
-    #[command(name = "foe_read")]
-    FoeRead {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// File name on the slave.
-        name: String,
-        /// Where to write it (standard output when absent).
-        #[arg(short = 'o', long)]
-        output: Option<std::path::PathBuf>,
-        /// Password.
-        #[arg(long, default_value = "0")]
-        password: u32,
-    },
-    /// Write a file over FoE.
-    #[command(name = "foe_write")]
-    FoeWrite {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// File name on the slave.
-        name: String,
-        /// Local file.
-        file: std::path::PathBuf,
-        /// Password.
-        #[arg(long, default_value = "0")]
-        password: u32,
-    },
+    SoeWrite(commands::soe::SoeWrite),
+    /// Read a file over FoE (raw bytes to standard output, or to `-o FILE`).
+    FoeRead(commands::foe::FoeRead),
+    /// Write a file over FoE (IgH's order: the local file, `-o` for the name on the slave).
+    FoeWrite(commands::foe::FoeWrite),
     /// Send a VoE message and print the answer.
-    Voe {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// Vendor id.
-        vendor_id: String,
-        /// Vendor type.
-        vendor_type: String,
-        /// Payload, hex.
-        data: String,
-    },
+    Voe(commands::voe::Voe),
     /// Show or set the EoE IP parameters (set when any option is given).
-    Ip {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// IP address.
-        #[arg(long)]
-        ip: Option<String>,
-        /// Subnet mask.
-        #[arg(long)]
-        mask: Option<String>,
-        /// Default gateway.
-        #[arg(long)]
-        gateway: Option<String>,
-        /// DNS server.
-        #[arg(long)]
-        dns: Option<String>,
-        /// DNS name.
-        #[arg(long)]
-        name: Option<String>,
-        /// MAC address.
-        #[arg(long)]
-        mac: Option<String>,
-    },
+    Ip(commands::ip::Ip),
     /// Set the station alias.
-    Alias {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// The alias.
-        alias: String,
-    },
+    Alias(commands::registers::Alias),
     /// Read ESC registers.
-    #[command(name = "reg_read")]
-    RegRead {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// Register address.
-        address: String,
-        /// Bytes (default 1).
-        #[arg(default_value = "1")]
-        length: String,
-    },
+    RegRead(commands::registers::RegRead),
     /// Write ESC registers.
-    #[command(name = "reg_write")]
-    RegWrite {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// Register address.
-        address: String,
-        /// Data, hex.
-        data: String,
-    },
-    /// Read the SII image.
-    #[command(name = "sii_read")]
-    SiiRead {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// Where to write it (hex dump to standard output when absent).
-        #[arg(short = 'o', long)]
-        output: Option<std::path::PathBuf>,
-    },
-    /// Write SII words.
-    #[command(name = "sii_write")]
-    SiiWrite {
-        /// The slave.
-        #[arg(short = 'p', long, default_value = "0")]
-        slave: String,
-        /// First word address.
-        word: String,
-        /// Data, hex (little-endian words).
-        data: String,
-    },
-    /// The configuration ecatd runs with (IgH's `config`).
-    Config,
+    RegWrite(commands::registers::RegWrite),
+    /// Show the ESC error counters (0x0300-0x0313) of every slave.
+    Crc(commands::registers::Crc),
+    /// Read the SII image (raw bytes to standard output, or to `-o FILE`).
+    SiiRead(commands::sii::SiiRead),
+    /// Write an SII image file (checksum checked; `--force` writes it as it is).
+    SiiWrite(commands::sii::SiiWrite),
+    /// Capture the live bus to pcapng: `ecat pcap -c 1000 -w bus.pcapng`.
+    Pcap(commands::pcap::Pcap),
+    /// Print the topology as a Graphviz graph (`ecat graph | dot -Tsvg`).
+    Graph(commands::graph::Graph),
     /// The mailbox gateway's state and statistics; `start` or `stop` it.
-    Gateway {
-        /// What to do (nothing: show the state).
-        #[command(subcommand)]
-        action: Option<gateway::Action>,
-    },
+    Gateway(gateway::Gateway),
+    /// The configuration ecatd runs with (IgH's `config`).
+    Config(config::Config),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    Completion(commands::docs::Completion),
+    /// Print the man page (roff).
+    Man(commands::docs::Man),
 }
 
 fn main() -> ExitCode {
@@ -259,11 +144,26 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     };
-    match runtime.block_on(commands::run(cli)) {
+    let mut session = Session::new(cli.address, cli.token, cli.tls_ca);
+    let json = cli.json;
+    match runtime
+        .block_on(dispatch(cli.command, &mut session))
+        .and_then(|out| out.print(json))
+    {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("ecat: {err}");
             ExitCode::from(1)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_command_line_is_consistent() {
+        super::Cli::command().debug_assert();
     }
 }

@@ -91,6 +91,12 @@ impl SlaveField for proto::v1::RescanRequest {
     }
 }
 
+impl SlaveField for proto::v1::CaptureRequest {
+    fn slave_field(&self) -> &str {
+        "all"
+    }
+}
+
 impl SlaveField for tonic::Streaming<proto::v1::FoeWriteChunk> {
     fn slave_field(&self) -> &str {
         "(stream)"

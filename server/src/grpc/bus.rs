@@ -160,4 +160,56 @@ impl BusService for Bus {
             alias: u32::from(alias),
         }))
     }
+
+    async fn get_master(&self, _: Request<pb::GetMasterRequest>) -> Reply<pb::GetMasterResponse> {
+        let m = self.core.master_view();
+        Ok(Response::new(pb::GetMasterResponse {
+            version: m.version,
+            link: m.link,
+            mac: m.mac,
+            cycle_period_ns: m.cycle_period_ns,
+            ready: m.ready,
+            slave_count: m.slave_count,
+            dc_reference: m.dc_reference,
+            dc_reference_time_ns: m.dc_reference_time_ns,
+            frames_sent: m.frames_sent,
+            frames_received: m.frames_received,
+            frames_lost: m.frames_lost,
+            link_errors: m.link_errors,
+        }))
+    }
+
+    type CaptureStream = Pin<Box<dyn Stream<Item = Result<pb::CaptureResponse, Status>> + Send>>;
+
+    async fn capture(&self, request: Request<pb::CaptureRequest>) -> Reply<Self::CaptureStream> {
+        require_write(&request, "capture")?;
+        let r = request.get_ref();
+        let done = self
+            .core
+            .capture(
+                r.frames,
+                std::time::Duration::from_millis(u64::from(r.duration_ms)),
+            )
+            .await
+            .map_err(status)?;
+        let pieces: Vec<Vec<u8>> = done
+            .pcapng
+            .chunks(CAPTURE_CHUNK)
+            .map(<[u8]>::to_vec)
+            .collect();
+        let last = pieces.len().saturating_sub(1);
+        let (frames, dropped) = (done.frames, done.dropped);
+        let chunks = pieces.into_iter().enumerate().map(move |(i, data)| {
+            let counts = if i == last { (frames, dropped) } else { (0, 0) };
+            Ok(pb::CaptureResponse {
+                data,
+                frames: counts.0,
+                dropped: counts.1,
+            })
+        });
+        Ok(Response::new(Box::pin(tokio_stream::iter(chunks))))
+    }
 }
+
+/// The size of one streamed piece of a capture file.
+const CAPTURE_CHUNK: usize = 64 << 10;

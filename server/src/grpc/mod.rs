@@ -67,20 +67,11 @@ pub async fn serve_tls(
     let reflection_v1 = reflection().build_v1().map_err(|e| e.to_string())?;
     let reflection_v1alpha = reflection().build_v1alpha().map_err(|e| e.to_string())?;
     let (health, health_service) = tonic_health::server::health_reporter();
-    for name in [
-        "",
-        "ecat.v1.BusService",
-        "ecat.v1.CoeService",
-        "ecat.v1.SoeService",
-        "ecat.v1.FoeService",
-        "ecat.v1.VoeService",
-        "ecat.v1.EoeService",
-        "ecat.v1.GatewayService",
-    ] {
-        health
-            .set_service_status(name, tonic_health::ServingStatus::Serving)
-            .await;
-    }
+    // Set before the server accepts anything: the reporter starts at SERVING.
+    let ready = core.readiness();
+    let now = *ready.borrow();
+    set_health(&health, now).await;
+    tokio::spawn(follow_readiness(health, ready));
     let auth = grpc_interceptor(tokens);
     macro_rules! svc {
         ($server:ident, $inner:expr) => {
@@ -139,4 +130,93 @@ pub async fn serve_tls(
         }
     };
     served.map_err(|err| format!("gRPC server: {err}"))
+}
+
+/// Every service the health service reports on ("" is the server as a whole).
+const HEALTH_NAMES: [&str; 8] = [
+    "",
+    "ecat.v1.BusService",
+    "ecat.v1.CoeService",
+    "ecat.v1.SoeService",
+    "ecat.v1.FoeService",
+    "ecat.v1.VoeService",
+    "ecat.v1.EoeService",
+    "ecat.v1.GatewayService",
+];
+
+/// Keeps `grpc.health.v1` in step with `/readyz`: NOT_SERVING until the first scan is done
+/// and again from the start of the shutdown. Ends with the core (its sender dropped).
+async fn follow_readiness(
+    health: tonic_health::server::HealthReporter,
+    mut ready: tokio::sync::watch::Receiver<bool>,
+) {
+    loop {
+        let now = *ready.borrow_and_update();
+        set_health(&health, now).await;
+        if ready.changed().await.is_err() {
+            return;
+        }
+    }
+}
+
+async fn set_health(health: &tonic_health::server::HealthReporter, ready: bool) {
+    let status = if ready {
+        tonic_health::ServingStatus::Serving
+    } else {
+        tonic_health::ServingStatus::NotServing
+    };
+    for name in HEALTH_NAMES {
+        health.set_service_status(name, status).await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use tonic_health::pb::health_server::Health;
+    use tonic_health::pb::{HealthCheckRequest, health_check_response::ServingStatus};
+
+    use super::*;
+
+    async fn check(service: &impl Health, name: &str) -> ServingStatus {
+        let answer = service
+            .check(tonic::Request::new(HealthCheckRequest {
+                service: name.to_owned(),
+            }))
+            .await
+            .expect("every service is registered");
+        answer.into_inner().status()
+    }
+
+    async fn until(service: &impl Health, name: &str, want: ServingStatus) {
+        let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs(5);
+        while check(service, name).await != want {
+            assert!(
+                tokio::time::Instant::now() < deadline,
+                "{name:?} never {want:?}"
+            );
+            tokio::task::yield_now().await;
+        }
+    }
+
+    #[tokio::test]
+    async fn health_is_not_serving_until_ready_and_again_at_shutdown() {
+        let (reporter, _) = tonic_health::server::health_reporter();
+        let service = tonic_health::server::HealthService::from_health_reporter(reporter.clone());
+        let (ready, rx) = tokio::sync::watch::channel(false);
+        set_health(&reporter, false).await;
+        tokio::spawn(follow_readiness(reporter, rx));
+        for name in HEALTH_NAMES {
+            assert_eq!(
+                check(&service, name).await,
+                ServingStatus::NotServing,
+                "{name:?}"
+            );
+        }
+        ready.send_replace(true);
+        until(&service, "", ServingStatus::Serving).await;
+        until(&service, "ecat.v1.CoeService", ServingStatus::Serving).await;
+        ready.send_replace(false);
+        until(&service, "", ServingStatus::NotServing).await;
+        until(&service, "ecat.v1.BusService", ServingStatus::NotServing).await;
+    }
 }

@@ -1,7 +1,8 @@
 //! [`ApiError`] as a gRPC status: the code from
 //! [`ErrorKind::grpc`](crate::service::ErrorKind::grpc), the message, and a
-//! `google.rpc.ErrorInfo` detail (domain `ecat.v1`, reason = the error's tag, metadata
-//! `code` / `code_text` for the protocol's own error code).
+//! `google.rpc.ErrorInfo` detail (domain `ecat.v1`, reason = the error's tag in
+//! UPPER_SNAKE_CASE, metadata `code` / `code_text` for the protocol's own error code) and,
+//! for an invalid argument, a `google.rpc.BadRequest` naming the field.
 
 use std::collections::HashMap;
 
@@ -17,15 +18,19 @@ pub fn status(err: ApiError) -> Status {
         metadata.insert("code".to_owned(), format!("{code:#x}"));
         metadata.insert("code_text".to_owned(), err.code_text.clone());
     }
-    let details = ErrorDetails::with_error_info(err.tag, "ecat.v1", metadata);
+    let mut details = ErrorDetails::with_error_info(err.reason(), "ecat.v1", metadata);
+    if let Some(field) = err.field {
+        details.add_bad_request_violation(field, err.message.clone());
+    }
     Status::with_error_details(err.kind.grpc(), err.message, details)
 }
 
 /// Narrows a request field to the width the protocol has, or says which field is too wide.
-pub fn narrow<T: TryFrom<u32>>(value: u32, field: &str) -> Result<T, Status> {
+pub fn narrow<T: TryFrom<u32>>(value: u32, field: &'static str) -> Result<T, Status> {
     T::try_from(value).map_err(|_| {
-        status(ApiError::invalid(format!(
-            "{field} {value:#x} is out of range"
-        )))
+        status(ApiError::invalid_field(
+            field,
+            format!("{field} {value:#x} is out of range"),
+        ))
     })
 }

@@ -1,49 +1,68 @@
-//! [`ApiError`] as an HTTP response: the status from [`ErrorKind::http`](crate::service::ErrorKind::http)
-//! and a JSON body with the same fields gRPC carries.
+//! [`ApiError`] as an HTTP response: the status from
+//! [`ErrorKind::http`](crate::service::ErrorKind::http) and an RFC 9457 problem details body
+//! (`application/problem+json`) with the fields gRPC carries as extension members; the
+//! protocol's own error code has its own member, `protocol_code`.
 
 use axum::Json;
-use axum::http::StatusCode;
+use axum::http::header::CONTENT_TYPE;
+use axum::http::{HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 use utoipa::ToSchema;
 
 use crate::service::ApiError;
 
-/// The JSON body of every failed REST call.
+/// The body of every failed REST call (RFC 9457 §3).
 #[derive(Debug, Serialize, ToSchema)]
 pub struct ErrorBody {
-    /// What failed.
-    pub error: ErrorInfo,
+    /// The problem type: `urn:ecat:error:<reason>`.
+    #[serde(rename = "type")]
+    pub problem_type: String,
+    /// Short summary of the problem type (the HTTP reason phrase).
+    pub title: String,
+    /// The HTTP status.
+    pub status: u16,
+    /// Human-readable message about this occurrence.
+    pub detail: String,
+    /// Stable machine-readable reason in UPPER_SNAKE_CASE (`SDO_ABORT`, `UNKNOWN_SLAVE`,
+    /// ...), the same as the gRPC `google.rpc.ErrorInfo` reason.
+    pub reason: String,
+    /// The gRPC status code the same failure has (e.g. 5 NOT_FOUND).
+    pub grpc_code: i32,
+    /// The protocol's error code (CoE abort code, SoE/FoE error, AL status code).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub protocol_code: Option<u32>,
+    /// The standard text of `protocol_code`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub protocol_code_text: Option<String>,
+    /// The request field at fault, for an invalid argument.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field: Option<String>,
 }
 
-/// What failed.
-#[derive(Debug, Serialize, ToSchema)]
-pub struct ErrorInfo {
-    /// Stable machine-readable tag (`sdo_abort`, `soe_error`, `unknown_slave`, ...).
-    pub kind: String,
-    /// Human-readable message.
-    pub message: String,
-    /// The protocol's error code (CoE abort code, SoE/FoE error, AL status code).
-    pub code: Option<u32>,
-    /// The standard text of `code`.
-    pub code_text: Option<String>,
-    /// The gRPC status code the same failure has (e.g. 10 ABORTED).
-    pub grpc_code: i32,
-}
+/// RFC 9457 §3's media type.
+pub const PROBLEM_JSON: &str = "application/problem+json";
 
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let status =
             StatusCode::from_u16(self.kind.http()).unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
+        let reason = self.reason();
         let body = ErrorBody {
-            error: ErrorInfo {
-                kind: self.tag.to_owned(),
-                grpc_code: self.kind.grpc() as i32,
-                code_text: self.code.map(|_| self.code_text.clone()),
-                code: self.code,
-                message: self.message,
-            },
+            problem_type: format!("urn:ecat:error:{}", self.tag),
+            title: status.canonical_reason().unwrap_or("Error").to_owned(),
+            status: status.as_u16(),
+            reason,
+            grpc_code: self.kind.grpc() as i32,
+            protocol_code_text: self.code.map(|_| self.code_text.clone()),
+            protocol_code: self.code,
+            field: self.field.map(str::to_owned),
+            detail: self.message,
         };
-        (status, Json(body)).into_response()
+        let mut response = (status, Json(body)).into_response();
+        response
+            .headers_mut()
+            .insert(CONTENT_TYPE, HeaderValue::from_static(PROBLEM_JSON));
+        response
     }
 }

@@ -4,7 +4,7 @@
 
 use utoipa::OpenApi;
 
-use super::error::{ErrorBody, ErrorInfo};
+use super::error::ErrorBody;
 use super::rest;
 use crate::service::gateway::{
     GatewayFailuresView, GatewayStatsView, GatewayView, LatencyBucketView, LatencyView,
@@ -19,7 +19,7 @@ use crate::service::{
     info(title = "ecatd REST API", description = "EtherCAT master management: slaves, states, CoE, SoE, FoE, VoE, EoE, registers, SII and the ETG.8200 mailbox gateway. Slaves are named `3` (position), `#1004` (station, `%231004` in a path) or `@0x777` (alias)."),
     components(schemas(
         SlaveView, IdentityView, EventView, EmergencyView, IpView, ObjectView, EntryView, VoeView,
-        ErrorBody, ErrorInfo, rest::Data, rest::coe::Upload, rest::coe::SdoWrite, rest::slaves::StateBody,
+        ErrorBody, rest::Data, rest::coe::Upload, rest::coe::SdoWrite, rest::slaves::StateBody,
         rest::sii::AliasBody, rest::slaves::RescanBody, rest::coe::ObjectList, rest::voe::VoeBody, rest::Done,
         GatewayView, GatewayStatsView, GatewayFailuresView, LatencyView, LatencyBucketView,
     )),

@@ -1,8 +1,18 @@
 //! The one error type of both APIs, mapped once to gRPC codes and HTTP statuses, carrying
 //! the protocol's own error code (CoE abort code, SoE/FoE error, AL status code) and text.
+//!
+//! A protocol error is classed by what a client should do about it (`docs/call-it.md`,
+//! "Errors"): an unknown object is NOT_FOUND, a bad value, type or size INVALID_ARGUMENT, a
+//! read-only object or a wrong state FAILED_PRECONDITION, a busy slave UNAVAILABLE, a timeout
+//! DEADLINE_EXCEEDED; only a transfer that broke on the way (toggle bit, CRC, sequence) is
+//! ABORTED, the one class a client should retry as is.
 
 use master_core::mailbox::MailboxError;
 use master_core::master::MasterError;
+use master_core::wire::coe::AbortCode;
+use master_core::wire::foe::FoeError;
+use master_core::wire::mailbox::MailboxErrorCode;
+use master_core::wire::soe::SoeError;
 
 /// The class of a failure; decides the gRPC code and the HTTP status.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -13,7 +23,7 @@ pub enum ErrorKind {
     NotFound,
     /// The slave cannot do this now (no mailbox in INIT, protocol not supported).
     FailedPrecondition,
-    /// The slave refused: SDO abort, SoE/FoE error, state refused.
+    /// A transfer broke on the way (toggle bit, CRC, sequence): retrying may succeed.
     Aborted,
     /// No credentials.
     Unauthenticated,
@@ -69,8 +79,11 @@ impl ErrorKind {
 pub struct ApiError {
     /// The class.
     pub kind: ErrorKind,
-    /// Stable machine-readable tag (`sdo_abort`, `soe_error`, `unknown_slave`, ...).
+    /// Stable machine-readable tag (`sdo_abort`, `soe_error`, `unknown_slave`, ...); the
+    /// gRPC `ErrorInfo` reason is its upper-case form ([`ApiError::reason`]).
     pub tag: &'static str,
+    /// The request field at fault, for an invalid argument.
+    pub field: Option<&'static str>,
     /// Human-readable message.
     pub message: String,
     /// The protocol's error code, if any.
@@ -84,6 +97,7 @@ impl ApiError {
         ApiError {
             kind,
             tag,
+            field: None,
             message: message.into(),
             code: None,
             code_text: String::new(),
@@ -94,6 +108,23 @@ impl ApiError {
         self.code = Some(code);
         self.code_text = text.to_owned();
         self
+    }
+
+    /// The `google.rpc.ErrorInfo` reason: the tag in UPPER_SNAKE_CASE (`SDO_ABORT`).
+    pub fn reason(&self) -> String {
+        self.tag.to_ascii_uppercase()
+    }
+
+    /// A malformed request field.
+    pub fn invalid_field(field: &'static str, message: impl Into<String>) -> ApiError {
+        let mut err = ApiError::invalid(message);
+        err.field = Some(field);
+        err
+    }
+
+    /// No slave answers to the name.
+    pub fn unknown_slave(message: impl Into<String>) -> ApiError {
+        ApiError::new(ErrorKind::NotFound, "unknown_slave", message)
     }
 
     /// A malformed request.
@@ -135,7 +166,7 @@ impl From<MasterError> for ApiError {
                 ApiError::new(ErrorKind::NotFound, "unknown_slave", message)
             }
             MasterError::StateRefused { code, .. } => {
-                ApiError::new(ErrorKind::Aborted, "state_refused", message)
+                ApiError::new(ErrorKind::FailedPrecondition, "state_refused", message)
                     .with_code(u32::from(u16::from(code)), code.description())
             }
             MasterError::StateTimeout { .. } => {
@@ -149,7 +180,10 @@ impl From<MasterError> for ApiError {
             }
             MasterError::Stopped => ApiError::unavailable(message),
             MasterError::Bus { .. } => ApiError::new(ErrorKind::Unavailable, "bus", message),
-            MasterError::Eeprom { .. } | MasterError::Malformed { .. } => {
+            MasterError::Eeprom { .. } => {
+                ApiError::new(ErrorKind::Unavailable, "eeprom_busy", message)
+            }
+            MasterError::Malformed { .. } => {
                 ApiError::new(ErrorKind::Aborted, "slave_failure", message)
             }
             _ => ApiError::new(ErrorKind::Internal, "internal", message),
@@ -177,26 +211,24 @@ impl From<MailboxError> for ApiError {
             }
             MailboxError::Bus(_) => ApiError::new(ErrorKind::Unavailable, "bus", message),
             MailboxError::Mailbox(code) => {
-                ApiError::new(ErrorKind::Aborted, "mailbox_error", message)
+                ApiError::new(mailbox_class(code), "mailbox_error", message)
                     .with_code(u32::from(u16::from(code)), code.name())
             }
             MailboxError::SdoAbort { code, .. } | MailboxError::SdoInfo(code) => {
-                ApiError::new(ErrorKind::Aborted, "sdo_abort", message)
+                ApiError::new(sdo_class(code), "sdo_abort", message)
                     .with_code(u32::from(code), code.description())
             }
             MailboxError::SdoInfoAbortMissing { .. } => {
                 ApiError::new(ErrorKind::Aborted, "sdo_info_error", message)
             }
-            MailboxError::Soe { code, .. } => {
-                ApiError::new(ErrorKind::Aborted, "soe_error", message)
-                    .with_code(u32::from(u16::from(code)), code.description())
+            MailboxError::Soe { code, .. } => ApiError::new(soe_class(code), "soe_error", message)
+                .with_code(u32::from(u16::from(code)), code.description()),
+            MailboxError::Foe { code, .. } => ApiError::new(foe_class(code), "foe_error", message)
+                .with_code(u32::from(code), code.description()),
+            MailboxError::Eoe(result) => {
+                ApiError::new(ErrorKind::FailedPrecondition, "eoe_error", message)
+                    .with_code(u32::from(u16::from(result)), result.description())
             }
-            MailboxError::Foe { code, .. } => {
-                ApiError::new(ErrorKind::Aborted, "foe_error", message)
-                    .with_code(u32::from(code), code.description())
-            }
-            MailboxError::Eoe(result) => ApiError::new(ErrorKind::Aborted, "eoe_error", message)
-                .with_code(u32::from(u16::from(result)), result.description()),
             MailboxError::Invalid(_) => ApiError::invalid(message),
             MailboxError::Protocol { .. } => {
                 ApiError::new(ErrorKind::Internal, "protocol_violation", message)
@@ -205,23 +237,132 @@ impl From<MailboxError> for ApiError {
     }
 }
 
+/// The class of an SDO abort code (ETG.1000.6, spec-notes §coe.abort).
+fn sdo_class(code: AbortCode) -> ErrorKind {
+    match u32::from(code) {
+        0x0602_0000 | 0x0609_0011 | 0x0800_0023 => ErrorKind::NotFound,
+        0x0601_0005 | 0x0604_0041..=0x0604_0047 | 0x0607_0010..=0x0607_0013 => {
+            ErrorKind::InvalidArgument
+        }
+        0x0609_0030..=0x0609_0036 => ErrorKind::InvalidArgument,
+        0x0504_0000 => ErrorKind::DeadlineExceeded,
+        0x0504_0005 | 0x060A_0023 => ErrorKind::Unavailable,
+        0x0503_0000 | 0x0504_0001..=0x0504_0004 => ErrorKind::Aborted,
+        // Access (read-only, write-only, complete access), hardware, local control, state,
+        // no data, general error and codes without a name: the slave will refuse again.
+        _ => ErrorKind::FailedPrecondition,
+    }
+}
+
+/// The class of an SoE error code (ETG.1000.6, spec-notes §soe): the low nibble says what is wrong with the element (1 absent, 2/3 too short/long, 4/5 read-only
+/// or write-protected), 0x7006-0x7008 a value out of range.
+fn soe_class(code: SoeError) -> ErrorKind {
+    let raw = u16::from(code);
+    match raw {
+        0x1001 | 0x800A => ErrorKind::NotFound,
+        0x7006..=0x7008 | 0x7013 => ErrorKind::InvalidArgument,
+        0x7010 | 0x7011 => ErrorKind::Unavailable,
+        0x1000..=0x7005 | 0x8001..=0x8004 => match raw & 0xF {
+            1 => ErrorKind::NotFound,
+            2 | 3 => ErrorKind::InvalidArgument,
+            _ => ErrorKind::FailedPrecondition,
+        },
+        _ => ErrorKind::FailedPrecondition,
+    }
+}
+
+/// The class of an FoE error code (ETG.1000.6, spec-notes §foe).
+fn foe_class(code: FoeError) -> ErrorKind {
+    match code {
+        FoeError::NotFound => ErrorKind::NotFound,
+        FoeError::PacketNumberWrong | FoeError::Illegal => ErrorKind::Aborted,
+        FoeError::ChecksumError => ErrorKind::InvalidArgument,
+        _ => ErrorKind::FailedPrecondition,
+    }
+}
+
+/// The class of a mailbox error reply (ETG.1000.4, spec-notes §mbx.error).
+fn mailbox_class(code: MailboxErrorCode) -> ErrorKind {
+    match code {
+        MailboxErrorCode::NoMoreMemory => ErrorKind::Unavailable,
+        MailboxErrorCode::SizeTooShort | MailboxErrorCode::InvalidHeader => {
+            ErrorKind::InvalidArgument
+        }
+        _ => ErrorKind::FailedPrecondition,
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use master_core::wire::coe::AbortCode;
+    use master_core::wire::soe::Idn;
 
     use super::*;
+
+    fn sdo(code: AbortCode) -> ApiError {
+        ApiError::from(MailboxError::SdoAbort {
+            index: 0x6000,
+            subindex: 1,
+            code,
+        })
+    }
 
     #[test]
     fn sdo_abort_keeps_code_and_text() {
         let code = AbortCode::ObjectDoesNotExist;
-        let err = ApiError::from(MailboxError::SdoAbort {
-            index: 0x6000,
-            subindex: 1,
-            code,
-        });
-        assert_eq!(err.kind.grpc(), tonic::Code::Aborted);
-        assert_eq!(err.kind.http(), 409);
+        let err = sdo(code);
+        assert_eq!(err.kind.grpc(), tonic::Code::NotFound);
+        assert_eq!(err.kind.http(), 404);
+        assert_eq!(err.reason(), "SDO_ABORT");
         assert_eq!(err.code, Some(0x0602_0000));
         assert_eq!(err.code_text, code.description());
+    }
+
+    /// The table of `docs/call-it.md`, "Errors".
+    #[test]
+    fn each_class_has_its_code() {
+        use tonic::Code;
+        let table = [
+            (AbortCode::ObjectDoesNotExist, Code::NotFound, 404),
+            (AbortCode::SubindexDoesNotExist, Code::NotFound, 404),
+            (AbortCode::LengthTooHigh, Code::InvalidArgument, 400),
+            (AbortCode::ValueTooHigh, Code::InvalidArgument, 400),
+            (AbortCode::ReadOnly, Code::FailedPrecondition, 409),
+            (AbortCode::DeviceState, Code::FailedPrecondition, 409),
+            (AbortCode::ResourceUnavailable, Code::Unavailable, 503),
+            (AbortCode::Timeout, Code::DeadlineExceeded, 504),
+            (AbortCode::ToggleBit, Code::Aborted, 409),
+        ];
+        for (code, grpc, http) in table {
+            let err = sdo(code);
+            assert_eq!((err.kind.grpc(), err.kind.http()), (grpc, http), "{code:?}");
+        }
+        let soe = |code| {
+            ApiError::from(MailboxError::Soe {
+                drive: 0,
+                idn: Idn::from_raw(0x8064),
+                code,
+            })
+        };
+        assert_eq!(soe(SoeError::NoIdn).kind, ErrorKind::NotFound);
+        assert_eq!(
+            soe(SoeError::DataReadOnly).kind,
+            ErrorKind::FailedPrecondition
+        );
+        assert_eq!(
+            soe(SoeError::DataAboveMaximum).kind,
+            ErrorKind::InvalidArgument
+        );
+        assert_eq!(soe(SoeError::DataTooLong).kind, ErrorKind::InvalidArgument);
+        let foe = |code| {
+            ApiError::from(MailboxError::Foe {
+                code,
+                text: String::new(),
+            })
+        };
+        assert_eq!(foe(FoeError::NotFound).kind, ErrorKind::NotFound);
+        assert_eq!(
+            foe(FoeError::AccessDenied).kind,
+            ErrorKind::FailedPrecondition
+        );
     }
 }

@@ -237,6 +237,7 @@ fn no_gateway() -> ApiError {
         message: "ecatd runs without a mailbox gateway (--no-gateway)".into(),
         code: None,
         code_text: String::new(),
+        field: None,
     }
 }
 
@@ -265,6 +266,7 @@ impl Core {
                 ),
                 code: None,
                 code_text: String::new(),
+                field: None,
             })?;
             if !was_running {
                 if wanted != 0 && bound.port() != wanted {

@@ -8,10 +8,12 @@
 
 pub mod address;
 pub mod bus;
+pub mod capture;
 pub mod error;
 pub mod events;
 pub mod gateway;
 pub mod ip;
+pub mod master_view;
 pub mod read_effects;
 mod sii_checksum;
 pub mod transfer;
@@ -19,7 +21,6 @@ pub mod value;
 pub mod view;
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use master_core::gateway::{MailboxGateway, MailboxGatewayStats};
 use master_core::mailbox::{FoeOptions, FoeProgress, MailboxError, SlaveMailbox, VoeMessage};
@@ -30,10 +31,11 @@ use tokio::sync::broadcast;
 
 use crate::metrics::calls::{MailboxCalls, Outcome, Protocol};
 use crate::security::{Caller, authorize_write};
-pub use address::parse_slave;
+pub use address::{SlaveName, parse_name, parse_slave};
 pub use bus::BusView;
 pub use error::{ApiError, ErrorKind};
 pub use gateway::GatewayView;
+pub use master_view::MasterView;
 use value::ValueType;
 pub use view::{
     EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
@@ -46,13 +48,19 @@ pub const MAX_REGISTER_LEN: usize = 0x1000;
 #[derive(Clone)]
 pub struct Core {
     master: Arc<Master>,
-    ready: Arc<AtomicBool>,
+    /// Ready: the first scan is done and the service is not shutting down (a watch, so the
+    /// gRPC health service can follow it).
+    ready: Arc<tokio::sync::watch::Sender<bool>>,
     /// The mailbox gateway, when one runs (its statistics feed the metrics).
     gateway: Arc<std::sync::Mutex<Option<MailboxGateway>>>,
     /// The merged event stream, started with its first subscriber.
     events: Arc<std::sync::OnceLock<events::EventHub>>,
     /// Where the mailbox requests are recorded (shared with the metrics, which own it).
     calls: Arc<MailboxCalls>,
+    /// The link's name for [`master_view`] (`simulate` or the interface).
+    link: Arc<std::sync::OnceLock<String>>,
+    /// The bus's capture hub ([`capture`]).
+    capture: Arc<std::sync::OnceLock<Arc<master_core::link::CaptureHub>>>,
     /// Set once at shutdown: every event stream ends when it is.
     stopping: Arc<tokio::sync::watch::Sender<bool>>,
     /// The effective configuration as TOML, and the ENI file it came from (`ecat config`).
@@ -69,10 +77,12 @@ impl Core {
     pub fn new(master: Arc<Master>, calls: Arc<MailboxCalls>) -> Core {
         Core {
             master,
-            ready: Arc::new(AtomicBool::new(false)),
+            ready: Arc::new(tokio::sync::watch::Sender::new(false)),
             gateway: Arc::default(),
             events: Arc::default(),
             calls,
+            link: Arc::default(),
+            capture: Arc::default(),
             stopping: Arc::new(tokio::sync::watch::Sender::new(false)),
             effective_config: Arc::default(),
         }
@@ -112,6 +122,16 @@ impl Core {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
+    /// Names the link (`simulate` or the interface) once, for [`Core::master_view`].
+    pub fn set_link(&self, name: &str) {
+        let _ = self.link.set(name.to_owned());
+    }
+
+    /// The link's name; empty until [`Core::set_link`].
+    pub fn link(&self) -> String {
+        self.link.get().cloned().unwrap_or_default()
+    }
+
     /// The master.
     pub fn master(&self) -> &Arc<Master> {
         &self.master
@@ -119,7 +139,7 @@ impl Core {
 
     /// Marks the service ready (after the first scan) or not (shutting down).
     pub fn set_ready(&self, ready: bool) {
-        self.ready.store(ready, Ordering::Release);
+        self.ready.send_replace(ready);
     }
 
     /// Starts the shutdown: the service is no longer ready and every event stream ends
@@ -139,11 +159,21 @@ impl Core {
 
     /// Whether the first scan is done and the service is not shutting down.
     pub fn ready(&self) -> bool {
-        self.ready.load(Ordering::Acquire)
+        *self.ready.borrow()
+    }
+
+    /// Readiness from now on: the current value, then every change.
+    pub fn readiness(&self) -> tokio::sync::watch::Receiver<bool> {
+        self.ready.subscribe()
+    }
+
+    /// The master's address of `slave` (any form of [`address`]).
+    fn address(&self, slave: &str) -> Result<master_core::master::SlaveAddress> {
+        parse_name(slave)?.resolve(|| self.master.slaves())
     }
 
     fn mailbox(&self, slave: &str) -> Result<SlaveMailbox> {
-        Ok(self.master.mailbox(parse_slave(slave)?)?)
+        Ok(self.master.mailbox(self.address(slave)?)?)
     }
 
     /// Runs `op` on the mailbox of `slave` and records it in the metrics (per slave and
@@ -178,12 +208,12 @@ impl Core {
 
     /// One slave.
     pub fn get_slave(&self, slave: &str) -> Result<SlaveView> {
-        Ok(SlaveView::from(&self.master.slave(parse_slave(slave)?)?))
+        Ok(SlaveView::from(&self.master.slave(self.address(slave)?)?))
     }
 
     /// Moves a slave to `state` (a state name) and returns it afterwards.
     pub async fn request_state(&self, slave: &str, state: &str) -> Result<SlaveView> {
-        let address = parse_slave(slave)?;
+        let address = self.address(slave)?;
         let state = view::parse_state(state)
             .ok_or_else(|| ApiError::invalid(format!("unknown AL state {state:?}")))?;
         self.master.request_state(address, state).await?;
@@ -220,7 +250,7 @@ impl Core {
                 "register length must be 1..={MAX_REGISTER_LEN}"
             )));
         }
-        let target = parse_slave(slave)?;
+        let target = self.address(slave)?;
         let info = self.master.slave(target)?;
         if let Some(effect) = read_effects::side_effect(&info, address, len) {
             let operation = format!("read_register 0x{address:04X}+{len} over {effect}");
@@ -238,13 +268,13 @@ impl Core {
         }
         Ok(self
             .master
-            .write_register(parse_slave(slave)?, address, data)
+            .write_register(self.address(slave)?, address, data)
             .await?)
     }
 
     /// Reads the whole SII image.
     pub async fn read_sii(&self, slave: &str) -> Result<Vec<u8>> {
-        Ok(self.master.read_sii(parse_slave(slave)?).await?)
+        Ok(self.master.read_sii(self.address(slave)?).await?)
     }
 
     /// Writes SII words from `word` on; `data` is little-endian bytes, an even number. A
@@ -257,7 +287,7 @@ impl Core {
                 "SII data must be a non-empty even number of bytes",
             ));
         }
-        let address = parse_slave(slave)?;
+        let address = self.address(slave)?;
         let words: Vec<u16> = data
             .chunks_exact(2)
             .map(|w| u16::from_le_bytes([w[0], w[1]]))
@@ -278,7 +308,7 @@ impl Core {
 
     /// Sets the station alias; returns the alias register read back.
     pub async fn set_alias(&self, slave: &str, alias: u16) -> Result<u16> {
-        Ok(self.master.set_alias(parse_slave(slave)?, alias).await?)
+        Ok(self.master.set_alias(self.address(slave)?, alias).await?)
     }
 
     /// SDO upload (complete access from `subindex` when `complete`).

@@ -50,10 +50,11 @@ impl std::str::FromStr for ValueType {
             "i16" | "int16" => ValueType::I16,
             "i32" | "int32" => ValueType::I32,
             "i64" | "int64" => ValueType::I64,
-            "f32" | "real32" => ValueType::F32,
-            "f64" | "real64" => ValueType::F64,
-            "string" => ValueType::String,
-            "hex" | "raw" => ValueType::Hex,
+            // IgH's `ethercat --type` names too: float, double, octet_string.
+            "f32" | "real32" | "float" => ValueType::F32,
+            "f64" | "real64" | "double" => ValueType::F64,
+            "string" | "visible_string" => ValueType::String,
+            "hex" | "raw" | "octet_string" => ValueType::Hex,
             other => return Err(ApiError::invalid(format!("unknown value type {other:?}"))),
         })
     }
@@ -135,6 +136,20 @@ pub fn parse_number<T: TryFrom<u64>>(text: &str, field: &str) -> Result<T, ApiEr
     T::try_from(value).map_err(|_| bad())
 }
 
+/// An SoE IDN in either syntax: `S-0-0011` / `P-0-0100` (ETG.1000.6, spec-notes §soe) or a
+/// number in the one syntax (`0x8064`, `32868`).
+pub fn parse_idn(text: &str, field: &str) -> Result<u16, ApiError> {
+    let text = text.trim();
+    if text.contains('-') {
+        let idn: master_core::wire::soe::Idn = text
+            .parse()
+            .map_err(|err| ApiError::invalid(format!("bad {field} {text:?}: {err}")))?;
+        Ok(idn.raw())
+    } else {
+        parse_number(text, field)
+    }
+}
+
 /// The value type for a CoE data type from SDO Information (raw hex for the types without
 /// a plain text form: octet strings, domains, structures).
 pub fn for_data_type(data_type: DataType) -> ValueType {
@@ -183,7 +198,16 @@ mod tests {
         assert!(encode(ValueType::U8, "256").is_err());
         assert!(encode(ValueType::I8, "-129").is_err());
         assert!(decode(ValueType::U16, &[1, 2, 3]).is_err());
-        assert!("float".parse::<ValueType>().is_err());
+        assert!("quad".parse::<ValueType>().is_err());
+        // IgH's type names.
+        assert_eq!("float".parse::<ValueType>().unwrap(), ValueType::F32);
+        assert_eq!("double".parse::<ValueType>().unwrap(), ValueType::F64);
+        assert_eq!("uint16".parse::<ValueType>().unwrap(), ValueType::U16);
+        assert_eq!("octet_string".parse::<ValueType>().unwrap(), ValueType::Hex);
+        assert_eq!(parse_idn("P-0-0100", "idn").unwrap(), 0x8064);
+        assert_eq!(parse_idn("S-0-0011", "idn").unwrap(), 11);
+        assert_eq!(parse_idn("0x8064", "idn").unwrap(), 0x8064);
+        assert!(parse_idn("X-0-0011", "idn").is_err());
         assert_eq!(for_data_type(DataType::Unsigned32), ValueType::U32);
         assert_eq!(for_data_type(DataType::OctetString), ValueType::Hex);
     }

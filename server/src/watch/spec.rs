@@ -3,7 +3,7 @@
 use master_core::wire::soe::Idn;
 use serde::{Deserialize, Serialize};
 
-use crate::service::parse_slave;
+use crate::service::parse_name;
 use crate::service::value::ValueType;
 
 /// The most watches one configuration may list (one task each).
@@ -26,11 +26,19 @@ fn is_zero(drive: &u8) -> bool {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WatchSpec {
-    /// The slave, in the common syntax (`3`, `#1004`, `@0x777`).
+    /// The slave, in the common syntax (`3`, `pos:3`, `station:1004`, `alias:0x777+2`).
     pub slave: String,
-    /// A CoE entry, `index:subindex`, both hex (`"0x6041:00"`, `"1018:02"`).
+    /// A CoE entry, `index:subindex`, both hex (`"0x6041:00"`, `"1018:02"`): the form of
+    /// earlier releases, kept. New configurations use `index` and `subindex`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sdo: Option<String>,
+    /// A CoE entry's index in the one number syntax: a TOML integer (`0x6041`) or a string
+    /// (`"0x6041"`, `"24641"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub index: Option<Number>,
+    /// The entry's subindex with `index` (default 0), in the same syntax.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub subindex: Option<Number>,
     /// An SoE IDN (`"S-0-0051"`, `"P-0-0100"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub idn: Option<String>,
@@ -48,6 +56,29 @@ pub struct WatchSpec {
     /// The `name` label (default empty).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
+}
+
+/// A number in a `[[watch]]` entry: a TOML integer, or a string in the one number syntax
+/// (decimal or `0x` hex).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Number {
+    /// A TOML integer (TOML itself reads `0x6041`).
+    Int(u64),
+    /// Decimal or `0x` hex text.
+    Text(String),
+}
+
+impl Number {
+    fn value<T: TryFrom<u64>>(&self, field: &str) -> Result<T, String> {
+        match self {
+            Number::Int(n) => {
+                T::try_from(*n).map_err(|_| format!("watch {field} {n} out of range"))
+            }
+            Number::Text(text) => crate::service::value::parse_number(text, field)
+                .map_err(|err| format!("watch {field}: {err}")),
+        }
+    }
 }
 
 /// What a watch reads.
@@ -91,6 +122,27 @@ fn hex_number(text: &str) -> Option<u32> {
 impl WatchSpec {
     /// What it reads; an error names what is wrong.
     pub fn target(&self) -> Result<Target, String> {
+        if let Some(index) = &self.index {
+            if self.sdo.is_some() || self.idn.is_some() {
+                return Err(format!(
+                    "watch on slave {:?}: give exactly one of sdo, index and idn",
+                    self.slave
+                ));
+            }
+            return Ok(Target::Sdo {
+                index: index.value("index")?,
+                subindex: match &self.subindex {
+                    Some(sub) => sub.value("subindex")?,
+                    None => 0,
+                },
+            });
+        }
+        if self.subindex.is_some() {
+            return Err(format!(
+                "watch on slave {:?}: subindex without index",
+                self.slave
+            ));
+        }
         match (&self.sdo, &self.idn) {
             (Some(sdo), None) => {
                 let bad = || format!("watch sdo {sdo:?}: expected index:subindex in hex");
@@ -132,7 +184,7 @@ impl WatchSpec {
 
     /// Checks everything a watch needs before ecatd starts.
     pub fn check(&self) -> Result<(), String> {
-        parse_slave(&self.slave).map_err(|err| format!("watch slave {:?}: {err}", self.slave))?;
+        parse_name(&self.slave).map_err(|err| format!("watch slave {:?}: {err}", self.slave))?;
         self.target()?;
         self.value_type()?;
         if !(MIN_PERIOD_MS..=MAX_PERIOD_MS).contains(&self.period_ms) {
@@ -177,6 +229,16 @@ mod tests {
         assert_eq!(idn.target().unwrap().label(), "P-0-0100");
         assert_eq!(idn.value_type(), Ok(Some(ValueType::U16)));
         assert!(idn.check().is_ok());
+        // The one number syntax: TOML integers (decimal or 0x) or strings; prefixed slaves.
+        for text in [
+            "slave = \"pos:3\"\nindex = 0x6041\nsubindex = 0",
+            "slave = \"station:1004\"\nindex = 24641",
+            "slave = \"alias:0x777+2\"\nindex = \"0x6041\"\nsubindex = \"0\"",
+        ] {
+            let s = spec(text);
+            assert_eq!(s.target().unwrap().label(), "0x6041:00", "{text}");
+            assert!(s.check().is_ok(), "{text}");
+        }
     }
 
     #[test]
@@ -190,6 +252,10 @@ mod tests {
             "slave = \"three\"\nsdo = \"0x6041:00\"",
             "slave = \"3\"\nsdo = \"0x6041:00\"\nperiod_ms = 1",
             "slave = \"3\"\nsdo = \"0x6041:00\"\ntype = \"string\"",
+            "slave = \"3\"\nindex = 0x16041",
+            "slave = \"3\"\nindex = \"6041h\"",
+            "slave = \"3\"\nindex = 0x6041\nsdo = \"0x6041:00\"",
+            "slave = \"3\"\nsubindex = 1\nsdo = \"0x6041:00\"",
         ] {
             assert!(spec(text).check().is_err(), "{text}");
         }

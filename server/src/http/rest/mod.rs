@@ -9,6 +9,7 @@
 //! document lists exactly the routes served.
 
 pub mod bus;
+pub mod capture;
 pub mod coe;
 pub mod config;
 pub mod eoe;
@@ -79,7 +80,8 @@ pub fn transfer_routes() -> OpenApiRouter<Core> {
     foe::routes()
 }
 
-/// The routes that stream for as long as the client listens (no time limit).
+/// The routes that stream or run for as long as asked (no request time limit): events and
+/// captures.
 pub fn stream_routes() -> OpenApiRouter<Core> {
-    slaves::stream_routes()
+    slaves::stream_routes().merge(capture::routes())
 }

@@ -13,7 +13,7 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::Result;
-use crate::service::{Core, EventView, SlaveView};
+use crate::service::{Core, EventView, MasterView, SlaveView};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -22,6 +22,13 @@ pub(super) fn routes() -> OpenApiRouter<Core> {
         .routes(routes!(get_slave))
         .routes(routes!(request_state))
         .routes(routes!(rescan))
+        .routes(routes!(get_master))
+}
+
+#[utoipa::path(get, path = "/master", tag = "bus", responses((status = 200, body = MasterView)))]
+/// The master: link, MAC, cycle, DC reference clock, frame counters, version, readiness.
+pub async fn get_master(State(core): State<Core>) -> Json<MasterView> {
+    Json(core.master_view())
 }
 
 /// The event stream: open for as long as the client listens, so outside the request time
@@ -53,7 +60,7 @@ pub async fn list_slaves(State(core): State<Core>) -> Json<Vec<SlaveView>> {
 }
 
 #[utoipa::path(get, path = "/slaves/{slave}", tag = "bus",
-    params(("slave" = String, Path, description = "3, %231004, @0x777")),
+    params(("slave" = String, Path, description = "pos:3, station:1004, alias:0x777, alias:0x777+2 (or 3, %231004, @0x777)")),
     responses((status = 200, body = SlaveView), (status = 404, body = crate::http::error::ErrorBody)))]
 /// One slave.
 pub async fn get_slave(

@@ -23,7 +23,7 @@ pub struct ElementsQuery {
 }
 
 #[utoipa::path(get, path = "/slaves/{slave}/soe/{drive}/{idn}", tag = "soe",
-    params(("slave" = String, Path), ("drive" = String, Path), ("idn" = String, Path, description = "IDN number, e.g. 0x8064 for P-0-0100"), ElementsQuery),
+    params(("slave" = String, Path), ("drive" = String, Path), ("idn" = String, Path, description = "P-0-0100, S-0-0011 or a number (0x8064)"), ElementsQuery),
     responses((status = 200, body = Data)))]
 /// Reads an IDN.
 pub async fn soe_read(
@@ -34,7 +34,7 @@ pub async fn soe_read(
     core.soe_read(
         &slave,
         num(&drive, "drive")?,
-        num(&idn, "idn")?,
+        crate::service::value::parse_idn(&idn, "idn")?,
         q.elements.unwrap_or(0),
     )
     .await
@@ -54,7 +54,7 @@ pub async fn soe_write(
     core.soe_write(
         &slave,
         num(&drive, "drive")?,
-        num(&idn, "idn")?,
+        crate::service::value::parse_idn(&idn, "idn")?,
         q.elements.unwrap_or(0),
         &unhex(&body.data)?,
     )

@@ -1,0 +1,17 @@
+//! One file per command group; each command is a clap `Args` struct implementing
+//! [`Run`](crate::Run).
+
+pub mod coe;
+pub mod docs;
+pub mod esc;
+pub mod foe;
+pub mod graph;
+pub mod ip;
+pub mod master;
+pub mod pcap;
+pub mod registers;
+pub mod sii;
+pub mod slaves;
+pub mod soe;
+pub mod states;
+pub mod voe;

@@ -1,0 +1,59 @@
+//! The command line's argument forms: numbers (decimal or `0x` hex), hex data, AL state
+//! names, value types (IgH's names too) and IDNs (`S-0-0011`, `P-0-0100` or a number).
+
+use proto::v1 as pb;
+use server::service::value::{ValueType, parse_number};
+use tonic::Status;
+
+/// A failed call as the command line reports it: code name and message.
+pub fn failed(status: Status) -> String {
+    format!("{:?}: {}", status.code(), status.message())
+}
+
+/// A number in the one syntax.
+pub fn num<T: TryFrom<u64>>(text: &str, what: &str) -> Result<T, String> {
+    parse_number(text, what).map_err(|e| e.message)
+}
+
+/// A value type by name.
+pub fn typed(ty: &str) -> Result<ValueType, String> {
+    ty.parse().map_err(|e: server::service::ApiError| e.message)
+}
+
+/// Hex bytes.
+pub fn unhex(text: &str) -> Result<Vec<u8>, String> {
+    hex::decode(text.trim()).map_err(|_| format!("{text:?} is not hex"))
+}
+
+/// An SoE IDN: `S-0-0011`, `P-0-0100` or a number (`0x8064`).
+pub fn idn(text: &str) -> Result<u32, String> {
+    server::service::value::parse_idn(text, "IDN")
+        .map(u32::from)
+        .map_err(|e| e.message)
+}
+
+/// An AL state by name (`INIT`, `PREOP`, `BOOT`, `SAFEOP`, `OP`, any case).
+pub fn state(name: &str) -> Result<pb::AlState, String> {
+    Ok(
+        match name.to_ascii_uppercase().replace(['-', '_'], "").as_str() {
+            "INIT" => pb::AlState::Init,
+            "PREOP" => pb::AlState::Preop,
+            "BOOT" => pb::AlState::Boot,
+            "SAFEOP" => pb::AlState::Safeop,
+            "OP" => pb::AlState::Op,
+            _ => return Err(format!("unknown state {name:?}")),
+        },
+    )
+}
+
+/// The name of an AL state as IgH prints it.
+pub fn state_text(value: i32) -> &'static str {
+    match pb::AlState::try_from(value) {
+        Ok(pb::AlState::Init) => "INIT",
+        Ok(pb::AlState::Preop) => "PREOP",
+        Ok(pb::AlState::Boot) => "BOOT",
+        Ok(pb::AlState::Safeop) => "SAFEOP",
+        Ok(pb::AlState::Op) => "OP",
+        _ => "UNKNOWN",
+    }
+}
