@@ -172,7 +172,7 @@ fn a_two_second_cut_ends_transfers_cleanly_and_the_segment_recovers() {
     let (status, body) = finished(upload);
     assert_eq!(status, 503, "{body}");
     let error: serde_json::Value = serde_json::from_str(&body).unwrap();
-    assert_eq!(error["error"]["kind"], "bus", "{body}");
+    assert_eq!(error["reason"], "BUS", "{body}");
     wait_all_op(&ecatd, slaves);
     // The next write is whole: read back equal.
     let small = pattern(200 << 10, 2);
@@ -214,7 +214,7 @@ fn a_two_second_cut_ends_transfers_cleanly_and_the_segment_recovers() {
     let (status, body) = finished(download);
     assert_eq!(status, 503, "{body}");
     let error: serde_json::Value = serde_json::from_str(&body).unwrap();
-    assert_eq!(error["error"]["kind"], "bus", "{body}");
+    assert_eq!(error["reason"], "BUS", "{body}");
     wait_all_op(&ecatd, slaves);
     // The next download is whole: read back equal.
     let value = pattern(LARGE, 4);

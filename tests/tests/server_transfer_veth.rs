@@ -277,7 +277,14 @@ fn eight_mib_through_rest_grpc_and_ecat_at_one_percent_loss() {
     // ecat: foe_write, foe_read to a file.
     ecat(
         &ecatd,
-        &["foe_write", "-p", "0", "ecat.bin", &scratch.str("big.bin")],
+        &[
+            "foe_write",
+            "-p",
+            "0",
+            &scratch.str("big.bin"),
+            "-o",
+            "ecat.bin",
+        ],
     );
     ecat(
         &ecatd,

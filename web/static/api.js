@@ -41,13 +41,10 @@ async function failure(response) {
   let kind;
   try {
     const body = await response.json();
-    const e = body.error;
-    if (e && typeof e === "object") {
-      message = e.message || message;
-      kind = e.kind;
-    } else {
-      message = body.message || e || message;
-    }
+    // RFC 9457 problem details (docs/call-it.md): `detail` says what, `reason` is the
+    // stable code.
+    message = body.detail || body.title || message;
+    kind = body.reason;
   } catch {
     // Not JSON: keep the status text.
   }
