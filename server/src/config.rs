@@ -359,6 +359,8 @@ pub struct Config {
     pub audit_log: Option<PathBuf>,
     /// Whether `/metrics` needs a token (read role) when tokens are configured.
     pub metrics_token: bool,
+    /// EoE interfaces (`[eoe]`, see `server/src/eoe/config.rs`).
+    pub eoe: crate::eoe::config::EoeSettings,
     /// The configuration file this came from (SIGHUP reloads its tokens).
     #[serde(skip)]
     pub file: Option<PathBuf>,
@@ -382,6 +384,7 @@ impl Default for Config {
             allowed_hosts: Vec::new(),
             audit_log: None,
             metrics_token: false,
+            eoe: Default::default(),
             file: None,
         }
     }

@@ -51,6 +51,8 @@ pub struct Core {
     calls: Arc<MailboxCalls>,
     /// Set once at shutdown: every event stream ends when it is.
     stopping: Arc<tokio::sync::watch::Sender<bool>>,
+    /// The EoE interfaces ecatd made (empty until their manager runs).
+    eoe: crate::eoe::EoeInterfaces,
 }
 
 /// What the gRPC and REST layers give the core for each request: the slave name and the
@@ -68,7 +70,18 @@ impl Core {
             events: Arc::default(),
             calls,
             stopping: Arc::new(tokio::sync::watch::Sender::new(false)),
+            eoe: crate::eoe::EoeInterfaces::default(),
         }
+    }
+
+    /// The EoE interfaces (their manager fills them in).
+    pub fn eoe(&self) -> &crate::eoe::EoeInterfaces {
+        &self.eoe
+    }
+
+    /// The EoE interfaces with their counters.
+    pub fn eoe_interfaces(&self) -> Vec<crate::eoe::InterfaceView> {
+        self.eoe.list(&self.master)
     }
 
     /// Hands the mailbox gateway (running or not) to the core.
