@@ -49,8 +49,11 @@ impl Tap {
         request.ifr_ifru.ifru_flags = (libc::IFF_TAP | libc::IFF_NO_PI) as libc::c_short;
         // SAFETY: TUNSETIFF reads and writes one `ifreq`, which `request` is.
         check(unsafe { libc::ioctl(fd.as_raw_fd(), libc::TUNSETIFF, &mut request) })?;
+        // SAFETY: `fd` is open and owned by the `AsyncFd` from here on, which returns the
+        // same descriptor for as long as it lives.
+        let fd = unsafe { AsyncFd::register(fd) }.map_err(io::Error::from)?;
         let tap = Tap {
-            fd: AsyncFd::new(fd)?,
+            fd,
             name: name.to_owned(),
         };
         tap.set_carrier(false)?;
