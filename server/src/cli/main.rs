@@ -4,6 +4,7 @@
 
 mod client;
 mod commands;
+mod eoe;
 mod gateway;
 
 use std::process::ExitCode;
@@ -242,6 +243,8 @@ pub enum Command {
         #[command(subcommand)]
         action: Option<gateway::Action>,
     },
+    /// The EoE interfaces: name, MAC, state, slave and counters.
+    Eoe,
 }
 
 fn main() -> ExitCode {

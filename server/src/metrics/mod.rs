@@ -4,10 +4,11 @@
 //! Files: `family` (building families), `bus` (link and cycle), `slaves` (AL states and
 //! codes), `mailbox` (per-slave mailbox and EoE counters), `gateway` (the mailbox gateway's
 //! statistics), `calls` (ecatd's own mailbox requests per slave and protocol), `esc` (the
-//! ESC error counters, read in the background).
+//! ESC error counters, read in the background), `eoe` (the EoE interfaces).
 
 mod bus;
 pub mod calls;
+mod eoe;
 pub mod esc;
 pub(crate) mod family;
 mod gateway;
@@ -29,6 +30,7 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     families.extend(bus::collect(core));
     families.extend(slaves::collect(core));
     families.extend(mailbox::collect(core));
+    families.extend(eoe::collect(core));
     families.extend(store.calls.collect());
     families.extend(store.esc.collect());
     families.extend(store.watch.collect());
