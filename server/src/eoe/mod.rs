@@ -23,7 +23,7 @@ use master_core::master::{Master, MasterEvent, SlaveAddress, SlaveInfo};
 use master_core::wire::mailbox::MailboxType;
 use master_core::wire::register::AlState;
 use serde::Serialize;
-use tokio::sync::broadcast::error::RecvError;
+use tokio::sync::broadcast::error::{RecvError, TryRecvError};
 use tokio::task::JoinHandle;
 
 use config::{EoeSettings, NameScheme, SlavePlan};
@@ -274,17 +274,28 @@ impl Manager {
         let mut tick = tokio::time::interval(RECONCILE_INTERVAL);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         loop {
-            tokio::select! {
-                event = events.recv() => match event {
+            let first = tokio::select! {
+                event = events.recv() => Some(event),
+                _ = tick.tick() => None,
+            };
+            // Every event already there is taken before acting, so that a scan's events
+            // lead to one new interface and one link, not a link started and restarted.
+            let mut next = first;
+            while let Some(event) = next.take() {
+                match event {
                     Ok(event) => self.note(&event),
                     Err(RecvError::Lagged(_)) => {
                         // Events were lost: every link starts anew to be safe.
                         let all: Vec<u16> = self.interfaces.lock().keys().copied().collect();
                         self.restart.extend(all);
                     }
-                    Err(RecvError::Closed) => break,
-                },
-                _ = tick.tick() => {}
+                    Err(RecvError::Closed) => return,
+                }
+                next = match events.try_recv() {
+                    Ok(event) => Some(Ok(event)),
+                    Err(TryRecvError::Lagged(n)) => Some(Err(RecvError::Lagged(n))),
+                    Err(_) => None,
+                };
             }
             self.reconcile();
         }
@@ -340,6 +351,8 @@ impl Manager {
                     Ok(tap) => {
                         self.failed.remove(&name);
                         self.recreate.remove(&position);
+                        // A new interface gets a new link anyway.
+                        self.restart.remove(&position);
                         apply_host(&tap, plan.as_ref());
                         tracing::info!(interface = name, mac = format_mac(mac), position, "EoE interface made");
                         interfaces.insert(
