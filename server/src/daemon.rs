@@ -222,7 +222,12 @@ fn start_eoe(
         crate::config::Segment::Simulate { .. } => None,
     }
     .unwrap_or(master_core::bus::BusConfig::default().source_mac);
-    match crate::eoe::start(Arc::clone(core.master()), &config.eoe, nic, core.eoe().clone()) {
+    match crate::eoe::start(
+        Arc::clone(core.master()),
+        &config.eoe,
+        nic,
+        core.eoe().clone(),
+    ) {
         Ok(manager) => Some(manager),
         Err(err) => {
             tracing::error!(%err, "EoE interfaces not started");

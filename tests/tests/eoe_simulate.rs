@@ -73,7 +73,8 @@ fn ping_and_http_reach_the_simulated_device_and_a_rescan_restores_the_interface(
     );
     ecatd.wait_until("eoe0s0 up with its address", |e| {
         e.carrier("eoe0s0")
-            && e.link("eoe0s0").is_some_and(|(_, addr)| addr.contains("10.77.0.1/24"))
+            && e.link("eoe0s0")
+                .is_some_and(|(_, addr)| addr.contains("10.77.0.1/24"))
             && e.interface("eoe0s0").is_some_and(|i| i["state"] == "up")
     });
     let listed = ecatd.interface("eoe0s0").expect("listed");
@@ -90,9 +91,18 @@ fn ping_and_http_reach_the_simulated_device_and_a_rescan_restores_the_interface(
     let len = 1 << 20;
     let out = ecatd.run(
         "curl",
-        &["-s", "--max-time", "120", &format!("http://10.77.0.2/{len}")],
+        &[
+            "-s",
+            "--max-time",
+            "120",
+            &format!("http://10.77.0.2/{len}"),
+        ],
     );
-    assert!(out.status.success(), "curl failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "curl failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(out.stdout.len(), len);
     assert_eq!(sha256(&out.stdout), sha256(&payload(len)));
 
@@ -110,7 +120,9 @@ fn ping_and_http_reach_the_simulated_device_and_a_rescan_restores_the_interface(
             .find_map(|l| l.strip_prefix(series)?.strip_prefix(' ')?.parse().ok())
             .unwrap_or_else(|| panic!("no {series} in:\n{metrics}"))
     };
-    assert!(sample(r#"ecat_eoe_interface_rx_frames_total{interface="eoe0s0"}"#) >= frames_in as f64);
+    assert!(
+        sample(r#"ecat_eoe_interface_rx_frames_total{interface="eoe0s0"}"#) >= frames_in as f64
+    );
     assert_eq!(sample(r#"ecat_eoe_interface_up{interface="eoe0s0"}"#), 1.0);
 
     // Set IP through the API moves the device to another address.
@@ -134,7 +146,8 @@ fn ping_and_http_reach_the_simulated_device_and_a_rescan_restores_the_interface(
     ecatd.wait_until("eoe0s0 made anew, up, with its address", |e| {
         e.ifindex("eoe0s0").is_some_and(|i| i != before)
             && e.carrier("eoe0s0")
-            && e.link("eoe0s0").is_some_and(|(_, addr)| addr.contains("10.77.0.1/24"))
+            && e.link("eoe0s0")
+                .is_some_and(|(_, addr)| addr.contains("10.77.0.1/24"))
     });
     assert_eq!(ecatd.ping("10.77.0.2", 10, 56), 10, "{}", ecatd.log());
 }

@@ -516,6 +516,8 @@ async fn execute(c: &mut Clients, command: Command) -> Result<Out, String> {
             let (json, human) = crate::gateway::run(c, action).await?;
             out(json, human)
         }
-        Command::Eoe => crate::eoe::run(c).await.map(|(json, human)| out(json, human))?,
+        Command::Eoe => crate::eoe::run(c)
+            .await
+            .map(|(json, human)| out(json, human))?,
     })
 }

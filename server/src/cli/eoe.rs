@@ -32,8 +32,17 @@ fn to_json(i: &pb::EoeInterface) -> Value {
 fn table(interfaces: &[pb::EoeInterface]) -> String {
     let mut out = format!(
         "{:<10} {:<17} {:<5} {:>5} {:>10} {:>12} {:>6} {:>10} {:>12} {:>6} {:>6}\n",
-        "Interface", "MAC", "State", "Slave", "TxFrames", "TxBytes", "TxDrop", "RxFrames",
-        "RxBytes", "RxDrop", "RxErr"
+        "Interface",
+        "MAC",
+        "State",
+        "Slave",
+        "TxFrames",
+        "TxBytes",
+        "TxDrop",
+        "RxFrames",
+        "RxBytes",
+        "RxDrop",
+        "RxErr"
     );
     for i in interfaces {
         out.push_str(&format!(

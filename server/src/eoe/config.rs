@@ -113,7 +113,10 @@ impl EoeSettings {
         let plans = self.plans()?;
         for (i, plan) in plans.iter().enumerate() {
             if plans[..i].iter().any(|p| p.address == plan.address) {
-                return Err(format!("[[eoe.slave]]: slave {:?} twice", self.slaves[i].slave));
+                return Err(format!(
+                    "[[eoe.slave]]: slave {:?} twice",
+                    self.slaves[i].slave
+                ));
             }
         }
         Ok(())
@@ -213,15 +216,24 @@ mod tests {
         let plans = settings.plans().unwrap();
         assert_eq!(plans[0].address, SlaveAddress::Alias(7));
         assert_eq!(plans[0].mac, Some([2, 0, 0, 0, 0, 0x10]));
-        assert_eq!(plans[0].host_address, Some((Ipv4Addr::new(10, 7, 0, 1), 24)));
+        assert_eq!(
+            plans[0].host_address,
+            Some((Ipv4Addr::new(10, 7, 0, 1), 24))
+        );
         let ip = plans[0].ip.as_ref().unwrap();
         assert_eq!(ip.ip, Some(Ipv4Addr::new(10, 7, 0, 2)));
         assert_eq!(ip.mac, None);
 
         for (bad, says) in [
             (r#"slave = "x""#, "bad slave name"),
-            ("slave = \"0\"\nhost_address = \"10.0.0.1\"", "a.b.c.d/prefix"),
-            ("slave = \"0\"\nhost_address = \"10.0.0.1/33\"", "a.b.c.d/prefix"),
+            (
+                "slave = \"0\"\nhost_address = \"10.0.0.1\"",
+                "a.b.c.d/prefix",
+            ),
+            (
+                "slave = \"0\"\nhost_address = \"10.0.0.1/33\"",
+                "a.b.c.d/prefix",
+            ),
             ("slave = \"0\"\nip = \"10.0.0\"", "bad IP address"),
             ("slave = \"0\"\nmac = \"02:00\"", "bad MAC"),
             (
@@ -235,8 +247,14 @@ mod tests {
         }
         let twice = EoeSettings {
             slaves: vec![
-                EoeSlaveSettings { slave: "0".into(), ..Default::default() },
-                EoeSlaveSettings { slave: "0".into(), ..Default::default() },
+                EoeSlaveSettings {
+                    slave: "0".into(),
+                    ..Default::default()
+                },
+                EoeSlaveSettings {
+                    slave: "0".into(),
+                    ..Default::default()
+                },
             ],
             ..EoeSettings::default()
         };

@@ -109,7 +109,9 @@ async fn write_frames(
                     counters.drops_in.fetch_add(1, Ordering::Relaxed);
                 }
             },
-            Err(RecvError::Lagged(n)) => add(&counters.drops_in, usize::try_from(n).unwrap_or(usize::MAX)),
+            Err(RecvError::Lagged(n)) => {
+                add(&counters.drops_in, usize::try_from(n).unwrap_or(usize::MAX))
+            }
             Err(RecvError::Closed) => {
                 stale.store(true, Ordering::Relaxed);
                 return;

@@ -311,9 +311,9 @@ impl Manager {
             MasterEvent::SlaveLost { position, .. } => {
                 self.restart.insert(*position);
             }
-            MasterEvent::StateChanged { position, from, to, .. }
-                if !(working(from) && working(to)) =>
-            {
+            MasterEvent::StateChanged {
+                position, from, to, ..
+            } if !(working(from) && working(to)) => {
                 self.restart.insert(*position);
             }
             _ => {}
@@ -321,7 +321,12 @@ impl Manager {
     }
 
     fn reconcile(&mut self) {
-        let queue_len = self.master.mailbox_engine().config().eoe_tx_queue_len.max(1);
+        let queue_len = self
+            .master
+            .mailbox_engine()
+            .config()
+            .eoe_tx_queue_len
+            .max(1);
         let slaves = self.master.slaves();
         let mut seen = HashSet::new();
         for slave in &slaves {
@@ -354,7 +359,12 @@ impl Manager {
                         // A new interface gets a new link anyway.
                         self.restart.remove(&position);
                         apply_host(&tap, plan.as_ref());
-                        tracing::info!(interface = name, mac = format_mac(mac), position, "EoE interface made");
+                        tracing::info!(
+                            interface = name,
+                            mac = format_mac(mac),
+                            position,
+                            "EoE interface made"
+                        );
                         interfaces.insert(
                             position,
                             Interface {
@@ -382,7 +392,10 @@ impl Manager {
             if self.restart.remove(&position) || interface.stale.load(Ordering::Relaxed) {
                 interface.stop_link();
             }
-            let working = matches!(slave.al_state, AlState::PreOp | AlState::SafeOp | AlState::Op);
+            let working = matches!(
+                slave.al_state,
+                AlState::PreOp | AlState::SafeOp | AlState::Op
+            );
             if !(slave.present && working) {
                 interface.stop_link();
                 continue;
@@ -397,7 +410,10 @@ impl Manager {
         self.interfaces.lock().retain(|position, i| {
             let keep = seen.contains(position);
             if !keep {
-                tracing::info!(interface = i.tap.name(), "EoE interface removed: the slave is gone");
+                tracing::info!(
+                    interface = i.tap.name(),
+                    "EoE interface removed: the slave is gone"
+                );
             }
             keep
         });
@@ -432,7 +448,10 @@ mod tests {
         settings.master_index = 1;
         assert_eq!(interface_name(&settings, 3, 7), "eoe1s3");
         let nic = [0x00, 0x11, 0x22, 0x33, 0x44, 0x55];
-        assert_eq!(default_mac(nic, 0x0102), [0x02, 0x33, 0x44, 0x55, 0x01, 0x02]);
+        assert_eq!(
+            default_mac(nic, 0x0102),
+            [0x02, 0x33, 0x44, 0x55, 0x01, 0x02]
+        );
         assert_eq!(format_mac([2, 0x33, 0, 0, 1, 0xab]), "02:33:00:00:01:ab");
     }
 }

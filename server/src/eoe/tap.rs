@@ -96,7 +96,9 @@ impl Tap {
         let mut request = ifreq(&self.name)?;
         request.ifr_ifru.ifru_addr = sockaddr_in(address);
         socket_ioctl(libc::SIOCSIFADDR, &mut request)?;
-        let mask = u32::MAX.checked_shl(32 - u32::from(prefix.min(32))).unwrap_or(0);
+        let mask = u32::MAX
+            .checked_shl(32 - u32::from(prefix.min(32)))
+            .unwrap_or(0);
         let mut request = ifreq(&self.name)?;
         request.ifr_ifru.ifru_netmask = sockaddr_in(Ipv4Addr::from(mask));
         socket_ioctl(libc::SIOCSIFNETMASK, &mut request)
@@ -175,7 +177,8 @@ fn sockaddr_in(address: Ipv4Addr) -> libc::sockaddr {
 /// A datagram socket for the interface ioctls, closed on drop.
 fn control_socket() -> io::Result<OwnedFd> {
     // SAFETY: plain arguments; the result is checked.
-    let raw: RawFd = unsafe { libc::socket(libc::AF_INET, libc::SOCK_DGRAM | libc::SOCK_CLOEXEC, 0) };
+    let raw: RawFd =
+        unsafe { libc::socket(libc::AF_INET, libc::SOCK_DGRAM | libc::SOCK_CLOEXEC, 0) };
     if raw < 0 {
         return Err(io::Error::last_os_error());
     }

@@ -45,9 +45,7 @@ impl EcatdInNs {
             .spawn()
             .expect("ecatd starts");
         let mut ecatd = EcatdInNs { child, ns, log };
-        ecatd.wait_until("ecatd ready", |e| {
-            e.curl(&["/readyz"]).0 == 200
-        });
+        ecatd.wait_until("ecatd ready", |e| e.curl(&["/readyz"]).0 == 200);
         ecatd
     }
 
@@ -70,7 +68,14 @@ impl EcatdInNs {
     pub fn curl(&self, args: &[&str]) -> (u16, String) {
         let (path, rest) = args.split_first().expect("a path");
         let url = format!("http://127.0.0.1:8080{path}");
-        let mut full = vec!["-s", "-H", "X-Ecat-Client: tests", "-w", "\n%{http_code}", &url];
+        let mut full = vec![
+            "-s",
+            "-H",
+            "X-Ecat-Client: tests",
+            "-w",
+            "\n%{http_code}",
+            &url,
+        ];
         full.extend_from_slice(rest);
         let out = self.run("curl", &full);
         let text = String::from_utf8_lossy(&out.stdout).into_owned();
@@ -112,14 +117,25 @@ impl EcatdInNs {
 
     /// Whether the interface has its carrier (`LOWER_UP`).
     pub fn carrier(&self, name: &str) -> bool {
-        self.link(name).is_some_and(|(link, _)| link.contains("LOWER_UP"))
+        self.link(name)
+            .is_some_and(|(link, _)| link.contains("LOWER_UP"))
     }
 
     /// `ping -c count` to `address`: how many answers came back.
     pub fn ping(&self, address: &str, count: u32, size: u32) -> u32 {
         let out = self.run(
             "ping",
-            &["-c", &count.to_string(), "-i", "0.02", "-W", "2", "-s", &size.to_string(), address],
+            &[
+                "-c",
+                &count.to_string(),
+                "-i",
+                "0.02",
+                "-W",
+                "2",
+                "-s",
+                &size.to_string(),
+                address,
+            ],
         );
         let text = String::from_utf8_lossy(&out.stdout);
         text.lines()
@@ -141,7 +157,11 @@ impl EcatdInNs {
             if let Ok(Some(status)) = self.child.try_wait() {
                 panic!("ecatd exited ({status}) before {what}:\n{}", self.log());
             }
-            assert!(Instant::now() < deadline, "timed out waiting for {what}:\n{}", self.log());
+            assert!(
+                Instant::now() < deadline,
+                "timed out waiting for {what}:\n{}",
+                self.log()
+            );
             // The poll interval of the check (the loop ends on the condition or the deadline).
             std::thread::sleep(Duration::from_millis(50));
         }
@@ -158,5 +178,7 @@ impl Drop for EcatdInNs {
 
 /// The payload the simulated device serves for `GET /<len>` (sim's `tcp_host`).
 pub fn payload(len: usize) -> Vec<u8> {
-    (0..len as u64).map(sim::device::eoe::tcp_host::payload_byte).collect()
+    (0..len as u64)
+        .map(sim::device::eoe::tcp_host::payload_byte)
+        .collect()
 }

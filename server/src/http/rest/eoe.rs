@@ -11,7 +11,8 @@ use crate::service::{Core, IpView};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
-    OpenApiRouter::new().routes(routes!(eoe_get_ip, eoe_set_ip))
+    OpenApiRouter::new()
+        .routes(routes!(eoe_get_ip, eoe_set_ip))
         .routes(routes!(eoe_interfaces))
 }
 

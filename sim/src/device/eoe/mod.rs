@@ -138,7 +138,12 @@ impl EoeService {
             .config
             .subnet_mask
             .map_or(24, |mask| u32::from(mask).leading_ones() as u8);
-        if !self.tcp.0.as_ref().is_some_and(|h| h.is_for(mac, ip, prefix)) {
+        if !self
+            .tcp
+            .0
+            .as_ref()
+            .is_some_and(|h| h.is_for(mac, ip, prefix))
+        {
             self.tcp.0 = Some(Box::new(TcpHost::new(mac, ip, prefix)));
         }
         self.tcp.0.as_deref_mut()

@@ -103,7 +103,11 @@ enum Exchange {
     /// Reading the request (what came so far).
     Request(Vec<u8>),
     /// Sending: the header left, then the payload from `sent` to `len`.
-    Sending { header: Vec<u8>, sent: u64, len: u64 },
+    Sending {
+        header: Vec<u8>,
+        sent: u64,
+        len: u64,
+    },
     /// All sent; closing.
     Done,
 }
@@ -316,11 +320,19 @@ mod tests {
         match respond(b"GET /1000 HTTP/1.1\r\nHost: x") {
             Exchange::Sending { header, len, .. } => {
                 assert_eq!(len, 1000);
-                assert!(String::from_utf8(header).unwrap().contains("Content-Length: 1000"));
+                assert!(
+                    String::from_utf8(header)
+                        .unwrap()
+                        .contains("Content-Length: 1000")
+                );
             }
             other => panic!("{other:?}"),
         }
-        for bad in [&b"POST /10 HTTP/1.0"[..], b"GET /x HTTP/1.0", b"GET /99999999999 HTTP/1.0"] {
+        for bad in [
+            &b"POST /10 HTTP/1.0"[..],
+            b"GET /x HTTP/1.0",
+            b"GET /99999999999 HTTP/1.0",
+        ] {
             match respond(bad) {
                 Exchange::Sending { header, len: 0, .. } => {
                     assert!(header.starts_with(b"HTTP/1.0 400"))
