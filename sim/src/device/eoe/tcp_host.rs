@@ -16,7 +16,7 @@ use smoltcp::socket::tcp;
 use smoltcp::time::Instant;
 use smoltcp::wire::{
     EthernetAddress, EthernetFrame, EthernetProtocol, HardwareAddress, IpCidr, IpProtocol,
-    Ipv4Address, Ipv4Packet,
+    Ipv4Packet,
 };
 
 /// The port of the HTTP server.
@@ -144,7 +144,7 @@ impl TcpHost {
         let mut iface = Interface::new(config, &mut device, Instant::from_micros(0));
         iface.update_ip_addrs(|addrs| {
             // One address: the vector's capacity is at least one.
-            let _ = addrs.push(IpCidr::new(Ipv4Address::from(ip).into(), prefix));
+            let _ = addrs.push(IpCidr::new(ip.into(), prefix));
         });
         let mut sockets = SocketSet::new(Vec::new());
         let socket = tcp::Socket::new(
