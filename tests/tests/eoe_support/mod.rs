@@ -25,13 +25,12 @@ pub struct EcatdInNs {
 impl EcatdInNs {
     /// Starts `ecatd <args>` in a new namespace (its loopback up) and waits until ready.
     pub fn start(bin_dir: &Path, args: &[&str]) -> EcatdInNs {
-        let ns = NetNs::new();
-        ns.ip(&["link", "set", "dev", "lo", "up"]);
-        EcatdInNs::start_in(ns, bin_dir, args)
+        EcatdInNs::start_in(NetNs::new(), bin_dir, args)
     }
 
-    /// Starts `ecatd <args>` in `ns` and waits until ready.
+    /// Starts `ecatd <args>` in `ns` (its loopback brought up) and waits until ready.
     pub fn start_in(ns: NetNs, bin_dir: &Path, args: &[&str]) -> EcatdInNs {
+        ns.ip(&["link", "set", "dev", "lo", "up"]);
         let log = std::env::temp_dir().join(format!("{}-ecatd.log", ns.name()));
         let file = std::fs::File::create(&log).expect("log file");
         let child = Command::new("ip")
