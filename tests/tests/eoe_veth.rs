@@ -1,8 +1,8 @@
 //! EoE end to end on the veth rig: ecatd `--iface` in one namespace (its EoE interfaces
 //! there), `ecat-sim` in another; the device behind the simulated drive is the simulator's
 //! TCP host. After Set IP through the API, 100 pings through `eoe0s0` all come back and a
-//! 16 MiB HTTP transfer arrives with an equal SHA-256; the segment unplugged takes the
-//! interface down, plugged back up; a rescan makes the interface anew and its configured
+//! 16 MiB HTTP transfer arrives with an equal SHA-256; the slave in INIT takes the interface
+//! down, back in PREOP up (and traffic flows again); a rescan makes the interface anew and its configured
 //! host address comes back without a command.
 
 mod eoe_support;
@@ -28,8 +28,11 @@ fn sha256(data: &[u8]) -> Vec<u8> {
 }
 
 #[test]
-fn ping_http_unplug_and_rescan_through_the_drives_interface() {
-    let Rig { sim: sim_ns, master } = Rig::new();
+fn ping_http_state_changes_and_rescan_through_the_drives_interface() {
+    let Rig {
+        sim: sim_ns,
+        master,
+    } = Rig::new();
     let _sim = SimProcess::start(&sim_ns, SIM_IFACE, &[]);
     let config = std::env::temp_dir().join(format!("ecatd-eoe-veth-{}.toml", std::process::id()));
     std::fs::write(&config, CONFIG).expect("config written");
@@ -42,7 +45,8 @@ fn ping_http_unplug_and_rescan_through_the_drives_interface() {
     let _ = std::fs::remove_file(&config);
     ecatd.wait_until("eoe0s0 up with its address", |e| {
         e.carrier("eoe0s0")
-            && e.link("eoe0s0").is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
+            && e.link("eoe0s0")
+                .is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
     });
 
     let (status, body) = ecatd.curl(&[
@@ -60,24 +64,49 @@ fn ping_http_unplug_and_rescan_through_the_drives_interface() {
     let len = 16 << 20;
     let out = ecatd.run(
         "curl",
-        &["-s", "--max-time", "600", &format!("http://10.78.0.2/{len}")],
+        &[
+            "-s",
+            "--max-time",
+            "600",
+            &format!("http://10.78.0.2/{len}"),
+        ],
     );
-    assert!(out.status.success(), "curl: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "curl: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(out.stdout.len(), len);
     assert_eq!(sha256(&out.stdout), sha256(&payload(len)));
     let listed = ecatd.interface("eoe0s0").expect("listed");
-    assert!(listed["bytes_in"].as_u64().unwrap() > len as u64, "{listed}");
+    assert!(
+        listed["bytes_in"].as_u64().unwrap() > len as u64,
+        "{listed}"
+    );
 
-    // The segment unplugged (the simulator's end of the cable down): the interface goes
-    // down; plugged back: up again.
-    sim_ns.ip(&["link", "set", "dev", SIM_IFACE, "down"]);
+    // The slave in INIT (no mailbox): the interface goes down; back in PREOP: up again.
+    let state = |e: &EcatdInNs, to: &str| {
+        let body = format!(r#"{{"state":"{to}"}}"#);
+        let (status, answer) = e.curl(&[
+            "/api/v1/slaves/0/state",
+            "-X",
+            "PUT",
+            "-H",
+            "content-type: application/json",
+            "-d",
+            &body,
+        ]);
+        assert_eq!(status, 200, "{answer}");
+    };
+    state(&ecatd, "INIT");
     ecatd.wait_until("eoe0s0 down", |e| {
         !e.carrier("eoe0s0") && e.interface("eoe0s0").is_some_and(|i| i["state"] == "down")
     });
-    sim_ns.ip(&["link", "set", "dev", SIM_IFACE, "up"]);
+    state(&ecatd, "PREOP");
     ecatd.wait_until("eoe0s0 up again", |e| {
         e.carrier("eoe0s0") && e.interface("eoe0s0").is_some_and(|i| i["state"] == "up")
     });
+    assert_eq!(ecatd.ping("10.78.0.2", 10, 56), 10, "{}", ecatd.log());
 
     // A rescan makes the interface anew; its host address comes back by itself.
     let before = ecatd.ifindex("eoe0s0").expect("index");
@@ -86,7 +115,8 @@ fn ping_http_unplug_and_rescan_through_the_drives_interface() {
     ecatd.wait_until("eoe0s0 made anew, up, with its address", |e| {
         e.ifindex("eoe0s0").is_some_and(|i| i != before)
             && e.carrier("eoe0s0")
-            && e.link("eoe0s0").is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
+            && e.link("eoe0s0")
+                .is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
     });
     assert_eq!(ecatd.ping("10.78.0.2", 10, 56), 10, "{}", ecatd.log());
 }
