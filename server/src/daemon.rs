@@ -21,6 +21,7 @@ use crate::{grpc, http, segment};
 /// Runs ecatd with `config` until a signal; errors are start-up failures.
 pub async fn run(config: Config) -> Result<(), String> {
     config.check()?;
+    config.eoe.check()?;
     // Installed first: a signal at any point of the start-up leads to a clean shutdown.
     let mut signals = Signals::install()?;
     let segment_config = config
@@ -149,7 +150,8 @@ pub async fn run(config: Config) -> Result<(), String> {
         Some(_) => None,
         None => {
             core.master().start_watch(Duration::from_millis(100));
-            let background = crate::metrics::start(&core, &metrics, &config.watch);
+            let eoe = start_eoe(&core, &config, &segment_config);
+            let background = (crate::metrics::start(&core, &metrics, &config.watch), eoe);
             if let Some(settings) = &config.gateway
                 && let Err(err) = start_gateway(&core, settings).await
             {
@@ -270,6 +272,34 @@ fn reload_on_sighup(
         }
     });
     Ok(())
+}
+
+/// Starts the EoE interface manager (none when `[eoe] enabled = false`).
+fn start_eoe(
+    core: &Core,
+    config: &Config,
+    segment: &crate::config::Segment,
+) -> Option<crate::eoe::EoeManager> {
+    if !config.eoe.enabled {
+        return None;
+    }
+    let nic = match segment {
+        crate::config::Segment::Iface { name } => crate::eoe::tap::mac_of(name),
+        crate::config::Segment::Simulate { .. } => None,
+    }
+    .unwrap_or(master_core::bus::BusConfig::default().source_mac);
+    match crate::eoe::start(
+        Arc::clone(core.master()),
+        &config.eoe,
+        nic,
+        core.eoe().clone(),
+    ) {
+        Ok(manager) => Some(manager),
+        Err(err) => {
+            tracing::error!(%err, "EoE interfaces not started");
+            None
+        }
+    }
 }
 
 /// Hands the ETG.8200 gateway to the core and starts it next to the APIs (the core logs

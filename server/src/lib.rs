@@ -6,6 +6,7 @@
 pub mod audit;
 pub mod config;
 pub mod daemon;
+pub mod eoe;
 pub mod grpc;
 pub mod http;
 pub mod logging;

@@ -15,7 +15,7 @@ use server_support::{Ecatd, curl, curl_as_browser};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
-const ROUTES: [(&str, &str); 30] = [
+const ROUTES: [(&str, &str); 31] = [
     ("get", "/api/v1/master"),
     ("get", "/api/v1/capture"),
     ("get", "/api/v1/slaves"),
@@ -41,6 +41,7 @@ const ROUTES: [(&str, &str); 30] = [
     ("post", "/api/v1/slaves/{slave}/voe"),
     ("get", "/api/v1/slaves/{slave}/eoe/ip"),
     ("put", "/api/v1/slaves/{slave}/eoe/ip"),
+    ("get", "/api/v1/eoe/interfaces"),
     ("get", "/api/v1/gateway"),
     ("post", "/api/v1/gateway/start"),
     ("post", "/api/v1/gateway/stop"),

@@ -8,6 +8,7 @@ use serde_json::{Value, json};
 use crate::Run;
 use crate::client::Clients;
 use crate::out::{Out, out};
+use crate::parse::failed;
 use crate::session::Session;
 
 /// `ecat config`.
@@ -27,7 +28,7 @@ async fn run(c: &mut Clients) -> Result<(Value, String), String> {
         .bus
         .get_config(pb::GetConfigRequest {})
         .await
-        .map_err(|s| format!("{:?}: {}", s.code(), s.message()))?
+        .map_err(failed)?
         .into_inner();
     let human = if config.eni.is_empty() {
         config.toml.clone()

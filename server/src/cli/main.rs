@@ -10,6 +10,7 @@
 mod client;
 mod commands;
 mod config;
+mod eoe;
 mod gateway;
 mod out;
 mod parse;
@@ -126,6 +127,8 @@ command_set! {
     Gateway(gateway::Gateway),
     /// The configuration ecatd runs with (IgH's `config`).
     Config(config::Config),
+    /// The EoE interfaces: name, MAC, state, slave and counters.
+    Eoe(eoe::Eoe),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
     Completion(commands::docs::Completion),
     /// Print the man page (roff).

@@ -409,6 +409,8 @@ pub struct Config {
     /// Slave groups with periods of their own.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub group: Vec<groups::GroupEntry>,
+    /// EoE interfaces (`[eoe]`, see `server/src/eoe/config.rs`).
+    pub eoe: crate::eoe::config::EoeSettings,
     /// The configuration file this came from (SIGHUP reloads its tokens).
     #[serde(skip)]
     pub file: Option<PathBuf>,
@@ -439,6 +441,7 @@ impl Default for Config {
             eni: None,
             slave: Vec::new(),
             group: Vec::new(),
+            eoe: Default::default(),
             file: None,
             eni_unused: Vec::new(),
         }

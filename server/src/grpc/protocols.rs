@@ -102,6 +102,33 @@ impl EoeService for Protocols {
         Ok(Response::new(pb::SetIpResponse {}))
     }
 
+    async fn list_interfaces(
+        &self,
+        _request: Request<pb::ListEoeInterfacesRequest>,
+    ) -> Reply<pb::ListEoeInterfacesResponse> {
+        let interfaces = self
+            .core
+            .eoe_interfaces()
+            .into_iter()
+            .map(|i| pb::EoeInterface {
+                name: i.name,
+                mac: i.mac,
+                state: i.state,
+                position: u32::from(i.position),
+                station: u32::from(i.station),
+                alias: u32::from(i.alias),
+                frames_out: i.frames_out,
+                bytes_out: i.bytes_out,
+                drops_out: i.drops_out,
+                frames_in: i.frames_in,
+                bytes_in: i.bytes_in,
+                drops_in: i.drops_in,
+                reassembly_errors: i.reassembly_errors,
+            })
+            .collect();
+        Ok(Response::new(pb::ListEoeInterfacesResponse { interfaces }))
+    }
+
     async fn get_ip(&self, request: Request<pb::GetIpRequest>) -> Reply<pb::IpSettings> {
         let v = self
             .core

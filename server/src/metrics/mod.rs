@@ -6,11 +6,13 @@
 //! statistics), `calls` (ecatd's own mailbox requests per slave and protocol), `esc` (the
 //! ESC error counters, read in the background), `events` (events by kind, counted in the
 //! background), `state` (ready and link up), `process` (the process' CPU, memory, files),
-//! `config` (what the segment's configuration found: mismatches and failed start-up commands).
+//! `config` (what the segment's configuration found: mismatches and failed start-up commands),
+//! `eoe` (the EoE interfaces).
 
 mod bus;
 pub mod calls;
 pub mod config;
+mod eoe;
 pub mod esc;
 pub mod events;
 pub(crate) mod family;
@@ -36,6 +38,7 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     families.extend(bus::collect(core));
     families.extend(slaves::collect(core));
     families.extend(mailbox::collect(core));
+    families.extend(eoe::collect(core));
     families.extend(store.calls.collect());
     families.extend(store.esc.collect());
     families.extend(store.watch.collect());

@@ -65,6 +65,8 @@ pub struct Core {
     stopping: Arc<tokio::sync::watch::Sender<bool>>,
     /// The effective configuration as TOML, and the ENI file it came from (`ecat config`).
     effective_config: Arc<std::sync::OnceLock<(String, String)>>,
+    /// The EoE interfaces ecatd made (empty until their manager runs).
+    eoe: crate::eoe::EoeInterfaces,
 }
 
 /// What the gRPC and REST layers give the core for each request: the slave name and the
@@ -85,6 +87,7 @@ impl Core {
             capture: Arc::default(),
             stopping: Arc::new(tokio::sync::watch::Sender::new(false)),
             effective_config: Arc::default(),
+            eoe: crate::eoe::EoeInterfaces::default(),
         }
     }
 
@@ -97,6 +100,16 @@ impl Core {
     /// before [`Core::set_effective_config`]).
     pub fn effective_config(&self) -> (String, String) {
         self.effective_config.get().cloned().unwrap_or_default()
+    }
+
+    /// The EoE interfaces (their manager fills them in).
+    pub fn eoe(&self) -> &crate::eoe::EoeInterfaces {
+        &self.eoe
+    }
+
+    /// The EoE interfaces with their counters.
+    pub fn eoe_interfaces(&self) -> Vec<crate::eoe::InterfaceView> {
+        self.eoe.list(&self.master)
     }
 
     /// Hands the mailbox gateway (running or not) to the core.

@@ -178,7 +178,7 @@ fn build_slave(position: usize, spec: &SlaveSpec) -> Result<SlaveParts, BuildErr
                 ip: spec.eoe.and_then(|e| e.ip),
                 ..IpConfig::default()
             };
-            stack = stack.with(EoeService::new(config));
+            stack = stack.with(EoeService::new(config).with_tcp_host(true));
         }
         if has(Protocol::Voe) {
             stack = stack.with(VoeEcho::new(spec.voe_vendor_id.unwrap_or(spec.vendor_id)));

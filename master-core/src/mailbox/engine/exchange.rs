@@ -409,23 +409,33 @@ impl Exchange {
         }
     }
 
-    /// Reads SM1 while it holds messages, with nobody waiting for an answer.
-    pub async fn poll_idle(&mut self) -> Result<()> {
+    /// Reads SM1 while it holds messages, with nobody waiting for an answer. Returns
+    /// whether anything was there: a slave that just sent something (an EoE frame, say)
+    /// often has more on the way, so the owner reads again at once instead of at the next
+    /// poll.
+    pub async fn poll_idle(&mut self) -> Result<bool> {
         self.deadline = Instant::now() + self.shared.engine.timeout;
         if self.eoe_rx.expire(Instant::now()) {
             inc(&self.shared.stats.eoe_reassembly_errors);
         }
-        if self.settle().await? == Read::Answer {
-            let message = std::mem::take(&mut self.rx);
-            self.drop_unclaimed(&message);
-            self.rx = message;
+        let mut found = false;
+        match self.settle().await? {
+            Read::Answer => {
+                let message = std::mem::take(&mut self.rx);
+                self.drop_unclaimed(&message);
+                self.rx = message;
+                found = true;
+            }
+            Read::Routed => found = true,
+            Read::Nothing => {}
         }
         for _ in 0..IDLE_DRAIN {
             if self.read_one(None).await? == Read::Nothing {
                 break;
             }
+            found = true;
         }
-        Ok(())
+        Ok(found)
     }
 
     /// Sends one read of the whole SM1, never to be resent by the bus.

@@ -1,4 +1,4 @@
-//! EoE: the IP parameters of a slave's EoE port.
+//! EoE: the IP parameters of a slave's EoE port, and the interfaces ecatd made.
 
 use axum::Json;
 use axum::extract::{Path, State};
@@ -6,11 +6,14 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Done, Result};
+use crate::eoe::InterfaceView;
 use crate::service::{Core, IpView};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
-    OpenApiRouter::new().routes(routes!(eoe_get_ip, eoe_set_ip))
+    OpenApiRouter::new()
+        .routes(routes!(eoe_get_ip, eoe_set_ip))
+        .routes(routes!(eoe_interfaces))
 }
 
 #[utoipa::path(get, path = "/slaves/{slave}/eoe/ip", tag = "eoe",
@@ -32,4 +35,11 @@ pub async fn eoe_set_ip(
     Json(body): Json<IpView>,
 ) -> Result<Json<Done>> {
     core.eoe_set_ip(&slave, &body).await.map(|()| DONE)
+}
+
+#[utoipa::path(get, path = "/eoe/interfaces", tag = "eoe",
+    responses((status = 200, body = Vec<InterfaceView>)))]
+/// Lists the EoE interfaces: name, MAC, state, slave and counters.
+pub async fn eoe_interfaces(State(core): State<Core>) -> Json<Vec<InterfaceView>> {
+    Json(core.eoe_interfaces())
 }

@@ -2,6 +2,8 @@
 //!
 //! - [`ip_config`]: what Set IP parameter stored;
 //! - [`endpoint`]: the slave's own IPv4 host (ARP and ICMP echo, built with etherparse);
+//! - [`tcp_host`]: optionally, a TCP endpoint beside it (smoltcp: ARP, an HTTP server of a
+//!   known payload), which then takes the ARP and TCP frames;
 //! - here: [`EoeService`].
 //!
 //! Frames from the master arrive as fragments and are put together by the codec's
@@ -20,6 +22,7 @@
 
 pub mod endpoint;
 pub mod ip_config;
+pub mod tcp_host;
 
 use std::any::Any;
 use std::collections::VecDeque;
@@ -35,6 +38,7 @@ use crate::device::{DeviceContext, OutboxFull};
 
 pub use endpoint::Answer;
 pub use ip_config::IpConfig;
+use tcp_host::TcpHost;
 
 /// Frames kept for [`EoeService::take_received`] before the oldest are dropped.
 pub const RECEIVED_CAPACITY: usize = 64;
@@ -69,6 +73,20 @@ pub struct EoeService {
     received: VecDeque<Vec<u8>>,
     next_frame_number: u8,
     counters: EoeCounters,
+    tcp_enabled: bool,
+    tcp: HostSlot,
+}
+
+/// The TCP host, made once the slave has a MAC and an IP address. A clone of the service
+/// (a snapshot of the simulator) gets none: the connection state stays with the original,
+/// and the clone makes its own host when it is first needed.
+#[derive(Debug, Default)]
+struct HostSlot(Option<Box<TcpHost>>);
+
+impl Clone for HostSlot {
+    fn clone(&self) -> HostSlot {
+        HostSlot(None)
+    }
 }
 
 impl Default for EoeService {
@@ -94,6 +112,57 @@ impl EoeService {
             received: VecDeque::new(),
             next_frame_number: 0,
             counters: EoeCounters::default(),
+            tcp_enabled: false,
+            tcp: HostSlot::default(),
+        }
+    }
+
+    /// Whether a TCP endpoint ([`tcp_host`]) runs behind the slave (default: no). With it,
+    /// ARP and TCP frames go to it, ICMP echo still to the endpoint.
+    pub fn with_tcp_host(mut self, enabled: bool) -> Self {
+        self.tcp_enabled = enabled;
+        self
+    }
+
+    /// The TCP host for the current settings, made or made anew as they change; none
+    /// without a MAC and an IP address.
+    fn tcp_host(&mut self) -> Option<&mut TcpHost> {
+        if !self.tcp_enabled {
+            return None;
+        }
+        let (Some(mac), Some(ip)) = (self.config.mac, self.config.ip) else {
+            self.tcp.0 = None;
+            return None;
+        };
+        let prefix = self
+            .config
+            .subnet_mask
+            .map_or(24, |mask| u32::from(mask).leading_ones() as u8);
+        if !self
+            .tcp
+            .0
+            .as_ref()
+            .is_some_and(|h| h.is_for(mac, ip, prefix))
+        {
+            self.tcp.0 = Some(Box::new(TcpHost::new(mac, ip, prefix)));
+        }
+        self.tcp.0.as_deref_mut()
+    }
+
+    /// Sends what the TCP host has for the master while the mailbox has room.
+    fn flush_tcp(&mut self, replies: &mut ReplySink) {
+        loop {
+            if self.tx_queue.len() >= TX_CAPACITY {
+                return;
+            }
+            let Some(host) = self.tcp.0.as_deref_mut() else {
+                return;
+            };
+            host.poll();
+            let Some(frame) = host.take_frame() else {
+                return;
+            };
+            self.send_or_queue(frame, replies);
         }
     }
 
@@ -136,7 +205,12 @@ impl EoeService {
     /// A frame from the master is complete.
     fn frame_received(&mut self, frame: Vec<u8>, replies: &mut ReplySink) {
         self.counters.frames_in += 1;
-        if self.endpoint {
+        if tcp_host::wants(&frame)
+            && let Some(host) = self.tcp_host()
+        {
+            host.receive(frame.clone());
+            self.flush_tcp(replies);
+        } else if self.endpoint {
             match endpoint::answer(&frame, &self.config) {
                 Some(Answer::Arp(reply)) => {
                     self.counters.arp_replies += 1;
@@ -278,6 +352,10 @@ impl MailboxService for EoeService {
                 }
                 Err(()) => self.counters.frames_dropped += 1,
             }
+        }
+        // The TCP host's timers (retransmission) and the data its window now allows.
+        if self.tcp_host().is_some() {
+            self.flush_tcp(replies);
         }
     }
 

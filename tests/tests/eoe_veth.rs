@@ -1,0 +1,122 @@
+//! EoE end to end on the veth rig: ecatd `--iface` in one namespace (its EoE interfaces
+//! there), `ecat-sim` in another; the device behind the simulated drive is the simulator's
+//! TCP host. After Set IP through the API, 100 pings through `eoe0s0` all come back and a
+//! 16 MiB HTTP transfer arrives with an equal SHA-256; the slave in INIT takes the interface
+//! down, back in PREOP up (and traffic flows again); a rescan makes the interface anew and its configured
+//! host address comes back without a command.
+
+mod eoe_support;
+#[path = "server_support/mod.rs"]
+mod server_support;
+
+use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
+use ecat_tests::sim_process::SimProcess;
+use eoe_support::{EcatdInNs, payload};
+use sha2::{Digest, Sha256};
+
+const CONFIG: &str = r#"
+[eoe]
+name_scheme = "position"
+
+[[eoe.slave]]
+slave = "0"
+host_address = "10.78.0.1/24"
+"#;
+
+fn sha256(data: &[u8]) -> Vec<u8> {
+    Sha256::digest(data).to_vec()
+}
+
+#[test]
+fn ping_http_state_changes_and_rescan_through_the_drives_interface() {
+    let Rig {
+        sim: sim_ns,
+        master,
+    } = Rig::new();
+    let _sim = SimProcess::start(&sim_ns, SIM_IFACE, &[]);
+    let config = std::env::temp_dir().join(format!("ecatd-eoe-veth-{}.toml", std::process::id()));
+    std::fs::write(&config, CONFIG).expect("config written");
+    let config_path = config.to_str().expect("a UTF-8 path").to_owned();
+    let mut ecatd = EcatdInNs::start_in(
+        master,
+        server_support::bin_dir(),
+        &["--iface", MASTER_IFACE, "--config", &config_path],
+    );
+    let _ = std::fs::remove_file(&config);
+    ecatd.wait_until("eoe0s0 up with its address", |e| {
+        e.carrier("eoe0s0")
+            && e.link("eoe0s0")
+                .is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
+    });
+
+    let (status, body) = ecatd.curl(&[
+        "/api/v1/slaves/0/eoe/ip",
+        "-X",
+        "PUT",
+        "-H",
+        "content-type: application/json",
+        "-d",
+        r#"{"mac":"02:00:00:00:bb:01","ip":"10.78.0.2","subnet_mask":"255.255.255.0"}"#,
+    ]);
+    assert_eq!(status, 200, "{body}");
+    assert_eq!(ecatd.ping("10.78.0.2", 100, 56), 100, "{}", ecatd.log());
+
+    let len = 16 << 20;
+    let out = ecatd.run(
+        "curl",
+        &[
+            "-s",
+            "--max-time",
+            "600",
+            &format!("http://10.78.0.2/{len}"),
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "curl: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(out.stdout.len(), len);
+    assert_eq!(sha256(&out.stdout), sha256(&payload(len)));
+    let listed = ecatd.interface("eoe0s0").expect("listed");
+    assert!(
+        listed["bytes_in"].as_u64().unwrap() > len as u64,
+        "{listed}"
+    );
+
+    // The slave in INIT (no mailbox): the interface goes down; back in PREOP: up again.
+    let state = |e: &EcatdInNs, to: &str| {
+        let body = format!(r#"{{"state":"{to}"}}"#);
+        let (status, answer) = e.curl(&[
+            "/api/v1/slaves/0/state",
+            "-X",
+            "PUT",
+            "-H",
+            "content-type: application/json",
+            "-d",
+            &body,
+        ]);
+        assert_eq!(status, 200, "{answer}");
+    };
+    state(&ecatd, "INIT");
+    ecatd.wait_until("eoe0s0 down", |e| {
+        !e.carrier("eoe0s0") && e.interface("eoe0s0").is_some_and(|i| i["state"] == "down")
+    });
+    state(&ecatd, "PREOP");
+    ecatd.wait_until("eoe0s0 up again", |e| {
+        e.carrier("eoe0s0") && e.interface("eoe0s0").is_some_and(|i| i["state"] == "up")
+    });
+    assert_eq!(ecatd.ping("10.78.0.2", 10, 56), 10, "{}", ecatd.log());
+
+    // A rescan makes the interface anew; its host address comes back by itself.
+    let before = ecatd.ifindex("eoe0s0").expect("index");
+    let (status, body) = ecatd.curl(&["/api/v1/rescan", "-X", "POST"]);
+    assert_eq!(status, 200, "{body}");
+    ecatd.wait_until("eoe0s0 made anew, up, with its address", |e| {
+        e.ifindex("eoe0s0").is_some_and(|i| i != before)
+            && e.carrier("eoe0s0")
+            && e.link("eoe0s0")
+                .is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
+    });
+    assert_eq!(ecatd.ping("10.78.0.2", 10, 56), 10, "{}", ecatd.log());
+}
