@@ -26,7 +26,7 @@ impl Run for Eoe {
 async fn run(c: &mut Clients) -> Result<(Value, String), String> {
     let list = c
         .eoe
-        .list_interfaces(pb::ListEoeInterfacesRequest {})
+        .list_interfaces(pb::ListInterfacesRequest {})
         .await
         .map_err(failed)?
         .into_inner();

@@ -102,3 +102,9 @@ impl SlaveField for tonic::Streaming<proto::v1::FoeWriteChunk> {
         "(stream)"
     }
 }
+
+impl SlaveField for tonic::Streaming<proto::v1::WriteWithProgressRequest> {
+    fn slave_field(&self) -> &str {
+        "(stream)"
+    }
+}

@@ -101,15 +101,23 @@ impl FoeService for Foe {
     }
 
     type WriteWithProgressStream =
-        Pin<Box<dyn Stream<Item = Result<pb::FoeWriteProgress, Status>> + Send>>;
+        Pin<Box<dyn Stream<Item = Result<pb::WriteWithProgressResponse, Status>> + Send>>;
 
     async fn write_with_progress(
         &self,
-        request: Request<Streaming<pb::FoeWriteChunk>>,
+        request: Request<Streaming<pb::WriteWithProgressRequest>>,
     ) -> Reply<Self::WriteWithProgressStream> {
         let caller = request.extensions().get::<Caller>().cloned();
-        let (slave, name, password, data) =
-            receive_file(caller.as_ref(), request.into_inner()).await?;
+        // The same pieces as Write's, in a message of the method's own name.
+        let chunks = request.into_inner().map(|piece| {
+            piece.map(|p| pb::FoeWriteChunk {
+                slave: p.slave,
+                name: p.name,
+                password: p.password,
+                data: p.data,
+            })
+        });
+        let (slave, name, password, data) = receive_file(caller.as_ref(), chunks).await?;
         let (tx, rx) = mpsc::channel(QUEUE);
         let progress_tx = tx.clone();
         // Progress messages are spaced like the events; a full queue drops one (the next,
@@ -127,7 +135,7 @@ impl FoeService for Foe {
                 return;
             }
             *last = Some(now);
-            let _ = progress_tx.try_send(Ok(pb::FoeWriteProgress {
+            let _ = progress_tx.try_send(Ok(pb::WriteWithProgressResponse {
                 transferred: bytes as u64,
                 total: total.unwrap_or(bytes) as u64,
                 done: false,
@@ -142,7 +150,7 @@ impl FoeService for Foe {
                 () = tx.closed() => return,
             };
             let last = match written {
-                Ok(()) => Ok(pb::FoeWriteProgress {
+                Ok(()) => Ok(pb::WriteWithProgressResponse {
                     transferred: data.len() as u64,
                     total: data.len() as u64,
                     done: true,
@@ -159,8 +167,9 @@ impl FoeService for Foe {
 /// and the caller's right to write is checked (and audited) before any data is kept.
 async fn receive_file(
     caller: Option<&Caller>,
-    mut stream: Streaming<pb::FoeWriteChunk>,
+    stream: impl Stream<Item = Result<pb::FoeWriteChunk, Status>>,
 ) -> Result<(String, String, u32, Vec<u8>), Status> {
+    let mut stream = std::pin::pin!(stream);
     let mut target: Option<(String, String, u32)> = None;
     let mut data = Vec::new();
     while let Some(chunk) = stream.next().await {

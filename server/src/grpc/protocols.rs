@@ -104,8 +104,8 @@ impl EoeService for Protocols {
 
     async fn list_interfaces(
         &self,
-        _request: Request<pb::ListEoeInterfacesRequest>,
-    ) -> Reply<pb::ListEoeInterfacesResponse> {
+        _request: Request<pb::ListInterfacesRequest>,
+    ) -> Reply<pb::ListInterfacesResponse> {
         let interfaces = self
             .core
             .eoe_interfaces()
@@ -126,7 +126,7 @@ impl EoeService for Protocols {
                 reassembly_errors: i.reassembly_errors,
             })
             .collect();
-        Ok(Response::new(pb::ListEoeInterfacesResponse { interfaces }))
+        Ok(Response::new(pb::ListInterfacesResponse { interfaces }))
     }
 
     async fn get_ip(&self, request: Request<pb::GetIpRequest>) -> Reply<pb::IpSettings> {

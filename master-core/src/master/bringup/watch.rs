@@ -92,7 +92,13 @@ async fn one(
     // A slave the scan could not identify (no SII) is identified again like one that came
     // back.
     let identified = !record.sii.is_empty();
-    if wkc == 1 && identified {
+    // A slave that was lost and answers at its station again (a cut cable, not a power
+    // cycle) had its mailbox released when it was lost, and its SyncManager watchdog may
+    // have dropped its outputs meanwhile: it is configured afresh, as one that came back
+    // without its station address, so its mailbox is taken over again from INIT → PREOP.
+    if wkc == 1 && identified && !info.present {
+        come_back(ctx, record).await
+    } else if wkc == 1 && identified {
         let status = AlStatusBlock::new_checked(data)
             .and_then(|view| AlStatusBlockRepr::parse(&view))
             .map_err(|source| MasterError::Malformed {
