@@ -6,6 +6,9 @@
 pub mod audit;
 pub mod config;
 pub mod daemon;
+/// The input parsers driven by arbitrary bytes, for the fuzz target `server_input`.
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod grpc;
 pub mod http;
 pub mod logging;
