@@ -24,7 +24,7 @@ fn frame(payload: &[u8]) -> Vec<u8> {
     let mut frame = vec![0xFF; 6];
     frame.extend_from_slice(&[0x02, 0, 0, 0, 0, 0x01]);
     frame.extend_from_slice(&[0x88, 0xA4]);
-    // Length (11 bits) and type 1 (EtherCAT datagrams), ETG.1000.4 §5.3.
+    // Length (11 bits) and type 1, EtherCAT datagrams (ETG.1000.4, spec-notes §frame).
     let header = (payload.len() as u16) | 0x1000;
     frame.extend_from_slice(&header.to_le_bytes());
     frame.extend_from_slice(payload);
