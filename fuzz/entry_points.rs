@@ -1,9 +1,13 @@
-//! Every parser entry point of `master_core::wire`, driven with arbitrary bytes.
+//! Every fuzz entry point of master-core (the parsers of `master_core::wire`, the gateway's
+//! UDP and TCP parsing, the frame matcher, the master dictionary), driven with arbitrary
+//! bytes.
 //!
 //! Shared by the cargo-fuzz targets (`fuzz_targets/*.rs`) and by master-core's corpus replay
 //! test (`master-core/tests/fuzz_corpus.rs`), so the seed corpus is exercised in every CI run
 //! and a crash found by the fuzzer stays a regression test once its input is added there.
 //! Each function must return normally for any input: an `Err` is fine, a panic is the bug.
+//! The targets of the simulator and the server call `sim::fuzzing` and `server::fuzzing`
+//! directly (replayed by `sim/tests/fuzz_corpus.rs` and `server/tests/fuzz_corpus.rs`).
 
 // Each fuzz target uses one of these functions; the replay test uses them all.
 #![allow(dead_code)]
@@ -38,6 +42,9 @@ pub const ALL: &[(&str, EntryPoint)] = &[
     ("registers", registers),
     ("eoe_reassembly", eoe_reassembly),
     ("idn", idn),
+    ("gateway_tcp", gateway_tcp),
+    ("frame_matcher", frame_matcher),
+    ("master_od", master_od),
 ];
 
 /// A whole Ethernet frame: parse, walk the datagrams, print everything.
@@ -87,6 +94,23 @@ pub fn mailbox(data: &[u8]) {
 /// (tolerance rewrites, transfer tracking, error answers, reply datagrams).
 pub fn gateway_service(data: &[u8]) {
     let _ = master_core::gateway::fuzzing::request(data);
+}
+
+/// A byte stream on a gateway TCP connection: split into messages by the connection's own
+/// reader, each through the service's parsing.
+pub fn gateway_tcp(data: &[u8]) {
+    let _ = master_core::gateway::fuzzing::tcp_stream(data);
+}
+
+/// A frame put in flight, then a returned frame matched against it.
+pub fn frame_matcher(data: &[u8]) {
+    master_core::bus::fuzzing::reply(data);
+}
+
+/// CoE requests (SDO downloads and uploads, SDO Information) served by the master's
+/// ETG.1510 dictionary.
+pub fn master_od(data: &[u8]) {
+    master_core::master_od::fuzzing::requests(data);
 }
 
 /// An ETG.8200 gateway UDP payload, then its mailbox.

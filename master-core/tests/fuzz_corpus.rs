@@ -1,31 +1,43 @@
 //! Replays the fuzz seed corpus (`fuzz/corpus/<entry point>/*`) through the same entry points
-//! the fuzz targets call, so every CI run exercises them and a crash input added to the corpus
-//! stays a regression test.
+//! the fuzz targets call (seeds, prefixes and fixed mutants, see `fuzz/replay.rs`), so every
+//! CI run exercises them and a crash input added to the corpus stays a regression test.
 
 #[path = "../../fuzz/entry_points.rs"]
 mod entry_points;
+#[path = "../../fuzz/replay.rs"]
+mod replay;
 
 use std::path::Path;
 
 #[test]
 fn every_entry_point_survives_its_seed_corpus() {
-    let corpus = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/corpus");
     for (name, entry_point) in entry_points::ALL {
-        let dir = corpus.join(name);
-        let inputs: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap_or_else(|e| panic!("corpus folder {} is missing: {e}", dir.display()))
-            .map(|entry| entry.expect("corpus entry").path())
-            .collect();
-        assert!(!inputs.is_empty(), "no seed inputs for fuzz target {name}");
-        for input in inputs {
-            let bytes = std::fs::read(&input).expect("read corpus input");
-            entry_point(&bytes);
-            // Every prefix too: truncation is the most common malformation on a wire.
-            for len in 0..bytes.len() {
-                entry_point(&bytes[..len]);
-            }
-        }
+        let runs = replay::replay(name, *entry_point);
+        assert!(runs > replay::MUTANTS, "{name}: {runs} inputs");
     }
+}
+
+/// Every target of the fuzz crate has an entry point replayed by one of the replay tests
+/// (this one, sim's or server's), so no target goes without its corpus in CI.
+#[test]
+fn every_fuzz_target_is_replayed() {
+    let manifest =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/Cargo.toml"))
+            .expect("fuzz/Cargo.toml");
+    let targets: Vec<&str> = manifest
+        .lines()
+        .filter_map(|line| line.strip_prefix("name = \""))
+        .filter_map(|rest| rest.strip_suffix('"'))
+        .filter(|name| *name != "ecatd-fuzz")
+        .collect();
+    let elsewhere = ["sim_segment", "server_input"];
+    for target in &targets {
+        assert!(
+            entry_points::ALL.iter().any(|(name, _)| name == target) || elsewhere.contains(target),
+            "fuzz target {target} has no replayed entry point"
+        );
+    }
+    assert_eq!(targets.len(), entry_points::ALL.len() + elsewhere.len());
 }
 
 /// The valid vectors in the corpus must decode, or the corpus seeds the fuzzer with noise.

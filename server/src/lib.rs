@@ -7,6 +7,9 @@ pub mod audit;
 pub mod config;
 pub mod daemon;
 pub mod eoe;
+/// The input parsers driven by arbitrary bytes, for the fuzz target `server_input`.
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod grpc;
 pub mod http;
 pub mod logging;

@@ -12,6 +12,9 @@
 
 pub mod device;
 pub mod esc;
+/// Frame processing driven by arbitrary bytes, for the fuzz target `sim_segment`.
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod link;
 pub mod segment;
 pub mod topology;

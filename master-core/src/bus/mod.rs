@@ -102,6 +102,9 @@ mod cyclic;
 mod data;
 mod engine;
 mod error;
+/// The frame matcher driven by arbitrary bytes, for the fuzz target `frame_matcher`.
+#[doc(hidden)]
+pub mod fuzzing;
 mod handle;
 mod histogram;
 mod index;

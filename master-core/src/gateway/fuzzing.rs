@@ -1,5 +1,5 @@
-//! The gateway's own parsing of a datagram, without sockets or slaves, for the fuzz target
-//! `gateway_service` (fuzz/) and the corpus replay test.
+//! The gateway's own parsing of a datagram, without sockets or slaves, for the fuzz targets
+//! `gateway_service` and `gateway_tcp` (fuzz/) and the corpus replay test.
 //!
 //! Beyond what the wire codec checks, the service reads into the protocol headers:
 //! the compatibility layout's translation, tolerance rewrites of short SDO requests, what a message makes the slave do and which
@@ -7,7 +7,11 @@
 //! on the fuzzer's bytes — the request also stands in for a slave's reply — and must never
 //! panic.
 
+use std::pin::pin;
+use std::task::{Context, Poll, Waker};
+
 use crate::mailbox::RawReply;
+use crate::wire::frame::{self, Frame, FrameType};
 use crate::wire::gateway::{GatewayMessage, GatewayRepr};
 use crate::wire::mailbox::MailboxType;
 
@@ -16,6 +20,7 @@ use super::answer::{Fault, answer};
 use super::compat::{self, Layout};
 use super::normalize;
 use super::reply;
+use super::tcp::{self, MAX_MESSAGE, Stop};
 use super::transfer::{self, Expect, Sizes, Transfer};
 
 const FAULTS: [Fault; 8] = [
@@ -105,6 +110,46 @@ pub fn request(datagram: &[u8]) -> bool {
     true
 }
 
+/// Splits a TCP byte stream into gateway messages with the connection's own reader and
+/// runs [`request`] on each, until the stream ends or the connection would be closed.
+/// Returns the messages read. Panics if a message read is not exactly one EtherCAT header
+/// and the mailbox it announces, or if a stream that ends on a message boundary is taken
+/// for a broken one.
+#[doc(hidden)]
+pub fn tcp_stream(stream: &[u8]) -> usize {
+    let mut reader = stream;
+    let mut buf = vec![0u8; MAX_MESSAGE];
+    let mut count = 0;
+    loop {
+        let consumed = stream.len() - reader.len();
+        // A read from a byte slice never waits: one poll finishes it.
+        let read = {
+            let mut read = pin!(tcp::read_message(&mut reader, &mut buf));
+            match read.as_mut().poll(&mut Context::from_waker(Waker::noop())) {
+                Poll::Ready(result) => result,
+                Poll::Pending => panic!("a read from memory is pending"),
+            }
+        };
+        match read {
+            Ok(len) => {
+                let message = &buf[..len];
+                assert_eq!(message, &stream[consumed..consumed + len], "bytes read");
+                let header = Frame::new_unchecked(message);
+                assert_eq!(header.frame_type(), FrameType::Mailbox);
+                assert_eq!(len, frame::HEADER_LEN + usize::from(header.length()));
+                let _ = request(message);
+                count += 1;
+            }
+            Err(Stop::Closed) => {
+                // Only at the end of the stream (possibly in the middle of a message).
+                assert!(stream.len() - consumed < MAX_MESSAGE, "closed early");
+                return count;
+            }
+            Err(Stop::Malformed) => return count,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -133,6 +178,10 @@ mod tests {
             };
             let datagram = repr.to_vec().unwrap();
             prop_assert!(request(&datagram));
+            // The same message twice on a TCP stream, then half of it.
+            let mut stream = [&datagram[..], &datagram[..]].concat();
+            stream.extend_from_slice(&datagram[..datagram.len() / 2]);
+            prop_assert_eq!(tcp_stream(&stream), 2);
             for len in 0..datagram.len() {
                 prop_assert!(!request(&datagram[..len]));
             }

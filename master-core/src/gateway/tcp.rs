@@ -19,8 +19,7 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Instant as StdInstant;
 
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
-use tokio::net::tcp::OwnedReadHalf;
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore, mpsc};
 use tokio::task::JoinSet;
@@ -93,15 +92,20 @@ impl Connections {
 }
 
 /// Why reading a message stopped.
-enum Stop {
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Stop {
     /// The client closed, or the connection failed.
     Closed,
     /// The header cannot start a gateway message.
     Malformed,
 }
 
-/// Reads one message into `buf`; its length, or why there is none.
-async fn read_message(reader: &mut OwnedReadHalf, buf: &mut [u8]) -> Result<usize, Stop> {
+/// Reads one message into `buf` (at least [`MAX_MESSAGE`] bytes); its length, or why
+/// there is none.
+pub(crate) async fn read_message<R: AsyncRead + Unpin>(
+    reader: &mut R,
+    buf: &mut [u8],
+) -> Result<usize, Stop> {
     let header = buf.get_mut(..frame::HEADER_LEN).ok_or(Stop::Closed)?;
     reader.read_exact(header).await.map_err(|_| Stop::Closed)?;
     let view = Frame::new_unchecked(&*header);

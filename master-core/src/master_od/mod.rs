@@ -29,6 +29,9 @@
 mod device;
 mod diagnosis;
 mod dictionary;
+/// Request handling driven by arbitrary bytes, for the fuzz target `master_od`.
+#[doc(hidden)]
+pub mod fuzzing;
 mod identity;
 mod service;
 mod slaves;
