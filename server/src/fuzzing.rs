@@ -13,6 +13,7 @@ use crate::service::ip::{from_settings, to_settings};
 use crate::service::value::{ValueType, decode, encode, parse_number};
 use crate::service::view::{parse_state, state_name};
 use crate::service::{IpView, parse_slave};
+use crate::watch::spec::Number;
 use crate::watch::{Target, WatchSpec};
 
 const TYPES: [ValueType; 13] = [
@@ -59,6 +60,8 @@ pub fn inputs(data: &[u8]) {
     watch(WatchSpec {
         slave: field(0).unwrap_or_default(),
         sdo: field(1).filter(|s| !s.starts_with(['S', 'P', 's', 'p'])),
+        index: field(3).map(Number::Text),
+        subindex: field(4).map(Number::Text),
         idn: field(1).filter(|s| s.starts_with(['S', 'P', 's', 'p'])),
         drive: data.first().copied().unwrap_or(0) & 7,
         period_ms: 1000,
