@@ -3,9 +3,7 @@
 //! (`station:1004`, `alias:0x777+2`, `0x777:2`). A command for one slave refuses to guess
 //! when nothing is selected and the segment has more than one slave.
 
-use proto::v1 as pb;
-
-use crate::parse::{failed, num};
+use crate::parse::num;
 use crate::session::Session;
 
 /// The `-p` / `-a` options.
@@ -46,15 +44,7 @@ impl Selection {
         if let Some(name) = self.given()? {
             return Ok(name);
         }
-        let slaves = session
-            .clients()
-            .await?
-            .bus
-            .list_slaves(pb::ListSlavesRequest {})
-            .await
-            .map_err(failed)?
-            .into_inner()
-            .slaves;
+        let slaves = session.slaves().await?;
         match slaves.as_slice() {
             [only] => Ok(only.position.to_string()),
             [] => Err(format!("{command}: the segment has no slaves")),

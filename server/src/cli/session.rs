@@ -3,7 +3,10 @@
 
 use std::path::PathBuf;
 
+use proto::v1 as pb;
+
 use crate::client::{Clients, connect};
+use crate::parse::failed;
 
 /// One invocation's connection.
 pub struct Session {
@@ -32,6 +35,19 @@ impl Session {
             self.clients = Some(clients);
         }
         Ok(self.clients.as_mut().expect("connected just above"))
+    }
+
+    /// The slaves ecatd knows, in ring order.
+    pub async fn slaves(&mut self) -> Result<Vec<pb::Slave>, String> {
+        Ok(self
+            .clients()
+            .await?
+            .bus
+            .list_slaves(pb::ListSlavesRequest {})
+            .await
+            .map_err(failed)?
+            .into_inner()
+            .slaves)
     }
 
     /// The address given.

@@ -167,23 +167,7 @@ impl EoeSlaveSettings {
     }
 }
 
-/// `aa:bb:cc:dd:ee:ff` (or with `-`).
-pub fn parse_mac(text: &str) -> Result<[u8; 6], String> {
-    let bad = || format!("bad MAC address {text:?}");
-    let mut mac = [0u8; 6];
-    let mut parts = text.split([':', '-']);
-    for byte in &mut mac {
-        let part = parts.next().ok_or_else(bad)?;
-        if part.len() != 2 {
-            return Err(bad());
-        }
-        *byte = u8::from_str_radix(part, 16).map_err(|_| bad())?;
-    }
-    if parts.next().is_some() {
-        return Err(bad());
-    }
-    Ok(mac)
-}
+pub use crate::service::ip::parse_mac;
 
 fn parse_cidr(text: &str) -> Result<(Ipv4Addr, u8), String> {
     let bad = || format!("bad host address {text:?}: use a.b.c.d/prefix");

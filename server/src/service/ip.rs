@@ -21,7 +21,7 @@ pub fn to_settings(view: &IpView) -> Result<IpSettings, ApiError> {
     };
     let mac = match view.mac.as_deref().filter(|s| !s.is_empty()) {
         None => None,
-        Some(text) => Some(parse_mac(text)?),
+        Some(text) => Some(parse_mac(text).map_err(ApiError::invalid)?),
     };
     Ok(IpSettings {
         mac,
@@ -51,8 +51,9 @@ pub fn from_settings(settings: &IpSettings) -> IpView {
     }
 }
 
-fn parse_mac(text: &str) -> Result<[u8; 6], ApiError> {
-    let bad = || ApiError::invalid(format!("bad MAC address {text:?}"));
+/// A MAC address as `aa:bb:cc:dd:ee:ff` (or with `-`).
+pub fn parse_mac(text: &str) -> Result<[u8; 6], String> {
+    let bad = || format!("bad MAC address {text:?}");
     let mut mac = [0u8; 6];
     let mut parts = text.split([':', '-']);
     for byte in &mut mac {

@@ -3,13 +3,11 @@
 //! spec-notes §esc.dl): a slave's open ports beyond its entry port lead, in ring order, to the
 //! slaves that follow it.
 
-use proto::v1 as pb;
 use serde_json::json;
 
 use super::slaves::display_name;
 use crate::Run;
 use crate::out::{Out, out};
-use crate::parse::failed;
 use crate::session::Session;
 
 /// `ecat graph`.
@@ -18,14 +16,8 @@ pub struct Graph {}
 
 impl Run for Graph {
     async fn run(self, session: &mut Session) -> Result<Out, String> {
+        let slaves = session.slaves().await?;
         let c = session.clients().await?;
-        let slaves = c
-            .bus
-            .list_slaves(pb::ListSlavesRequest {})
-            .await
-            .map_err(failed)?
-            .into_inner()
-            .slaves;
         let mut open = Vec::new();
         for s in &slaves {
             let details = super::esc::details(c, s).await?;

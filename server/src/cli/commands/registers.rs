@@ -114,14 +114,8 @@ impl Run for Alias {
 
 impl Run for Crc {
     async fn run(self, session: &mut Session) -> Result<Out, String> {
+        let slaves = session.slaves().await?;
         let c = session.clients().await?;
-        let slaves = c
-            .bus
-            .list_slaves(pb::ListSlavesRequest {})
-            .await
-            .map_err(failed)?
-            .into_inner()
-            .slaves;
         let mut human = vec![
             "Pos  |CRC A|Phy A|Fwd A|CRC B|Phy B|Fwd B|CRC C|Phy C|Fwd C|CRC D|Phy D|Fwd D|PU |PDI|Lnk A|Lnk B|Lnk C|Lnk D"
                 .to_owned(),

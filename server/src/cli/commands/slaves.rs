@@ -85,14 +85,8 @@ fn table(slaves: &[pb::Slave], relpos: &[(u32, u32)]) -> String {
 
 impl Run for Slaves {
     async fn run(self, session: &mut Session) -> Result<Out, String> {
+        let all = session.slaves().await?;
         let c = session.clients().await?;
-        let all = c
-            .bus
-            .list_slaves(pb::ListSlavesRequest {})
-            .await
-            .map_err(failed)?
-            .into_inner()
-            .slaves;
         let relpos = alias_relpos(&all);
         let mut chosen: Vec<usize> = (0..all.len()).collect();
         if let Some(name) = self.select.given()? {
