@@ -133,6 +133,13 @@ async fn still_there(
     status: AlStatusBlockRepr,
 ) -> Result<(), MasterError> {
     let info = &record.info;
+    if !info.present && status.status.state != AlState::Init && info.mailbox.is_some() {
+        // Back from a cut link with its station address: its mailbox was let go when it
+        // was lost, and the slave still counts its mailbox messages on from then
+        // (ETG.1000.4, spec-notes §mbx.counter). Through INIT both sides start
+        // their counters afresh and the mailbox is taken over again.
+        return come_back(ctx, record.clone()).await;
+    }
     if !info.present {
         ctx.update(info.position, |r| r.info.present = true);
         ctx.emit(MasterEvent::SlaveFound {
