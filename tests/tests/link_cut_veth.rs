@@ -96,17 +96,19 @@ fn cut(ecatd: &Ecatd) {
     ecatd.set_sim_link(true);
 }
 
-/// Waits until ecatd reports every slave in OP again.
+/// Waits until ecatd reports every slave present and in OP again.
 fn wait_all_op(ecatd: &Ecatd, slaves: usize) {
     let deadline = Instant::now() + Duration::from_secs(60);
     loop {
         let (status, body) = curl(&["-s", &format!("{}/api/v1/slaves", ecatd.http)]);
         if status == 200 {
             let listed: serde_json::Value = serde_json::from_str(&body).unwrap();
+            // A lost slave keeps its last state in the list: only present ones count.
             let states: Vec<&str> = listed
                 .as_array()
                 .unwrap()
                 .iter()
+                .filter(|s| s["present"] == true)
                 .filter_map(|s| s["state"].as_str())
                 .collect();
             if states.len() == slaves && states.iter().all(|s| *s == "OP") {
