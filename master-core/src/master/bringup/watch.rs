@@ -92,13 +92,7 @@ async fn one(
     // A slave the scan could not identify (no SII) is identified again like one that came
     // back.
     let identified = !record.sii.is_empty();
-    // A slave that was lost and answers at its station again (a cut cable, not a power
-    // cycle) had its mailbox released when it was lost, and its SyncManager watchdog may
-    // have dropped its outputs meanwhile: it is configured afresh, as one that came back
-    // without its station address, so its mailbox is taken over again from INIT → PREOP.
-    if wkc == 1 && identified && !info.present {
-        come_back(ctx, record).await
-    } else if wkc == 1 && identified {
+    if wkc == 1 && identified {
         let status = AlStatusBlock::new_checked(data)
             .and_then(|view| AlStatusBlockRepr::parse(&view))
             .map_err(|source| MasterError::Malformed {
@@ -139,6 +133,13 @@ async fn still_there(
     status: AlStatusBlockRepr,
 ) -> Result<(), MasterError> {
     let info = &record.info;
+    if !info.present && status.status.state != AlState::Init && info.mailbox.is_some() {
+        // Back from a cut link with its station address: its mailbox was let go when it
+        // was lost, and the slave still counts its mailbox messages on from then
+        // (ETG.1000.4, spec-notes §mbx.counter). Through INIT both sides start
+        // their counters afresh and the mailbox is taken over again.
+        return come_back(ctx, record.clone()).await;
+    }
     if !info.present {
         ctx.update(info.position, |r| r.info.present = true);
         ctx.emit(MasterEvent::SlaveFound {
