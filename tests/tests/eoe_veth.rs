@@ -119,36 +119,8 @@ fn metric(ecatd: &EcatdInNs, name: &str, filter: &str) -> u64 {
 
 #[test]
 fn ping_http_state_changes_and_rescan_through_the_drives_interface() {
-    let Rig {
-        sim: sim_ns,
-        master,
-    } = Rig::new();
-    let _sim = SimProcess::start(&sim_ns, SIM_IFACE, &[]);
-    let config = std::env::temp_dir().join(format!("ecatd-eoe-veth-{}.toml", std::process::id()));
-    std::fs::write(&config, CONFIG).expect("config written");
-    let config_path = config.to_str().expect("a UTF-8 path").to_owned();
-    let mut ecatd = EcatdInNs::start_in(
-        master,
-        server_support::bin_dir(),
-        &["--iface", MASTER_IFACE, "--config", &config_path],
-    );
-    let _ = std::fs::remove_file(&config);
-    ecatd.wait_until("eoe0s0 up with its address", |e| {
-        e.carrier("eoe0s0")
-            && e.link("eoe0s0")
-                .is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
-    });
-
-    let (status, body) = ecatd.curl(&[
-        "/api/v1/slaves/0/eoe/ip",
-        "-X",
-        "PUT",
-        "-H",
-        "content-type: application/json",
-        "-d",
-        r#"{"mac":"02:00:00:00:bb:01","ip":"10.78.0.2","subnet_mask":"255.255.255.0"}"#,
-    ]);
-    assert_eq!(status, 200, "{body}");
+    let mut rig = EoeRig::start(&[]);
+    let ecatd = &mut rig.ecatd;
     assert_eq!(ecatd.ping("10.78.0.2", 100, 56), 100, "{}", ecatd.log());
 
     let len = 16 << 20;
@@ -188,11 +160,11 @@ fn ping_http_state_changes_and_rescan_through_the_drives_interface() {
         ]);
         assert_eq!(status, 200, "{answer}");
     };
-    state(&ecatd, "INIT");
+    state(ecatd, "INIT");
     ecatd.wait_until("eoe0s0 down", |e| {
         !e.carrier("eoe0s0") && e.interface("eoe0s0").is_some_and(|i| i["state"] == "down")
     });
-    state(&ecatd, "PREOP");
+    state(ecatd, "PREOP");
     ecatd.wait_until("eoe0s0 up again", |e| {
         e.carrier("eoe0s0") && e.interface("eoe0s0").is_some_and(|i| i["state"] == "up")
     });
