@@ -67,6 +67,16 @@ pub async fn run(config: Config) -> Result<(), String> {
     // Before the scan: its findings against the configuration are counted too.
     let findings = metrics.config.follow(core.master());
     core.set_capture(Arc::clone(&running.capture));
+    if config.capture.rolling {
+        core.start_rolling(&config.capture)
+            .map_err(|err| format!("rolling capture: {}", err.message))?;
+        tracing::info!(
+            dir = %config.capture.dir.display(),
+            files = config.capture.files,
+            file_kib = config.capture.file_kib,
+            "rolling capture running"
+        );
+    }
     core.set_link(match &segment_config {
         crate::config::Segment::Simulate { .. } => "simulate",
         crate::config::Segment::Iface { name } => name,

@@ -3,28 +3,64 @@
 //! lines whatever the log filter says, so `--log warn` never hides who wrote what.
 
 use std::path::Path;
+use std::sync::{Mutex, OnceLock, PoisonError};
 
 use tracing::level_filters::LevelFilter;
 use tracing_subscriber::filter::{EnvFilter, Targets};
 use tracing_subscriber::prelude::*;
+use tracing_subscriber::{Registry, reload};
 
 use crate::config::LogFormat;
 
 /// The tracing target of the audit lines.
 pub const AUDIT_TARGET: &str = "audit";
 
+/// The log filter in force and the handle that replaces it at run time (`ecat debug`);
+/// set once by [`init`].
+struct Runtime {
+    filter: Mutex<String>,
+    handle: reload::Handle<EnvFilter, Registry>,
+}
+
+static RUNTIME: OnceLock<Runtime> = OnceLock::new();
+
+/// The filter as the log layer uses it: the audit target is the audit sink's alone, so the
+/// log filter neither shows it twice nor hides it.
+fn log_filter(filter: &str) -> Result<EnvFilter, String> {
+    let audit_off = format!("{AUDIT_TARGET}=off")
+        .parse()
+        .map_err(|err| format!("bad log filter: {err}"))?;
+    Ok(EnvFilter::try_new(filter)
+        .map_err(|err| format!("bad log filter: {err}"))?
+        .add_directive(audit_off))
+}
+
+/// The log filter in force; `None` when [`init`] has not run (a library user's process).
+pub fn current_filter() -> Option<String> {
+    RUNTIME
+        .get()
+        .map(|r| r.filter.lock().unwrap_or_else(PoisonError::into_inner).clone())
+}
+
+/// Replaces the log filter (`EnvFilter` syntax) at run time. A bad filter is refused and
+/// the old one stays; `Err(None)` when [`init`] has not run.
+pub fn set_filter(filter: &str) -> Result<(), Option<String>> {
+    let runtime = RUNTIME.get().ok_or(None)?;
+    let parsed = log_filter(filter).map_err(Some)?;
+    let mut current = runtime.filter.lock().unwrap_or_else(PoisonError::into_inner);
+    runtime
+        .handle
+        .reload(parsed)
+        .map_err(|err| Some(format!("cannot replace the log filter: {err}")))?;
+    *current = filter.to_owned();
+    Ok(())
+}
+
 /// Installs the global subscriber; `filter` uses `EnvFilter` syntax. Audit lines go to
 /// `audit_log` (appended) or, without one, to standard error as JSON lines.
 pub fn init(format: LogFormat, filter: &str, audit_log: Option<&Path>) -> Result<(), String> {
-    // The audit target is the audit sink's alone: the log filter neither shows it twice
-    // nor hides it.
-    let filter = EnvFilter::try_new(filter)
-        .map_err(|err| format!("bad log filter: {err}"))?
-        .add_directive(
-            format!("{AUDIT_TARGET}=off")
-                .parse()
-                .map_err(|err| format!("bad log filter: {err}"))?,
-        );
+    let text = filter.to_owned();
+    let (filter, handle) = reload::Layer::new(log_filter(filter)?);
     let log = tracing_subscriber::fmt::layer().with_writer(std::io::stderr);
     let log = match format {
         LogFormat::Human => log.boxed(),
@@ -48,5 +84,10 @@ pub fn init(format: LogFormat, filter: &str, audit_log: Option<&Path>) -> Result
         .with(log)
         .with(audit)
         .try_init()
-        .map_err(|err| format!("cannot install the logger: {err}"))
+        .map_err(|err| format!("cannot install the logger: {err}"))?;
+    let _ = RUNTIME.set(Runtime {
+        filter: Mutex::new(text),
+        handle,
+    });
+    Ok(())
 }

@@ -92,6 +92,10 @@ pub const REST: &[(&str, &str, Access)] = &[
     ("PUT", "/api/v1/slaves/{slave}/eoe/ip", Write),
     ("GET", "/api/v1/master", Read),
     ("GET", "/api/v1/capture", Write),
+    ("POST", "/api/v1/slaves/{slave}/registers/{address}/rdwr", Write),
+    ("GET", "/api/v1/domains", Read),
+    ("GET", "/api/v1/log-filter", Read),
+    ("PUT", "/api/v1/log-filter", Write),
     ("GET", "/api/v1/eoe/interfaces", Read),
     ("GET", "/api/v1/gateway", Read),
     ("GET", "/api/v1/config", Read),
@@ -129,6 +133,11 @@ pub const GRPC: &[(&str, Access)] = &[
     ("/ecat.v1.BusService/GetMaster", Read),
     // The frames carry every mailbox transfer, FoE passwords included.
     ("/ecat.v1.BusService/Capture", Write),
+    ("/ecat.v1.BusService/ReadWriteRegister", Write),
+    ("/ecat.v1.BusService/ListDomains", Read),
+    ("/ecat.v1.BusService/GetLogFilter", Read),
+    // Changing what ecatd logs is the operator's (ecatd has no role above write).
+    ("/ecat.v1.BusService/SetLogFilter", Write),
     ("/ecat.v1.CoeService/Upload", Read),
     ("/ecat.v1.CoeService/Download", Write),
     ("/ecat.v1.CoeService/ObjectList", Read),

@@ -3,10 +3,14 @@
 //! [`Capture`] is open it copies each frame into a bounded queue read by another thread, and
 //! counts a frame it cannot queue (queue full) as dropped instead of waiting.
 //!
+//! Two captures can be open at once, each with its own queue and drop count: one on demand
+//! ([`CaptureHub::open`], one at a time) and one standing ([`CaptureHub::open_standing`],
+//! the rolling capture that runs for as long as ecatd does).
+//!
 //! Idle, the tap costs one relaxed atomic load per frame.
 
 use std::io;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -24,18 +28,31 @@ pub struct CapturedFrame {
     pub frame: Vec<u8>,
 }
 
+/// One capture's place in the hub: its queue while open, and the frames it dropped.
+#[derive(Debug, Default)]
+struct Slot {
+    sink: Mutex<Option<SyncSender<CapturedFrame>>>,
+    dropped: AtomicU64,
+}
+
+/// The slot of on-demand captures.
+const LIVE: usize = 0;
+/// The slot of the standing (rolling) capture.
+const STANDING: usize = 1;
+
 /// The tap's side shared with whoever opens captures.
 #[derive(Debug, Default)]
 pub struct CaptureHub {
-    active: AtomicBool,
-    sink: Mutex<Option<SyncSender<CapturedFrame>>>,
-    dropped: AtomicU64,
+    /// Captures open.
+    active: AtomicUsize,
+    slots: [Slot; 2],
 }
 
 /// An open capture: frames from now on, until dropped.
 #[derive(Debug)]
 pub struct Capture {
     hub: Arc<CaptureHub>,
+    slot: usize,
     frames: Receiver<CapturedFrame>,
     dropped_before: u64,
 }
@@ -47,43 +64,61 @@ impl CaptureHub {
     }
 
     /// Opens a capture whose queue holds `capacity` frames; `None` while another one is
-    /// open (one at a time, so that no capture steals the other's frames).
+    /// open (one at a time, so that no capture steals the other's frames). The standing
+    /// capture does not count: it gets its own copies.
     pub fn open(self: &Arc<Self>, capacity: usize) -> Option<Capture> {
-        let mut sink = self.sink.lock().unwrap_or_else(PoisonError::into_inner);
+        self.open_slot(LIVE, capacity)
+    }
+
+    /// Opens the standing capture (ecatd's rolling capture) beside any on-demand one;
+    /// `None` while it is open already.
+    pub fn open_standing(self: &Arc<Self>, capacity: usize) -> Option<Capture> {
+        self.open_slot(STANDING, capacity)
+    }
+
+    fn open_slot(self: &Arc<Self>, slot: usize, capacity: usize) -> Option<Capture> {
+        let mut sink = self.slots[slot]
+            .sink
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
         if sink.is_some() {
             return None;
         }
         let (tx, rx) = sync_channel(capacity.max(1));
         *sink = Some(tx);
-        self.active.store(true, Ordering::Release);
+        self.active.fetch_add(1, Ordering::AcqRel);
         Some(Capture {
             hub: Arc::clone(self),
+            slot,
             frames: rx,
-            dropped_before: self.dropped.load(Ordering::Relaxed),
+            dropped_before: self.slots[slot].dropped.load(Ordering::Relaxed),
         })
     }
 
     /// Called by the tap on the bus thread: never blocks.
     fn offer(&self, sent: bool, frame: &[u8]) {
-        if !self.active.load(Ordering::Relaxed) {
+        if self.active.load(Ordering::Relaxed) == 0 {
             return;
         }
-        // The lock is only contended while a capture opens or closes: skip, counted.
-        let Ok(sink) = self.sink.try_lock() else {
-            self.dropped.fetch_add(1, Ordering::Relaxed);
-            return;
-        };
-        let Some(tx) = sink.as_ref() else { return };
         let at = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .unwrap_or_default();
-        let copy = CapturedFrame {
-            at,
-            sent,
-            frame: frame.to_vec(),
-        };
-        if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) = tx.try_send(copy) {
-            self.dropped.fetch_add(1, Ordering::Relaxed);
+        for slot in &self.slots {
+            // The lock is only contended while a capture opens or closes: skip, counted.
+            let Ok(sink) = slot.sink.try_lock() else {
+                slot.dropped.fetch_add(1, Ordering::Relaxed);
+                continue;
+            };
+            let Some(tx) = sink.as_ref() else { continue };
+            let copy = CapturedFrame {
+                at,
+                sent,
+                frame: frame.to_vec(),
+            };
+            if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) = tx.try_send(copy)
+            {
+                slot.dropped.fetch_add(1, Ordering::Relaxed);
+            }
         }
     }
 }
@@ -94,16 +129,24 @@ impl Capture {
         self.frames.recv_timeout(timeout).ok()
     }
 
+    /// The next frame if one is queued, without waiting.
+    pub fn try_next(&self) -> Option<CapturedFrame> {
+        self.frames.try_recv().ok()
+    }
+
     /// Frames the tap could not queue since this capture opened.
     pub fn dropped(&self) -> u64 {
-        self.hub.dropped.load(Ordering::Relaxed) - self.dropped_before
+        self.hub.slots[self.slot].dropped.load(Ordering::Relaxed) - self.dropped_before
     }
 }
 
 impl Drop for Capture {
     fn drop(&mut self) {
-        self.hub.active.store(false, Ordering::Release);
-        *self.hub.sink.lock().unwrap_or_else(PoisonError::into_inner) = None;
+        *self.hub.slots[self.slot]
+            .sink
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner) = None;
+        self.hub.active.fetch_sub(1, Ordering::AcqRel);
     }
 }
 
@@ -174,5 +217,31 @@ mod tests {
         assert_eq!(received.frame, [9; 60]);
         drop(capture);
         assert!(hub.open(2).is_some(), "closed: a new capture may open");
+    }
+
+    #[test]
+    fn the_standing_capture_gets_its_own_copies_and_drop_count() {
+        let (a, _b) = MemoryLink::pair(64);
+        let hub = CaptureHub::new();
+        let mut tap = CaptureTap::new(a, Arc::clone(&hub));
+        let standing = hub.open_standing(8).unwrap();
+        assert!(hub.open_standing(8).is_none(), "one standing capture");
+        let live = hub.open(1).unwrap();
+        for n in 0..3u8 {
+            tap.send(&[n; 60]).unwrap();
+        }
+        for n in 0..3u8 {
+            assert_eq!(standing.try_next().unwrap().frame, [n; 60]);
+        }
+        assert_eq!(standing.dropped(), 0);
+        assert_eq!(live.try_next().unwrap().frame, [0; 60]);
+        assert!(live.try_next().is_none());
+        assert_eq!(live.dropped(), 2, "queue of 1: frames 1 and 2 dropped");
+        drop(live);
+        tap.send(&[7; 60]).unwrap();
+        assert_eq!(standing.try_next().unwrap().frame, [7; 60], "still open");
+        drop(standing);
+        tap.send(&[8; 60]).unwrap();
+        assert!(hub.open_standing(1).unwrap().try_next().is_none());
     }
 }

@@ -10,7 +10,9 @@
 mod client;
 mod commands;
 mod config;
+mod diag_message;
 mod eoe;
+mod esi;
 mod gateway;
 mod out;
 mod parse;
@@ -113,6 +115,8 @@ command_set! {
     RegRead(commands::registers::RegRead),
     /// Write ESC registers.
     RegWrite(commands::registers::RegWrite),
+    /// Write ESC registers and print what was there before, in one FPRW datagram.
+    RegRdwr(commands::registers::RegRdwr),
     /// Show the ESC error counters (0x0300-0x0313) of every slave.
     Crc(commands::registers::Crc),
     /// Read the SII image (raw bytes to standard output, or to `-o FILE`).
@@ -121,6 +125,17 @@ command_set! {
     SiiWrite(commands::sii::SiiWrite),
     /// Capture the live bus to pcapng: `ecat pcap -c 1000 -w bus.pcapng`.
     Pcap(commands::pcap::Pcap),
+    /// Write the process image (every domain's bytes) to standard output; `--hex` to read.
+    Data(commands::domains::Data),
+    /// List the domains (slave groups): logical address, size, working counter, slaves;
+    /// `-v` for their entries and data.
+    Domains(commands::domains::Domains),
+    /// Show or set ecatd's runtime log filter (IgH's levels 0-2, or a filter).
+    Debug(commands::debug::Debug),
+    /// Show a slave's diagnosis history (0x10F3) decoded.
+    Diag(commands::diag::Diag),
+    /// Print an ESI fragment (EtherCATInfo XML) generated from each slave's SII.
+    Xml(commands::xml::Xml),
     /// Print the topology as a Graphviz graph (`ecat graph | dot -Tsvg`).
     Graph(commands::graph::Graph),
     /// The mailbox gateway's state and statistics; `start` or `stop` it.

@@ -6,6 +6,7 @@
 //! becomes the same `[bus] cycle` and `[[slave]]` entries (`eni`).
 
 pub mod bus;
+pub mod capture;
 pub mod duration;
 pub mod eni;
 pub mod groups;
@@ -411,6 +412,8 @@ pub struct Config {
     pub group: Vec<groups::GroupEntry>,
     /// EoE interfaces (`[eoe]`, see `server/src/eoe/config.rs`).
     pub eoe: crate::eoe::config::EoeSettings,
+    /// The rolling capture (`[capture]`).
+    pub capture: capture::CaptureSettings,
     /// The configuration file this came from (SIGHUP reloads its tokens).
     #[serde(skip)]
     pub file: Option<PathBuf>,
@@ -442,6 +445,7 @@ impl Default for Config {
             slave: Vec::new(),
             group: Vec::new(),
             eoe: Default::default(),
+            capture: capture::CaptureSettings::default(),
             file: None,
             eni_unused: Vec::new(),
         }
@@ -566,6 +570,7 @@ impl Config {
     /// What the master gets from `[bus]`, `[[slave]]` and `[[group]]`, checked.
     pub fn segment_setup(&self) -> Result<SegmentSetup, String> {
         self.bus.check()?;
+        self.capture.check()?;
         let mut slave_configs = Vec::new();
         let mut pdos = Vec::new();
         let mut addresses = Vec::new();

@@ -77,6 +77,7 @@ macro_rules! slave_field {
 slave_field!(
     proto::v1::RequestStateRequest,
     proto::v1::WriteRegisterRequest,
+    proto::v1::ReadWriteRegisterRequest,
     proto::v1::WriteSiiRequest,
     proto::v1::SetAliasRequest,
     proto::v1::DownloadRequest,
@@ -88,6 +89,12 @@ slave_field!(
 impl SlaveField for proto::v1::RescanRequest {
     fn slave_field(&self) -> &str {
         "all"
+    }
+}
+
+impl SlaveField for proto::v1::SetLogFilterRequest {
+    fn slave_field(&self) -> &str {
+        "ecatd"
     }
 }
 

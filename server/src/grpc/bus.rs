@@ -179,19 +179,72 @@ impl BusService for Bus {
         }))
     }
 
+    async fn read_write_register(
+        &self,
+        request: Request<pb::ReadWriteRegisterRequest>,
+    ) -> Reply<pb::ReadWriteRegisterResponse> {
+        require_write(&request, "read_write_register")?;
+        let r = request.get_ref();
+        crate::audit::note_value(&r.data);
+        let data = self
+            .core
+            .read_write_register(&r.slave, narrow(r.address, "address")?, &r.data)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::ReadWriteRegisterResponse { data }))
+    }
+
+    async fn list_domains(
+        &self,
+        _: Request<pb::ListDomainsRequest>,
+    ) -> Reply<pb::ListDomainsResponse> {
+        let domains = self
+            .core
+            .domains()
+            .map_err(status)?
+            .into_iter()
+            .map(domain)
+            .collect();
+        Ok(Response::new(pb::ListDomainsResponse { domains }))
+    }
+
+    async fn get_log_filter(
+        &self,
+        _: Request<pb::GetLogFilterRequest>,
+    ) -> Reply<pb::GetLogFilterResponse> {
+        let filter = self.core.log_filter().map_err(status)?;
+        Ok(Response::new(pb::GetLogFilterResponse { filter }))
+    }
+
+    async fn set_log_filter(
+        &self,
+        request: Request<pb::SetLogFilterRequest>,
+    ) -> Reply<pb::SetLogFilterResponse> {
+        require_write(&request, "set_log_filter")?;
+        crate::audit::note_value(request.get_ref().filter.as_bytes());
+        let filter = self
+            .core
+            .set_log_filter(&request.get_ref().filter)
+            .map_err(status)?;
+        Ok(Response::new(pb::SetLogFilterResponse { filter }))
+    }
+
     type CaptureStream = Pin<Box<dyn Stream<Item = Result<pb::CaptureResponse, Status>> + Send>>;
 
     async fn capture(&self, request: Request<pb::CaptureRequest>) -> Reply<Self::CaptureStream> {
         require_write(&request, "capture")?;
         let r = request.get_ref();
-        let done = self
-            .core
-            .capture(
-                r.frames,
-                std::time::Duration::from_millis(u64::from(r.duration_ms)),
-            )
-            .await
-            .map_err(status)?;
+        let done = if r.rolling {
+            self.core.rolling_window().await
+        } else {
+            self.core
+                .capture(
+                    r.frames,
+                    std::time::Duration::from_millis(u64::from(r.duration_ms)),
+                )
+                .await
+        }
+        .map_err(status)?;
         let pieces: Vec<Vec<u8>> = done
             .pcapng
             .chunks(CAPTURE_CHUNK)
@@ -208,6 +261,34 @@ impl BusService for Bus {
             })
         });
         Ok(Response::new(Box::pin(tokio_stream::iter(chunks))))
+    }
+}
+
+fn domain(d: crate::service::domains::DomainView) -> pb::Domain {
+    pb::Domain {
+        index: d.index as u32,
+        logical_address: d.logical,
+        size: d.data.len() as u32,
+        expected_wkc: u32::from(d.expected_wkc),
+        last_wkc: u32::from(d.last_wkc),
+        period_ns: d.period_ns,
+        slaves: d.slaves.into_iter().map(u32::from).collect(),
+        entries: d
+            .entries
+            .into_iter()
+            .map(|e| pb::DomainEntry {
+                position: u32::from(e.position),
+                pdo_index: u32::from(e.pdo),
+                index: u32::from(e.index),
+                subindex: u32::from(e.subindex),
+                bit_length: u32::from(e.bit_length),
+                bit_offset: e.bit_offset,
+                output: e.output,
+                name: e.name,
+            })
+            .collect(),
+        data: d.data,
+        wrong_wkc: d.wrong_wkc,
     }
 }
 

@@ -10,6 +10,7 @@
 //! `eoe` (the EoE interfaces).
 
 mod bus;
+mod capture;
 pub mod calls;
 pub mod config;
 mod eoe;
@@ -45,6 +46,7 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     families.extend(store.events.collect());
     families.extend(store.config.collect());
     families.extend(gateway::collect(core));
+    families.extend(capture::collect(core));
     families.extend(process::collect());
     families.into_iter().flatten().collect()
 }

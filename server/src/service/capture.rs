@@ -31,7 +31,8 @@ const QUEUE: usize = 4096;
 pub struct CaptureResult {
     /// The pcapng file.
     pub pcapng: Vec<u8>,
-    /// Frames in it.
+    /// Frames in it (for the rolling window: frames the ring took since start, the
+    /// window holding the newest of them).
     pub frames: u64,
     /// Frames the tap could not queue (the writer fell behind).
     pub dropped: u64,
@@ -41,6 +42,50 @@ impl Core {
     /// Hands the bus's capture hub to the core.
     pub fn set_capture(&self, hub: Arc<CaptureHub>) {
         let _ = self.capture.set(hub);
+    }
+
+    /// Starts the rolling capture over the bus's capture hub (once; at start-up).
+    pub fn start_rolling(&self, settings: &crate::config::capture::CaptureSettings) -> Result<()> {
+        let hub = self
+            .capture
+            .get()
+            .ok_or_else(|| ApiError::unavailable("this segment has no capture tap"))?;
+        let rolling =
+            super::rolling::RollingCapture::start(hub, settings).map_err(ApiError::internal)?;
+        self.rolling
+            .set(rolling)
+            .map_err(|_| ApiError::internal("the rolling capture runs already"))
+    }
+
+    /// The rolling capture's counters; `None` when it does not run.
+    pub fn rolling_stats(&self) -> Option<Arc<super::rolling::RollingStats>> {
+        self.rolling.get().map(|r| Arc::clone(r.stats()))
+    }
+
+    /// The rolling capture's window: its files, oldest first, as one pcapng file of
+    /// several sections (the newest files within [`MAX_BYTES`]).
+    pub async fn rolling_window(&self) -> Result<CaptureResult> {
+        let core = self.clone();
+        tokio::task::spawn_blocking(move || {
+            let rolling = core.rolling.get().ok_or_else(|| {
+                let mut err = ApiError::unavailable(
+                    "no rolling capture runs: set [capture] rolling = true in ecatd's configuration",
+                );
+                err.tag = "no_rolling_capture";
+                err
+            })?;
+            let stats = rolling.stats();
+            let pcapng = rolling
+                .window(MAX_BYTES)
+                .map_err(|err| ApiError::internal(format!("rolling capture: {err}")))?;
+            Ok(CaptureResult {
+                frames: stats.frames.load(std::sync::atomic::Ordering::Relaxed),
+                dropped: stats.dropped.load(std::sync::atomic::Ordering::Relaxed),
+                pcapng,
+            })
+        })
+        .await
+        .map_err(|err| ApiError::internal(format!("capture task: {err}")))?
     }
 
     /// Captures the bus until `frames` frames (0: no limit) or `duration` (zero: no limit)

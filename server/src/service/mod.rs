@@ -9,12 +9,15 @@
 pub mod address;
 pub mod bus;
 pub mod capture;
+pub mod domains;
 pub mod error;
 pub mod events;
 pub mod gateway;
 pub mod ip;
+pub mod log_filter;
 pub mod master_view;
 pub mod read_effects;
+pub mod rolling;
 mod sii_checksum;
 pub mod transfer;
 pub mod value;
@@ -61,6 +64,8 @@ pub struct Core {
     link: Arc<std::sync::OnceLock<String>>,
     /// The bus's capture hub ([`capture`]).
     capture: Arc<std::sync::OnceLock<Arc<master_core::link::CaptureHub>>>,
+    /// The rolling capture, when `[capture] rolling` is on ([`rolling`]).
+    rolling: Arc<std::sync::OnceLock<rolling::RollingCapture>>,
     /// Set once at shutdown: every event stream ends when it is.
     stopping: Arc<tokio::sync::watch::Sender<bool>>,
     /// The effective configuration as TOML, and the ENI file it came from (`ecat config`).
@@ -85,6 +90,7 @@ impl Core {
             calls,
             link: Arc::default(),
             capture: Arc::default(),
+            rolling: Arc::default(),
             stopping: Arc::new(tokio::sync::watch::Sender::new(false)),
             effective_config: Arc::default(),
             eoe: crate::eoe::EoeInterfaces::default(),
@@ -282,6 +288,25 @@ impl Core {
         Ok(self
             .master
             .write_register(self.address(slave)?, address, data)
+            .await?)
+    }
+
+    /// Writes ESC registers at `address` and returns their contents from before the write,
+    /// in one FPRW datagram.
+    pub async fn read_write_register(
+        &self,
+        slave: &str,
+        address: u16,
+        data: &[u8],
+    ) -> Result<Vec<u8>> {
+        if data.is_empty() || data.len() > MAX_REGISTER_LEN {
+            return Err(ApiError::invalid(format!(
+                "register data must be 1..={MAX_REGISTER_LEN} bytes"
+            )));
+        }
+        Ok(self
+            .master
+            .read_write_register(self.address(slave)?, address, data)
             .await?)
     }
 

@@ -125,7 +125,10 @@ fn drive() -> SlaveSpec {
             object(0x6041, "UNSIGNED16", "ro_tx", "Statusword", 0),
             object(0x607A, "INTEGER32", "rw_rx", "Target position", 0),
             object(0x6064, "INTEGER32", "ro_tx", "Position actual value", 0),
-        ],
+        ]
+        .into_iter()
+        .chain(super::diag_history::drive_history())
+        .collect(),
         idns: vec![operation_mode(), motor_temperature()],
         foe_files: vec![FoeFileSpec {
             name: "firmware.bin".into(),

@@ -97,6 +97,21 @@ fn typed_entry(obj: &CoeObject, dt: DataType, access: ObjectAccess) -> Result<En
                 .to_vec(),
         ),
         DataType::OctetString | DataType::Domain | DataType::UnicodeString => {
+            if let Some(list) = v.and_then(toml::Value::as_array) {
+                // Binary contents as a list of byte values.
+                let data = list
+                    .iter()
+                    .map(|b| {
+                        b.as_integer()
+                            .and_then(|b| u8::try_from(b).ok())
+                            .ok_or_else(|| ValueError::OutOfRange {
+                                data_type: dt,
+                                value: b.to_string(),
+                            })
+                    })
+                    .collect::<Result<Vec<u8>, _>>()?;
+                return bytes_entry(data);
+            }
             match v.and_then(toml::Value::as_str) {
                 Some(text) => bytes_entry(text.as_bytes().to_vec()),
                 None => bytes_entry(pattern(obj.size.unwrap_or(0))),

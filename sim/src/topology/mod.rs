@@ -11,6 +11,7 @@
 mod build;
 mod default;
 mod dictionary;
+pub mod diag_history;
 mod model;
 mod sii;
 mod soe;

@@ -303,7 +303,8 @@ pub struct CoeObject {
     pub access: String,
     /// Object (VAR) or entry name.
     pub name: String,
-    /// Initial value (integer, float, bool or string); zero/empty when absent.
+    /// Initial value (integer, float, bool, string, or for byte objects a list of byte
+    /// values); zero/empty when absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<toml::Value>,
     /// For byte objects without a value: the size in bytes, filled with the test pattern

@@ -39,6 +39,20 @@ impl Master {
             .await
     }
 
+    /// Writes `data` at register `ado` of the slave at `address` and returns the contents
+    /// from before the write, in one FPRW datagram.
+    pub async fn read_write_register(
+        &self,
+        address: SlaveAddress,
+        ado: u16,
+        data: &[u8],
+    ) -> Result<Vec<u8>, MasterError> {
+        let ctx = Arc::clone(&self.ctx);
+        let data = data.to_vec();
+        self.run(async move { tools::read_write_register(&ctx, address, ado, data).await })
+            .await
+    }
+
     /// Reads the whole SII image of the slave at `address` (from the slave, not a cache).
     pub async fn read_sii(&self, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
         let ctx = Arc::clone(&self.ctx);

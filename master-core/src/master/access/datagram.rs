@@ -33,6 +33,20 @@ pub(crate) async fn fpwr(
         .map_err(MasterError::bus(what))
 }
 
+/// FPRW of `data` at `ado` of `station`: returns the contents from before the write
+/// (working counter 3: read and written, ETG.1000.4 §5.4.3).
+pub(crate) async fn fprw(
+    bus: &BusHandle,
+    station: u16,
+    ado: u16,
+    data: impl Into<DatagramData>,
+    what: &'static str,
+) -> Result<DatagramData, MasterError> {
+    let request = DatagramRequest::fprw(station, ado, data).expect_wkc(3);
+    let reply = bus.submit(request).await.map_err(MasterError::bus(what))?;
+    Ok(reply.data)
+}
+
 /// APWR of `data` at `ado` of the slave at ring `position`.
 pub(crate) async fn apwr(
     bus: &BusHandle,

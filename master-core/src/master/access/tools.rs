@@ -7,7 +7,7 @@ use crate::wire::sii::checksum::CHECKSUM_OFFSET;
 use crate::wire::sii::fixed::ALIAS_WORD;
 
 use super::address::SlaveAddress;
-use super::datagram::{fprd, fprd_u16, fpwr};
+use super::datagram::{fprd, fprd_u16, fprw, fpwr};
 use crate::master::bringup::configure::eeprom;
 use crate::master::context::Context;
 use crate::master::error::MasterError;
@@ -44,6 +44,26 @@ pub(crate) async fn write_register(
         "register write",
     )
     .await
+}
+
+/// Writes `data` at register `ado` of the slave at `address` and returns what was there
+/// before, in one datagram.
+pub(crate) async fn read_write_register(
+    ctx: &Context,
+    address: SlaveAddress,
+    ado: u16,
+    data: Vec<u8>,
+) -> Result<Vec<u8>, MasterError> {
+    let station = ctx.resolve(address)?.info.station;
+    Ok(fprw(
+        &ctx.bus,
+        station,
+        ado,
+        DatagramData::from(data),
+        "register read-write",
+    )
+    .await?
+    .to_vec())
 }
 
 /// Reads the whole SII image of the slave at `address` from the slave.

@@ -2,7 +2,10 @@
 //! [`Run`](crate::Run).
 
 pub mod coe;
+pub mod debug;
+pub mod diag;
 pub mod docs;
+pub mod domains;
 pub mod esc;
 pub mod foe;
 pub mod graph;
@@ -15,3 +18,4 @@ pub mod slaves;
 pub mod soe;
 pub mod states;
 pub mod voe;
+pub mod xml;

@@ -1,5 +1,7 @@
 //! `ecat pcap -c N [-t SECONDS] -w FILE`: the live bus as a pcapng file for Wireshark
-//! (standard output without `-w`), with a progress bar of the bytes received.
+//! (standard output without `-w`), with a progress bar of the bytes received;
+//! `ecat pcap --rolling -w FILE`: the rolling capture's window instead (its ring of files,
+//! oldest first, as one pcapng file of several sections).
 
 use std::path::PathBuf;
 
@@ -24,6 +26,10 @@ pub struct Pcap {
     /// The pcapng file (standard output when absent).
     #[arg(short = 'w', long = "write")]
     pub file: Option<PathBuf>,
+    /// Fetch the rolling capture's window (`[capture]` in ecatd's configuration) instead of
+    /// capturing now.
+    #[arg(long, conflicts_with_all = ["count", "seconds"])]
+    pub rolling: bool,
 }
 
 impl Run for Pcap {
@@ -33,7 +39,7 @@ impl Run for Pcap {
             None => 0,
         };
         let seconds = self.seconds.unwrap_or(0.0);
-        if frames == 0 && seconds <= 0.0 {
+        if frames == 0 && seconds <= 0.0 && !self.rolling {
             return Err("pcap: give -c FRAMES, -t SECONDS or both".into());
         }
         if !(0.0..=600.0).contains(&seconds) {
@@ -46,6 +52,7 @@ impl Run for Pcap {
             .capture(pb::CaptureRequest {
                 frames,
                 duration_ms: (seconds * 1000.0) as u32,
+                rolling: self.rolling,
             })
             .await
             .map_err(failed)?

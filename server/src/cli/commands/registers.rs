@@ -1,13 +1,17 @@
-//! ESC register commands: `reg_read`, `reg_write`, `alias`, and `crc` (the error counters
-//! 0x0300-0x0313 of every slave as IgH's table: ETG.1000.4, spec-notes §esc.errors).
+//! ESC register commands: `reg_read`, `reg_write` (IgH's arguments: offset, then a length
+//! or the data; `--type` for a typed value), `reg_rdwr` (IgH has no such command: here it is
+//! the ESC's combined read/write, one FPRW datagram that writes the data and returns what was
+//! there before, ETG.1000.4 §5.4.3), `alias`, and `crc` (the error counters 0x0300-0x0313
+//! of every slave as IgH's table: ETG.1000.4, spec-notes §esc.errors).
 
 use master_core::wire::register::error_counters::{ERROR_COUNTERS_LEN, ErrorCounters};
 use proto::v1 as pb;
+use server::service::value::ValueType;
 use serde_json::{Value, json};
 
 use crate::Run;
 use crate::out::{Out, out};
-use crate::parse::{failed, num, unhex};
+use crate::parse::{failed, num, typed, unhex};
 use crate::select::Selection;
 use crate::session::Session;
 
@@ -19,9 +23,12 @@ pub struct RegRead {
     pub select: Selection,
     /// Register address.
     pub address: String,
-    /// Bytes (default 1).
-    #[arg(default_value = "1")]
-    pub length: String,
+    /// Bytes (default 1, or the size of `--type`).
+    pub length: Option<String>,
+    /// Show the value as this type (`uint16`, `int32`, `u8`, `string`, ... as `upload`);
+    /// raw hex without it.
+    #[arg(long = "type", short = 't')]
+    pub ty: Option<String>,
 }
 
 /// `ecat reg_write`.
@@ -32,8 +39,64 @@ pub struct RegWrite {
     pub select: Selection,
     /// Register address.
     pub address: String,
-    /// Data, hex.
+    /// Data: hex bytes, or a value of `--type`.
     pub data: String,
+    /// The type of DATA (`uint16`, `int32`, ...); hex bytes without it.
+    #[arg(long = "type", short = 't')]
+    pub ty: Option<String>,
+}
+
+/// `ecat reg_rdwr`: write and read back in one FPRW datagram.
+#[derive(Debug, clap::Args)]
+pub struct RegRdwr {
+    /// The slave.
+    #[command(flatten)]
+    pub select: Selection,
+    /// Register address.
+    pub address: String,
+    /// Data written: hex bytes, or a value of `--type`; as many bytes are read.
+    pub data: String,
+    /// The type of DATA and of the value read (`uint16`, ...); hex bytes without it.
+    #[arg(long = "type", short = 't')]
+    pub ty: Option<String>,
+}
+
+/// Register data from the command line: a value of `ty`, or hex bytes.
+fn register_data(data: &str, ty: Option<&str>) -> Result<Vec<u8>, String> {
+    match ty {
+        Some(ty) => server::service::value::encode(typed(ty)?, data).map_err(|e| e.message),
+        None => unhex(data),
+    }
+}
+
+/// Bytes of a value of `ty`; `None` for strings and raw bytes.
+fn type_size(ty: ValueType) -> Option<u32> {
+    Some(match ty {
+        ValueType::Bool | ValueType::U8 | ValueType::I8 => 1,
+        ValueType::U16 | ValueType::I16 => 2,
+        ValueType::U32 | ValueType::I32 | ValueType::F32 => 4,
+        ValueType::U64 | ValueType::I64 | ValueType::F64 => 8,
+        ValueType::String | ValueType::Hex => return None,
+    })
+}
+
+/// Register bytes as the command prints them: the value of `ty`, or hex (`0x` and the
+/// bytes in address order, as IgH prints raw registers).
+fn show(data: &[u8], ty: Option<&str>) -> Result<(serde_json::Value, String), String> {
+    match ty {
+        Some(ty) => {
+            let ty = typed(ty)?;
+            let value = server::service::value::decode(ty, data).map_err(|e| e.message)?;
+            Ok((json!({"data": hex::encode(data), "value": value}), value))
+        }
+        None => Ok((
+            json!({"data": hex::encode(data)}),
+            data.iter()
+                .map(|b| format!("0x{b:02x}"))
+                .collect::<Vec<_>>()
+                .join(" "),
+        )),
+    }
 }
 
 /// `ecat alias`.
@@ -54,6 +117,13 @@ pub struct Crc {}
 impl Run for RegRead {
     async fn run(self, session: &mut Session) -> Result<Out, String> {
         let slave = self.select.one(session, "reg_read").await?;
+        let length: u32 = match (&self.length, &self.ty) {
+            (Some(length), _) => num(length, "length")?,
+            (None, Some(ty)) => {
+                type_size(typed(ty)?).ok_or_else(|| format!("give a length for type {ty}"))?
+            }
+            (None, None) => 1,
+        };
         let r = session
             .clients()
             .await?
@@ -61,21 +131,20 @@ impl Run for RegRead {
             .read_register(pb::ReadRegisterRequest {
                 slave,
                 address: num(&self.address, "address")?,
-                length: num(&self.length, "length")?,
+                length,
             })
             .await
             .map_err(failed)?
             .into_inner();
-        Ok(out(
-            json!({"data": hex::encode(&r.data)}),
-            hex::encode(&r.data),
-        ))
+        let (json, human) = show(&r.data, self.ty.as_deref())?;
+        Ok(out(json, human))
     }
 }
 
 impl Run for RegWrite {
     async fn run(self, session: &mut Session) -> Result<Out, String> {
         let slave = self.select.one(session, "reg_write").await?;
+        let data = register_data(&self.data, self.ty.as_deref())?;
         session
             .clients()
             .await?
@@ -83,11 +152,32 @@ impl Run for RegWrite {
             .write_register(pb::WriteRegisterRequest {
                 slave,
                 address: num(&self.address, "address")?,
-                data: unhex(&self.data)?,
+                data,
             })
             .await
             .map_err(failed)?;
         Ok(out(json!({"ok": true}), ""))
+    }
+}
+
+impl Run for RegRdwr {
+    async fn run(self, session: &mut Session) -> Result<Out, String> {
+        let slave = self.select.one(session, "reg_rdwr").await?;
+        let data = register_data(&self.data, self.ty.as_deref())?;
+        let r = session
+            .clients()
+            .await?
+            .bus
+            .read_write_register(pb::ReadWriteRegisterRequest {
+                slave,
+                address: num(&self.address, "address")?,
+                data,
+            })
+            .await
+            .map_err(failed)?
+            .into_inner();
+        let (json, human) = show(&r.data, self.ty.as_deref())?;
+        Ok(out(json, human))
     }
 }
 

@@ -1,4 +1,5 @@
-//! `GET /api/v1/capture?frames=N&seconds=S`: the live bus as a pcapng file.
+//! `GET /api/v1/capture?frames=N&seconds=S`: the live bus as a pcapng file;
+//! `?rolling=true`: the rolling capture's window instead.
 
 use axum::extract::{Query, State};
 use axum::http::header::{CONTENT_TYPE, HeaderName};
@@ -23,6 +24,9 @@ pub struct CaptureQuery {
     pub frames: Option<String>,
     /// Stop after this many seconds (decimal).
     pub seconds: Option<f64>,
+    /// The rolling capture's window (its files, oldest first, as one pcapng file of
+    /// several sections) instead of a live capture; `frames` and `seconds` are ignored.
+    pub rolling: Option<bool>,
 }
 
 #[utoipa::path(get, path = "/capture", tag = "bus", params(CaptureQuery),
@@ -33,6 +37,10 @@ pub async fn capture(
     State(core): State<Core>,
     Query(q): Query<CaptureQuery>,
 ) -> Result<impl IntoResponse> {
+    if q.rolling == Some(true) {
+        let done = core.rolling_window().await?;
+        return Ok(pcapng_response(done));
+    }
     let frames = match &q.frames {
         Some(text) => num(text, "frames")?,
         None => 0,
@@ -47,7 +55,11 @@ pub async fn capture(
     let done = core
         .capture(frames, std::time::Duration::from_secs_f64(seconds))
         .await?;
-    Ok((
+    Ok(pcapng_response(done))
+}
+
+fn pcapng_response(done: crate::service::capture::CaptureResult) -> impl IntoResponse {
+    (
         [
             (CONTENT_TYPE, "application/x-pcapng".to_owned()),
             (
@@ -60,5 +72,5 @@ pub async fn capture(
             ),
         ],
         done.pcapng,
-    ))
+    )
 }

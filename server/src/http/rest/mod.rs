@@ -12,8 +12,10 @@ pub mod bus;
 pub mod capture;
 pub mod coe;
 pub mod config;
+pub mod domains;
 pub mod eoe;
 pub mod foe;
+pub mod log_filter;
 pub mod registers;
 pub mod sii;
 pub mod slaves;
@@ -72,6 +74,8 @@ pub fn routes() -> OpenApiRouter<Core> {
         .merge(voe::routes())
         .merge(eoe::routes())
         .merge(config::routes())
+        .merge(domains::routes())
+        .merge(log_filter::routes())
 }
 
 /// The routes of transfers that take as long as the slave needs (no request time limit:

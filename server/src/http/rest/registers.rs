@@ -14,6 +14,7 @@ use crate::service::Core;
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
     OpenApiRouter::new().routes(routes!(read_register, write_register))
+        .routes(routes!(read_write_register))
 }
 
 /// Register read length.
@@ -55,4 +56,18 @@ pub async fn write_register(
     core.write_register(&slave, num(&address, "address")?, &unhex(&body.data)?)
         .await
         .map(|()| DONE)
+}
+
+#[utoipa::path(post, path = "/slaves/{slave}/registers/{address}/rdwr", tag = "registers", request_body = Data,
+    params(("slave" = String, Path), ("address" = String, Path)), responses((status = 200, body = Data)))]
+/// Writes ESC registers and returns their contents from before the write, in one FPRW
+/// datagram.
+pub async fn read_write_register(
+    State(core): State<Core>,
+    Path((slave, address)): Path<(String, String)>,
+    Json(body): Json<Data>,
+) -> Result<Json<Data>> {
+    core.read_write_register(&slave, num(&address, "address")?, &unhex(&body.data)?)
+        .await
+        .map(data)
 }
