@@ -37,9 +37,12 @@ fn log_filter(filter: &str) -> Result<EnvFilter, String> {
 
 /// The log filter in force; `None` when [`init`] has not run (a library user's process).
 pub fn current_filter() -> Option<String> {
-    RUNTIME
-        .get()
-        .map(|r| r.filter.lock().unwrap_or_else(PoisonError::into_inner).clone())
+    RUNTIME.get().map(|r| {
+        r.filter
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+    })
 }
 
 /// Replaces the log filter (`EnvFilter` syntax) at run time. A bad filter is refused and
@@ -47,7 +50,10 @@ pub fn current_filter() -> Option<String> {
 pub fn set_filter(filter: &str) -> Result<(), Option<String>> {
     let runtime = RUNTIME.get().ok_or(None)?;
     let parsed = log_filter(filter).map_err(Some)?;
-    let mut current = runtime.filter.lock().unwrap_or_else(PoisonError::into_inner);
+    let mut current = runtime
+        .filter
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner);
     runtime
         .handle
         .reload(parsed)

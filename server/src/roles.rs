@@ -92,7 +92,11 @@ pub const REST: &[(&str, &str, Access)] = &[
     ("PUT", "/api/v1/slaves/{slave}/eoe/ip", Write),
     ("GET", "/api/v1/master", Read),
     ("GET", "/api/v1/capture", Write),
-    ("POST", "/api/v1/slaves/{slave}/registers/{address}/rdwr", Write),
+    (
+        "POST",
+        "/api/v1/slaves/{slave}/registers/{address}/rdwr",
+        Write,
+    ),
     ("GET", "/api/v1/domains", Read),
     ("GET", "/api/v1/log-filter", Read),
     ("PUT", "/api/v1/log-filter", Write),

@@ -439,3 +439,320 @@ fn master_version_rescan_crc_graph_pdos_completion_and_man() {
         &man[..80.min(man.len())]
     );
 }
+
+/// Bytes from bit `offset` of `image`, `bits` long, as a little-endian number.
+fn bits_at(image: &[u8], offset: u64, bits: u64) -> u64 {
+    (0..bits).fold(0, |value, i| {
+        let bit = offset + i;
+        let set = image[(bit / 8) as usize] >> (bit % 8) & 1;
+        value | u64::from(set) << i
+    })
+}
+
+#[test]
+fn domains_and_data_show_the_process_image_as_laid_out() {
+    let ecatd = Ecatd::start(&[]);
+    let ecat = Ecat { ecatd: &ecatd };
+    let topology = Topology::default_segment();
+
+    let domains = ecat.json(&["domains", "-v"]);
+    let domains = domains.as_array().unwrap();
+    assert_eq!(domains.len(), 1, "one default group: {domains:?}");
+    let d = &domains[0];
+    assert_eq!(d["index"], 0);
+    assert_eq!(d["logical_address"], 0);
+    // Every slave's outputs then inputs, whole bytes each.
+    let bytes = |rx: bool, spec: &sim::topology::SlaveSpec| -> u64 {
+        let bits: u32 = spec
+            .pdos
+            .iter()
+            .filter(|p| p.is_rx() == rx)
+            .map(|p| p.bits())
+            .sum();
+        u64::from(bits.div_ceil(8))
+    };
+    let size: u64 = topology
+        .slaves
+        .iter()
+        .map(|s| bytes(true, s) + bytes(false, s))
+        .sum();
+    assert_eq!(d["size"], size);
+    assert_eq!(d["data"].as_str().unwrap().len() as u64, 2 * size);
+    assert_eq!(d["last_wkc"], d["expected_wkc"], "{d}");
+    assert!(d["expected_wkc"].as_u64().unwrap() > 0);
+    let with_pdos: Vec<u64> = (0u64..)
+        .zip(&topology.slaves)
+        .filter(|(_, s)| !s.pdos.is_empty())
+        .map(|(p, _)| p)
+        .collect();
+    assert_eq!(d["slaves"], serde_json::json!(with_pdos));
+    let expected: Vec<(u64, u64, u64)> = topology
+        .slaves
+        .iter()
+        .flat_map(|s| {
+            let mut pdos: Vec<_> = s.pdos.iter().collect();
+            pdos.sort_by_key(|p| !p.is_rx());
+            pdos.into_iter()
+                .flat_map(|p| p.entries.iter())
+                .map(|e| (u64::from(e.index), u64::from(e.subindex), u64::from(e.bits)))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let entries: Vec<(u64, u64, u64)> = d["entries"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            (
+                e["index"].as_u64().unwrap(),
+                e["subindex"].as_u64().unwrap(),
+                e["bit_length"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(entries, expected);
+    let human = ecat.ok(&["domains", "-v"]);
+    assert!(
+        human.starts_with(&format!(
+            "Domain0: LogBaseAddr 0x00000000, Size {size:>3}, WorkingCounter "
+        )),
+        "{human}"
+    );
+    assert!(human.contains("0x6041:00"), "{human}");
+
+    // `data`: the raw image, where the drive's statusword is what an upload reads.
+    let image = ecat.raw(&["data"]);
+    assert_eq!(image.len() as u64, size);
+    let statusword = d["entries"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["index"] == 0x6041)
+        .unwrap()["bit_offset"]
+        .as_u64()
+        .unwrap();
+    let uploaded = ecat.json(&["upload", "-p", "0", "0x6041", "0", "--type", "uint16"]);
+    assert_eq!(
+        bits_at(&image, statusword, 16).to_string(),
+        uploaded["value"].as_str().unwrap(),
+        "{uploaded}"
+    );
+    let dump = ecat.ok(&["data", "--hex"]);
+    assert!(dump.starts_with("0x00000000: "), "{dump}");
+    assert_eq!(
+        dump.split_whitespace()
+            .filter(|w| !w.ends_with(':'))
+            .count() as u64,
+        size
+    );
+
+    // Bad input: a domain that does not exist.
+    let (ok, _, stderr) = ecat.run(&["domains", "-d", "7"]);
+    assert!(!ok && stderr.contains("no domain 7"), "{stderr}");
+    let (ok, _, stderr) = ecat.run(&["data", "-d", "x"]);
+    assert!(!ok && stderr.contains("domain"), "{stderr}");
+}
+
+#[test]
+fn diag_decodes_the_drives_diagnosis_history() {
+    let ecatd = Ecatd::start(&[]);
+    let ecat = Ecat { ecatd: &ecatd };
+    let diag = ecat.json(&["diag", "-p", "0"]);
+    let sent = sim::topology::diag_history::drive_messages();
+    assert_eq!(diag["max_messages"], 4);
+    assert_eq!(diag["newest"], 5 + sent.len());
+    assert_eq!(diag["new_messages_available"], true);
+    let messages = diag["messages"].as_array().unwrap();
+    assert_eq!(
+        messages.len(),
+        sent.len(),
+        "the unused slot is left out: {diag}"
+    );
+    for (m, raw) in messages.iter().zip(&sent) {
+        let u32_at = |at: usize| u32::from_le_bytes(raw[at..at + 4].try_into().unwrap());
+        assert_eq!(m["code"], u32_at(0));
+        assert_eq!(m["flags"], u32_at(4) & 0xFFFF);
+        assert_eq!(m["text_id"], u32_at(4) >> 16);
+        assert_eq!(
+            m["timestamp_ns"],
+            u64::from_le_bytes(raw[8..16].try_into().unwrap())
+        );
+    }
+    let types: Vec<&str> = messages
+        .iter()
+        .map(|m| m["type"].as_str().unwrap())
+        .collect();
+    assert_eq!(types, ["info", "warning", "error"]);
+    let params = |i: usize| -> Vec<String> {
+        messages[i]["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| {
+                format!(
+                    "{} {}",
+                    p["kind"].as_str().unwrap(),
+                    p["value"].as_str().unwrap()
+                )
+            })
+            .collect()
+    };
+    assert_eq!(params(0), ["unsigned16 350 (0x15e)"]);
+    assert_eq!(
+        params(1),
+        ["unsigned32 74565 (0x12345)", "string \"axis 1\""]
+    );
+    assert_eq!(params(2), ["bytes deadbe"]);
+    let human = ecat.ok(&["diag", "-p", "0"]);
+    assert!(human.contains("newest 0x08"), "{human}");
+    assert!(
+        human.contains("* 0x08 error"),
+        "the newest is marked:\n{human}"
+    );
+
+    // A slave without a mailbox has no diagnosis history: a clear error.
+    let (ok, _, stderr) = ecat.run(&["diag", "-p", "1"]);
+    assert!(!ok && stderr.contains("0x10F3"), "{stderr}");
+    // And diag works on one slave.
+    let (ok, _, stderr) = ecat.run(&["diag"]);
+    assert!(!ok && stderr.contains("works on one slave"), "{stderr}");
+}
+
+#[test]
+fn xml_generates_an_esi_fragment_from_the_sii() {
+    let ecatd = Ecatd::start(&[]);
+    let ecat = Ecat { ecatd: &ecatd };
+    let topology = Topology::default_segment();
+    let drive = &topology.slaves[0];
+    let xml = ecat.ok(&["xml", "-p", "0"]);
+    assert!(
+        xml.contains(&format!("<Id>#x{SIM_VENDOR_ID:08x}</Id>")),
+        "{xml}"
+    );
+    assert!(
+        xml.contains(&format!(
+            "<Type ProductCode=\"#x{:08x}\" RevisionNo=\"#x{:08x}\">",
+            drive.product_code, drive.revision
+        )),
+        "{xml}"
+    );
+    assert!(
+        xml.contains(&format!("<Name>{}</Name>", drive.name)),
+        "{xml}"
+    );
+    for pdo in &drive.pdos {
+        let element = if pdo.is_rx() { "RxPdo" } else { "TxPdo" };
+        assert!(
+            xml.contains(&format!("<{element} Sm=\"{}\"", pdo.sm)),
+            "{xml}"
+        );
+        assert!(
+            xml.contains(&format!("<Index>#x{:04x}</Index>", pdo.index)),
+            "{xml}"
+        );
+        for e in &pdo.entries {
+            assert!(xml.contains(&format!("<Name>{}</Name>", e.name)), "{xml}");
+        }
+    }
+    assert_eq!(
+        xml.matches("<Entry>").count(),
+        drive.pdos.iter().map(|p| p.entries.len()).sum::<usize>()
+    );
+    assert!(xml.contains("<CoE />") && xml.contains("<FoE />"), "{xml}");
+    assert_eq!(
+        xml.matches("<Sm ").count(),
+        4,
+        "two mailbox and two process-data SMs"
+    );
+    // Well-formed XML.
+    let mut check = Command::new("python3")
+        .args([
+            "-c",
+            "import sys, xml.dom.minidom; xml.dom.minidom.parseString(sys.stdin.read())",
+        ])
+        .stdin(std::process::Stdio::piped())
+        .spawn()
+        .expect("python3 runs");
+    use std::io::Write as _;
+    check
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(xml.as_bytes())
+        .unwrap();
+    assert!(check.wait().unwrap().success(), "not well-formed:\n{xml}");
+    // Every slave without -p; a slave without a mailbox has no <Mailbox>.
+    let all = ecat.json(&["xml"]);
+    assert_eq!(all.as_array().unwrap().len(), topology.slaves.len());
+    assert!(!all[1]["xml"].as_str().unwrap().contains("<Mailbox>"));
+}
+
+#[test]
+fn debug_shows_and_replaces_the_log_filter_and_reg_rdwr_swaps_registers() {
+    let ecatd = Ecatd::start(&[]);
+    let ecat = Ecat { ecatd: &ecatd };
+    assert_eq!(ecat.ok(&["debug"]).trim(), "info");
+    assert_eq!(ecat.ok(&["debug", "1"]).trim(), "debug", "IgH's level 1");
+    assert_eq!(ecat.json(&["debug"])["filter"], "debug");
+    ecat.ok(&["debug", "info,master_core::bus=trace"]);
+    // A bad filter is refused and the old one stays.
+    let (ok, _, stderr) = ecat.run(&["debug", "info,[[nonsense"]);
+    assert!(!ok && stderr.contains("InvalidArgument"), "{stderr}");
+    assert_eq!(ecat.ok(&["debug"]).trim(), "info,master_core::bus=trace");
+    let (ok, _, stderr) = ecat.run(&["debug", " "]);
+    assert!(!ok && stderr.contains("give a filter"), "{stderr}");
+    ecat.ok(&["debug", "0"]);
+    // The change is audited.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    while !ecatd.log().contains("set_log_filter") {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no audit line:\n{}",
+            ecatd.log()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+
+    // reg_rdwr: one FPRW; each call prints what the register held before its write.
+    assert_eq!(
+        ecat.ok(&["reg_rdwr", "-p", "1", "0x0f10", "3412"]).trim(),
+        "0x00 0x00"
+    );
+    assert_eq!(
+        ecat.json(&["reg_rdwr", "-p", "1", "0x0f10", "7856"])["data"],
+        "3412"
+    );
+    assert_eq!(
+        ecat.json(&["reg_read", "-p", "1", "0x0f10", "2"])["data"],
+        "7856"
+    );
+    assert_eq!(
+        ecat.ok(&[
+            "reg_rdwr", "-p", "1", "0x0f10", "0x1234", "--type", "uint16"
+        ])
+        .trim(),
+        "22136",
+        "0x5678 before"
+    );
+    assert_eq!(
+        ecat.ok(&["reg_read", "-p", "1", "0x0f10", "--type", "uint16"])
+            .trim(),
+        "4660"
+    );
+    ecat.ok(&["reg_write", "-p", "1", "0x0f10", "-t", "uint16", "0xbeef"]);
+    assert_eq!(
+        ecat.json(&["reg_read", "-p", "1", "0x0f10", "2"])["data"],
+        "efbe"
+    );
+    // Bad input changes nothing.
+    let (ok, _, stderr) = ecat.run(&["reg_rdwr", "-p", "1", "0x0f10", "zz"]);
+    assert!(!ok && stderr.contains("not hex"), "{stderr}");
+    let (ok, _, stderr) = ecat.run(&["reg_rdwr", "-p", "1", "0x0f10", "70000", "-t", "uint16"]);
+    assert!(!ok && stderr.contains("does not fit"), "{stderr}");
+    let (ok, _, stderr) = ecat.run(&["reg_rdwr", "0x0f10", "00"]);
+    assert!(!ok && stderr.contains("works on one slave"), "{stderr}");
+    assert_eq!(
+        ecat.json(&["reg_read", "-p", "1", "0x0f10", "2"])["data"],
+        "efbe"
+    );
+}

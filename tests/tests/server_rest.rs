@@ -15,9 +15,13 @@ use server_support::{Ecatd, curl, curl_as_browser};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
-const ROUTES: [(&str, &str); 31] = [
+const ROUTES: [(&str, &str); 35] = [
     ("get", "/api/v1/master"),
     ("get", "/api/v1/capture"),
+    ("get", "/api/v1/domains"),
+    ("get", "/api/v1/log-filter"),
+    ("put", "/api/v1/log-filter"),
+    ("post", "/api/v1/slaves/{slave}/registers/{address}/rdwr"),
     ("get", "/api/v1/slaves"),
     ("get", "/api/v1/slaves/{slave}"),
     ("put", "/api/v1/slaves/{slave}/state"),

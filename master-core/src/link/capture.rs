@@ -115,8 +115,7 @@ impl CaptureHub {
                 sent,
                 frame: frame.to_vec(),
             };
-            if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) = tx.try_send(copy)
-            {
+            if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) = tx.try_send(copy) {
                 slot.dropped.fetch_add(1, Ordering::Relaxed);
             }
         }

@@ -76,7 +76,11 @@ impl Message {
                 0 => {
                     let dt = DataType::from(pflags & 0x0FFF);
                     let bits = dt.bit_size().ok_or_else(|| {
-                        format!("parameter {}: data type 0x{:04x} has no fixed size", n + 1, pflags & 0x0FFF)
+                        format!(
+                            "parameter {}: data type 0x{:04x} has no fixed size",
+                            n + 1,
+                            pflags & 0x0FFF
+                        )
                     })?;
                     (ParamKind::Typed(dt), (bits as usize).div_ceil(8))
                 }
@@ -150,9 +154,14 @@ impl ParamKind {
         let (kind, text) = match self {
             ParamKind::Typed(dt) => {
                 let text = match dt {
-                    DataType::Real32 => f32::from_le_bytes(wide[..4].try_into().unwrap_or_default()).to_string(),
+                    DataType::Real32 => {
+                        f32::from_le_bytes(wide[..4].try_into().unwrap_or_default()).to_string()
+                    }
                     DataType::Real64 => f64::from_le_bytes(wide).to_string(),
-                    DataType::Integer8 | DataType::Integer16 | DataType::Integer32 | DataType::Integer64 => {
+                    DataType::Integer8
+                    | DataType::Integer16
+                    | DataType::Integer32
+                    | DataType::Integer64 => {
                         // Sign-extend from the parameter's width.
                         let shift = 64 - 8 * n as u32;
                         (((unsigned << shift) as i64) >> shift).to_string()
@@ -162,13 +171,19 @@ impl ParamKind {
                 (dt.name().to_ascii_lowercase(), text)
             }
             ParamKind::Bytes => ("bytes".into(), hex::encode(bytes)),
-            ParamKind::Ascii => ("string".into(), format!("{:?}", String::from_utf8_lossy(bytes))),
+            ParamKind::Ascii => (
+                "string".into(),
+                format!("{:?}", String::from_utf8_lossy(bytes)),
+            ),
             ParamKind::Unicode => {
                 let units: Vec<u16> = bytes
                     .chunks_exact(2)
                     .map(|c| u16::from_le_bytes([c[0], c[1]]))
                     .collect();
-                ("unicode_string".into(), format!("{:?}", String::from_utf16_lossy(&units)))
+                (
+                    "unicode_string".into(),
+                    format!("{:?}", String::from_utf16_lossy(&units)),
+                )
             }
             ParamKind::TextId => ("text_id".into(), format!("0x{unsigned:04x}")),
         };
@@ -196,7 +211,10 @@ mod tests {
         m.extend_from_slice(&0x0003u16.to_le_bytes()); // INTEGER16
         m.extend_from_slice(&(-5i16).to_le_bytes());
         let d = Message::decode(&m).unwrap().unwrap();
-        assert_eq!((d.code, d.text_id, d.time_ns), (0xE102, 0x0202, 2_500_000_000));
+        assert_eq!(
+            (d.code, d.text_id, d.time_ns),
+            (0xE102, 0x0202, 2_500_000_000)
+        );
         assert_eq!(d.severity(), "warning");
         let texts: Vec<_> = d.params.iter().map(|p| p.text.as_str()).collect();
         assert_eq!(texts, ["74565 (0x12345)", "\"ab\"", "fe", "-5"]);

@@ -70,11 +70,17 @@ impl CaptureSettings {
                 self.file_kib
             ));
         }
-        if self.file_time.is_some_and(|t| t < Duration::from_millis(100)) {
+        if self
+            .file_time
+            .is_some_and(|t| t < Duration::from_millis(100))
+        {
             return Err("[capture] file_time must be at least 100ms".into());
         }
         if !(1..=1 << 20).contains(&self.queue) {
-            return Err(format!("[capture] queue = {} must be 1..=1048576", self.queue));
+            return Err(format!(
+                "[capture] queue = {} must be 1..=1048576",
+                self.queue
+            ));
         }
         Ok(())
     }

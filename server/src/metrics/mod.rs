@@ -10,8 +10,8 @@
 //! `eoe` (the EoE interfaces).
 
 mod bus;
-mod capture;
 pub mod calls;
+mod capture;
 pub mod config;
 mod eoe;
 pub mod esc;

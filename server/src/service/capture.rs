@@ -31,10 +31,10 @@ const QUEUE: usize = 4096;
 pub struct CaptureResult {
     /// The pcapng file.
     pub pcapng: Vec<u8>,
-    /// Frames in it (for the rolling window: frames the ring took since start, the
-    /// window holding the newest of them).
+    /// Frames in it.
     pub frames: u64,
-    /// Frames the tap could not queue (the writer fell behind).
+    /// Frames the tap could not queue (the writer fell behind; for the rolling window,
+    /// since ecatd started).
     pub dropped: u64,
 }
 
@@ -74,13 +74,15 @@ impl Core {
                 err.tag = "no_rolling_capture";
                 err
             })?;
-            let stats = rolling.stats();
-            let pcapng = rolling
+            let (pcapng, frames) = rolling
                 .window(MAX_BYTES)
                 .map_err(|err| ApiError::internal(format!("rolling capture: {err}")))?;
             Ok(CaptureResult {
-                frames: stats.frames.load(std::sync::atomic::Ordering::Relaxed),
-                dropped: stats.dropped.load(std::sync::atomic::Ordering::Relaxed),
+                frames,
+                dropped: rolling
+                    .stats()
+                    .dropped
+                    .load(std::sync::atomic::Ordering::Relaxed),
                 pcapng,
             })
         })

@@ -112,7 +112,9 @@ impl RollingCapture {
                             ring.write(&frame, &stats);
                         }
                     }
-                    ring.lock().unwrap_or_else(PoisonError::into_inner).flush(&stats);
+                    ring.lock()
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .flush(&stats);
                 })
                 .map_err(|err| format!("cannot start the rolling capture: {err}"))?
         };
@@ -136,8 +138,9 @@ impl RollingCapture {
     }
 
     /// The ring as one pcapng file of one section per file, oldest first, at most
-    /// `max_bytes` (the newest files that fit). Blocking: call off the async runtime.
-    pub fn window(&self, max_bytes: usize) -> io::Result<Vec<u8>> {
+    /// `max_bytes` (the newest files that fit), with the number of packets in it.
+    /// Blocking: call off the async runtime.
+    pub fn window(&self, max_bytes: usize) -> io::Result<(Vec<u8>, u64)> {
         let mut ring = self.ring.lock().unwrap_or_else(PoisonError::into_inner);
         if let Some(current) = ring.current.as_mut() {
             current.flush()?;
@@ -153,7 +156,8 @@ impl RollingCapture {
             sections.push(data);
         }
         drop(ring);
-        Ok(sections.into_iter().rev().flatten().collect())
+        let packets = sections.iter().map(|s| count_packets(s)).sum();
+        Ok((sections.into_iter().rev().flatten().collect(), packets))
     }
 }
 
@@ -285,6 +289,23 @@ const fn file_header() -> [u8; 60] {
     h
 }
 
+/// Enhanced Packet Blocks in a section this writer wrote (little-endian blocks, each
+/// its type and total length first).
+fn count_packets(section: &[u8]) -> u64 {
+    let mut at = 0;
+    let mut packets = 0;
+    while let Some(head) = section.get(at..at + 8) {
+        let kind = u32::from_le_bytes([head[0], head[1], head[2], head[3]]);
+        let len = u32::from_le_bytes([head[4], head[5], head[6], head[7]]) as usize;
+        if len < 12 {
+            break;
+        }
+        packets += u64::from(kind == 6);
+        at += len;
+    }
+    packets
+}
+
 /// One Enhanced Packet Block (pcapng §4.3): interface 0, time in ns, the whole frame,
 /// padded to 32 bits.
 fn packet_block(frame: &CapturedFrame) -> Vec<u8> {
@@ -341,7 +362,10 @@ mod tests {
         let (a, _b) = MemoryLink::pair(4096);
         let mut tap = CaptureTap::new(a, Arc::clone(&hub));
         let rolling = RollingCapture::start(&hub, &settings(&dir, 3, 16, 100_000)).unwrap();
-        assert!(!dir.join("rolling-000009.pcapng").exists(), "stale ring file removed");
+        assert!(
+            !dir.join("rolling-000009.pcapng").exists(),
+            "stale ring file removed"
+        );
         assert!(dir.join("keep.txt").exists(), "other files kept");
         // 1000 frames of 100 bytes: 132 bytes a block, about 8 files of 16 KiB.
         for n in 0..1000u32 {
@@ -350,7 +374,9 @@ mod tests {
             tap.send(&frame).unwrap();
         }
         let stats = Arc::clone(rolling.stats());
-        wait_for("1000 frames", || stats.frames.load(Ordering::Relaxed) == 1000);
+        wait_for("1000 frames", || {
+            stats.frames.load(Ordering::Relaxed) == 1000
+        });
         let files = rolling.files();
         assert_eq!(files.len(), 3, "{files:?}");
         assert!(stats.rotations.load(Ordering::Relaxed) >= 5);
@@ -358,7 +384,8 @@ mod tests {
             let len = std::fs::metadata(file).unwrap().len();
             assert!(len <= 16 * 1024, "{} is {len} bytes", file.display());
         }
-        let window = rolling.window(usize::MAX).unwrap();
+        let (window, packets) = rolling.window(usize::MAX).unwrap();
+        assert!(packets > 200 && packets < 1000, "{packets}");
         // Every section starts with the header; the last packet is frame 999.
         let sections = window
             .windows(FILE_HEADER.len())
@@ -367,7 +394,7 @@ mod tests {
         assert_eq!(sections, 3);
         let tail = &window[window.len() - 4 - 100..window.len() - 4];
         assert_eq!(&tail[..4], &999u32.to_le_bytes());
-        let newest_only = rolling.window(16 * 1024).unwrap();
+        let (newest_only, _) = rolling.window(16 * 1024).unwrap();
         assert_eq!(newest_only, std::fs::read(&files[2]).unwrap());
         drop(rolling);
         std::fs::remove_dir_all(&dir).unwrap();
@@ -389,9 +416,7 @@ mod tests {
         drop(held);
         let stats = Arc::clone(rolling.stats());
         wait_for("the drops counted", || {
-            stats.dropped.load(Ordering::Relaxed)
-                + stats.frames.load(Ordering::Relaxed)
-                == 50
+            stats.dropped.load(Ordering::Relaxed) + stats.frames.load(Ordering::Relaxed) == 50
         });
         assert!(stats.dropped.load(Ordering::Relaxed) >= 47, "{stats:?}");
         drop(rolling);

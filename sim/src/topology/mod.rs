@@ -10,8 +10,8 @@
 
 mod build;
 mod default;
-mod dictionary;
 pub mod diag_history;
+mod dictionary;
 mod model;
 mod sii;
 mod soe;

@@ -74,14 +74,14 @@ impl Run for Diag {
             format!("Flags 0x{flags:04x}"),
             format!(
                 "  {:<4} {:<7} {:<10} {:<6} {:>20}  Parameters",
-                "Sub", "Type", "Code", "Text", "Time (ns)"
+                "Sub", "Type", "Code", "TextID", "Time (ns)"
             ),
         ];
         let mut messages = Vec::new();
         for subindex in FIRST_MESSAGE..=highest {
             let data = entry(c, &slave, subindex).await?;
-            let Some(m) = Message::decode(&data)
-                .map_err(|err| format!("0x10F3:{subindex:02X}: {err}"))?
+            let Some(m) =
+                Message::decode(&data).map_err(|err| format!("0x10F3:{subindex:02X}: {err}"))?
             else {
                 continue;
             };

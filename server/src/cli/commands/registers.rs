@@ -6,8 +6,8 @@
 
 use master_core::wire::register::error_counters::{ERROR_COUNTERS_LEN, ErrorCounters};
 use proto::v1 as pb;
-use server::service::value::ValueType;
 use serde_json::{Value, json};
+use server::service::value::ValueType;
 
 use crate::Run;
 use crate::out::{Out, out};

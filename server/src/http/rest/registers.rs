@@ -13,7 +13,8 @@ use crate::service::Core;
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
-    OpenApiRouter::new().routes(routes!(read_register, write_register))
+    OpenApiRouter::new()
+        .routes(routes!(read_register, write_register))
         .routes(routes!(read_write_register))
 }
 
