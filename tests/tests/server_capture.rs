@@ -188,7 +188,11 @@ fn the_rolling_capture_keeps_a_bounded_ring_that_tshark_reads() {
     }
     // A full ring's worth of closed files, the newest ones (tshark takes a second a run).
     for file in &closed[closed.len() - FILES..] {
-        assert!(tshark_frames(file, "ecat") > 0, "{}: EtherCAT decoded", file.display());
+        assert!(
+            tshark_frames(file, "ecat") > 0,
+            "{}: EtherCAT decoded",
+            file.display()
+        );
         assert_eq!(
             tshark_frames(file, "_ws.malformed || _ws.expert.severity >= error"),
             0,

@@ -439,3 +439,101 @@ fn gateway_service_reports_stops_and_starts_the_gateway() {
         Ok(vendor.to_le_bytes().to_vec())
     );
 }
+
+#[test]
+fn domains_register_read_write_and_the_log_filter_agree_across_both_apis() {
+    let ecatd = Ecatd::start(&[]);
+    let g = &ecatd.grpc;
+    let rest = |args: &[&str]| server_support::curl(args);
+
+    // ListDomains and GET /domains: the same layout.
+    let grpc = call(g, &[], "ecat.v1.BusService/ListDomains", "{}").unwrap();
+    let (status, body) = rest(&["-s", &format!("{}/api/v1/domains", ecatd.http)]);
+    assert_eq!(status, 200, "{body}");
+    let http: Value = serde_json::from_str(&body).unwrap();
+    let domain = &grpc["domains"][0];
+    assert_eq!(domain["size"], http[0]["size"]);
+    assert_eq!(domain["expectedWkc"], http[0]["expected_wkc"]);
+    assert_eq!(
+        domain["entries"].as_array().unwrap().len(),
+        http[0]["entries"].as_array().unwrap().len()
+    );
+    assert_eq!(
+        bytes(&domain["data"]).len() as u64,
+        http[0]["size"].as_u64().unwrap()
+    );
+
+    // ReadWriteRegister (gRPC) then POST .../rdwr: each returns the other's write.
+    let first = call(
+        g,
+        &[],
+        "ecat.v1.BusService/ReadWriteRegister",
+        &format!(
+            r#"{{"slave":"2","address":3856,"data":"{}"}}"#,
+            b64::encode(&[0xAB, 0xCD])
+        ),
+    )
+    .unwrap();
+    assert_eq!(bytes(&first["data"]), [0, 0]);
+    let (status, body) = rest(&[
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "Content-Type: application/json",
+        "-d",
+        r#"{"data":"0102"}"#,
+        &format!("{}/api/v1/slaves/2/registers/0x0f10/rdwr", ecatd.http),
+    ]);
+    assert_eq!(status, 200, "{body}");
+    assert_eq!(
+        serde_json::from_str::<Value>(&body).unwrap()["data"],
+        "abcd"
+    );
+    // Empty data is a bad request and writes nothing.
+    let status = call_status(
+        g,
+        &[],
+        "ecat.v1.BusService/ReadWriteRegister",
+        r#"{"slave":"2","address":3856}"#,
+    )
+    .unwrap_err();
+    assert_eq!(status["code"], 3, "{status}");
+    let read = call(
+        g,
+        &[],
+        "ecat.v1.BusService/ReadRegister",
+        r#"{"slave":"2","address":3856,"length":2}"#,
+    )
+    .unwrap();
+    assert_eq!(bytes(&read["data"]), [1, 2]);
+
+    // The log filter: set through one API, read through the other; a bad one refused.
+    let set = call(
+        g,
+        &[],
+        "ecat.v1.BusService/SetLogFilter",
+        r#"{"filter":"warn,server=debug"}"#,
+    )
+    .unwrap();
+    assert_eq!(set["filter"], "warn,server=debug");
+    let (status, body) = rest(&["-s", &format!("{}/api/v1/log-filter", ecatd.http)]);
+    assert_eq!(
+        (status, body.contains("warn,server=debug")),
+        (200, true),
+        "{body}"
+    );
+    let (status, body) = rest(&[
+        "-s",
+        "-X",
+        "PUT",
+        "-H",
+        "Content-Type: application/json",
+        "-d",
+        r#"{"filter":"info,[[bad"}"#,
+        &format!("{}/api/v1/log-filter", ecatd.http),
+    ]);
+    assert_eq!(status, 400, "{body}");
+    let get = call(g, &[], "ecat.v1.BusService/GetLogFilter", "{}").unwrap();
+    assert_eq!(get["filter"], "warn,server=debug", "unchanged");
+}

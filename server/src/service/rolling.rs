@@ -11,7 +11,7 @@
 
 use std::collections::VecDeque;
 use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
@@ -28,8 +28,32 @@ const SUFFIX: &str = ".pcapng";
 /// Section header and interface description blocks of each file (pcapng: SHB of 28 bytes
 /// without options, IDB of 20 plus the 12-byte if_tsresol option and end of options).
 const FILE_HEADER: [u8; 60] = file_header();
-/// How long the writer waits for a frame before it flushes what it has.
+/// How long the writer waits for a frame before it looks at its stop flag again.
 const IDLE: Duration = Duration::from_millis(100);
+/// Packets wait in memory at most this long before they go to the file (what a crash
+/// loses).
+const FLUSH_EVERY: Duration = Duration::from_millis(50);
+/// Or until this many bytes wait.
+const FLUSH_BYTES: usize = 64 << 10;
+
+/// The file being written: packets gather in `pending` and go to the file whole, so that
+/// the file on disk always ends on a block boundary (readable whatever happens to ecatd).
+struct Current {
+    file: File,
+    pending: Vec<u8>,
+    flushed_at: Instant,
+}
+
+impl Current {
+    fn flush(&mut self) -> io::Result<()> {
+        if !self.pending.is_empty() {
+            self.file.write_all(&self.pending)?;
+            self.pending.clear();
+        }
+        self.flushed_at = Instant::now();
+        Ok(())
+    }
+}
 
 /// Counters of the rolling capture (exported as metrics).
 #[derive(Debug, Default)]
@@ -52,7 +76,7 @@ struct Ring {
     file_time: Option<Duration>,
     /// Closed files, oldest first, then the current one (last).
     paths: VecDeque<PathBuf>,
-    current: Option<BufWriter<File>>,
+    current: Option<Current>,
     current_len: u64,
     current_since: Instant,
     next_number: u64,
@@ -99,18 +123,18 @@ impl RollingCapture {
                         let frame = capture.next(IDLE);
                         stats.dropped.store(capture.dropped(), Ordering::Relaxed);
                         let mut ring = ring.lock().unwrap_or_else(PoisonError::into_inner);
-                        let Some(frame) = frame else {
-                            ring.flush(&stats);
-                            continue;
-                        };
-                        ring.write(&frame, &stats);
-                        // Take what queued meanwhile under the same lock, a batch at most.
-                        for _ in 0..256 {
-                            let Some(frame) = capture.try_next() else {
-                                break;
-                            };
+                        if let Some(frame) = frame {
                             ring.write(&frame, &stats);
+                            // Take what queued meanwhile under the same lock, a batch at
+                            // most.
+                            for _ in 0..256 {
+                                let Some(frame) = capture.try_next() else {
+                                    break;
+                                };
+                                ring.write(&frame, &stats);
+                            }
                         }
+                        ring.flush_if_due(&stats);
                     }
                     ring.lock()
                         .unwrap_or_else(PoisonError::into_inner)
@@ -179,28 +203,20 @@ impl Ring {
         let old = self
             .file_time
             .is_some_and(|t| self.current_since.elapsed() >= t);
-        if self.current.is_none() || full || old {
-            if let Err(err) = self.rotate(stats) {
-                stats.errors.fetch_add(1, Ordering::Relaxed);
-                tracing::warn!(%err, "rolling capture: cannot start a new file");
-                self.current = None;
-                return;
-            }
+        if (self.current.is_none() || full || old)
+            && let Err(err) = self.rotate(stats)
+        {
+            stats.errors.fetch_add(1, Ordering::Relaxed);
+            tracing::warn!(%err, "rolling capture: cannot start a new file");
+            self.current = None;
+            return;
         }
         let Some(current) = self.current.as_mut() else {
             return;
         };
-        match current.write_all(&block) {
-            Ok(()) => {
-                self.current_len += block.len() as u64;
-                stats.frames.fetch_add(1, Ordering::Relaxed);
-            }
-            Err(err) => {
-                stats.errors.fetch_add(1, Ordering::Relaxed);
-                tracing::warn!(%err, "rolling capture: write failed; starting a new file");
-                self.current = None;
-            }
-        }
+        current.pending.extend_from_slice(&block);
+        self.current_len += block.len() as u64;
+        stats.frames.fetch_add(1, Ordering::Relaxed);
     }
 
     /// Closes the current file, removes the oldest ones so that the new one keeps the ring
@@ -219,22 +235,38 @@ impl Ring {
             .dir
             .join(format!("{PREFIX}{:06}{SUFFIX}", self.next_number));
         self.next_number += 1;
-        let mut file = BufWriter::new(File::create(&path)?);
+        let mut file = File::create(&path)?;
         file.write_all(&FILE_HEADER)?;
         self.paths.push_back(path);
-        self.current = Some(file);
+        self.current = Some(Current {
+            file,
+            pending: Vec::with_capacity(FLUSH_BYTES),
+            flushed_at: Instant::now(),
+        });
         self.current_len = FILE_HEADER.len() as u64;
         self.current_since = Instant::now();
         Ok(())
     }
 
+    /// Writes the waiting packets out when they have waited long enough or are many.
+    fn flush_if_due(&mut self, stats: &RollingStats) {
+        let due = self.current.as_ref().is_some_and(|c| {
+            c.pending.len() >= FLUSH_BYTES || c.flushed_at.elapsed() >= FLUSH_EVERY
+        });
+        if due {
+            self.flush(stats);
+        }
+    }
+
+    /// Writes the waiting packets out; on failure the file is given up (the next frame
+    /// starts a new one) and the error counted.
     fn flush(&mut self, stats: &RollingStats) {
-        if let Some(current) = self.current.as_mut() {
-            if let Err(err) = current.flush() {
-                stats.errors.fetch_add(1, Ordering::Relaxed);
-                tracing::warn!(%err, "rolling capture: flush failed");
-                self.current = None;
-            }
+        if let Some(current) = self.current.as_mut()
+            && let Err(err) = current.flush()
+        {
+            stats.errors.fetch_add(1, Ordering::Relaxed);
+            tracing::warn!(%err, "rolling capture: write failed; starting a new file");
+            self.current = None;
         }
     }
 }
