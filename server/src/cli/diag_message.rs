@@ -1,4 +1,4 @@
-//! Decoding of the diagnosis history object 0x10F3 (ETG.1020 §13, "Diagnosis History"):
+//! Decoding of the diagnosis history object 0x10F3 (ETG.1020 §13, spec-notes §coe.diag):
 //! the header entries and each diagnosis message with its parameters.
 //!
 //! A message is DiagCode (u32), flags (u16), text ID (u16), time stamp (u64, ns), then the

@@ -1,8 +1,8 @@
 //! An ESI fragment (ETG.2000, the EtherCAT Slave Information XML) generated from a slave's
 //! SII image, as IgH's `ethercat xml` prints one: the vendor, the device's type (product
 //! code, revision) and name, its SyncManagers, its RxPDOs and TxPDOs with their entries
-//! (from the SII's SYNCM, RXPDO and TXPDO categories: ETG.2010 Tables 2, 13 and 14), and its
-//! mailbox protocols (SII word 0x1C).
+//! (from the SII's SYNCM, RXPDO and TXPDO categories: ETG.2010, spec-notes
+//! §sii.categories), and its mailbox protocols (SII word 0x1C, spec-notes §sii.fixed).
 
 use std::fmt::Write;
 

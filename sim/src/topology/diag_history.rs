@@ -1,6 +1,7 @@
-//! The drive's diagnosis history object 0x10F3 (ETG.1020 §13, "Diagnosis History"): a ring
+//! The drive's diagnosis history object 0x10F3 (ETG.1020 §13, spec-notes §coe.diag): a ring
 //! of four message slots of which three are filled, so that a master's reader (`ecat diag`)
-//! has an info, a warning and an error message to decode, with parameters of each kind.
+//! has an info, a warning and an error message to decode, with typed, byte-array and string
+//! parameters.
 //!
 //! A message is DiagCode (u32), flags (u16: type in bits 0-3, 0 info / 1 warning / 2 error;
 //! bit 4 local time stamp; number of parameters in bits 8-15), text ID (u16), time stamp
@@ -27,7 +28,7 @@ enum Param<'a> {
     Text(&'a str),
 }
 
-/// Encodes one message (ETG.1020 §13.2, diagnosis message layout).
+/// Encodes one message (ETG.1020 §13, spec-notes §coe.diag).
 fn message(code: u32, kind: u16, text_id: u16, time_ns: u64, params: &[Param<'_>]) -> Vec<u8> {
     let flags = kind | ((params.len() as u16) << 8);
     let mut out = Vec::new();
