@@ -5,7 +5,8 @@
 //!
 //! Files: `session` (the connection), `select` (slave selection), `parse` (argument
 //! forms), `out` (printing), `progress` (transfer progress bars), one file per command group
-//! under `commands/`, `gateway` (the mailbox gateway command).
+//! under `commands/`, `gateway` (the mailbox gateway command), `diag_message` (decoding the
+//! diagnosis history for `diag`), `esi` (the ESI fragment `xml` prints).
 
 mod client;
 mod commands;

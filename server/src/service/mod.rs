@@ -4,7 +4,9 @@
 //! Files: `address` (slave names), `error` (the one error type), `view` (what the APIs
 //! serialise), `ip` (EoE IP parameter text forms), `gateway` (the mailbox gateway's state,
 //! start and stop), `bus` (frame and cycle counters), `read_effects` (register reads that
-//! need the write role), `transfer` (deadlines and progress of FoE and SDO transfers).
+//! need the write role), `transfer` (deadlines and progress of FoE and SDO transfers),
+//! `capture` (live captures), `rolling` (the rolling capture's ring of files), `domains`
+//! (the process image by slave group), `log_filter` (the runtime log filter).
 
 pub mod address;
 pub mod bus;

@@ -1,6 +1,7 @@
 //! REST handlers under `/api/v1`: the same operations as gRPC, one core call each, one file
 //! per resource as in `grpc/` (`slaves`, `bus` (counters and the caller's role), `config`,
-//! `registers`, `sii`, `coe`, `soe`, `foe`, `voe`, `eoe`). Binary values are hex strings;
+//! `registers`, `sii`, `coe`, `soe`, `foe`, `voe`, `eoe`, `capture`, `domains`,
+//! `log_filter`). Binary values are hex strings;
 //! numbers in paths are decimal or `0x` hex; slave
 //! names use the common syntax (`3`, `%231004` for `#1004`, `@0x777`).
 //!
