@@ -85,3 +85,34 @@ impl CaptureSettings {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> CaptureSettings {
+        toml::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn settings_parse_and_the_ring_s_bounds_are_checked() {
+        let s = parse(
+            "rolling = true\ndir = \"/tmp/ring\"\nfiles = 3\nfile_kib = 16\nfile_time = \"10m\"",
+        );
+        assert_eq!(s.file_time, Some(Duration::from_secs(600)));
+        assert_eq!(s.queue, 4096, "the default");
+        assert!(s.check().is_ok());
+        let off = parse("files = 1");
+        assert!(off.check().is_ok(), "not checked while off");
+        for bad in [
+            "rolling = true\nfiles = 1",
+            "rolling = true\nfile_kib = 8",
+            "rolling = true\nfile_time = \"10ms\"",
+            "rolling = true\nqueue = 0",
+        ] {
+            let err = parse(bad).check().unwrap_err();
+            assert!(err.starts_with("[capture]"), "{bad}: {err}");
+        }
+        assert!(toml::from_str::<CaptureSettings>("rolling = true\nsize = 3").is_err());
+    }
+}

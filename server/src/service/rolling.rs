@@ -433,6 +433,44 @@ mod tests {
     }
 
     #[test]
+    fn a_file_older_than_its_time_is_closed_for_a_new_one() {
+        let dir = std::env::temp_dir().join(format!("ecatd-rolling-time-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let hub = CaptureHub::new();
+        let (a, _b) = MemoryLink::pair(4096);
+        let mut tap = CaptureTap::new(a, Arc::clone(&hub));
+        let mut config = settings(&dir, 4, 1024, 16);
+        config.file_time = Some(Duration::from_millis(100));
+        let rolling = RollingCapture::start(&hub, &config).unwrap();
+        let stats = Arc::clone(rolling.stats());
+        tap.send(&[1; 60]).unwrap();
+        wait_for("the first frame", || {
+            stats.frames.load(Ordering::Relaxed) == 1
+        });
+        tap.send(&[2; 60]).unwrap();
+        wait_for("the second frame", || {
+            stats.frames.load(Ordering::Relaxed) == 2
+        });
+        assert_eq!(
+            rolling.files().len(),
+            1,
+            "both frames within 100 ms of the file's start"
+        );
+        // The time under test passing, not a synchronisation.
+        std::thread::sleep(Duration::from_millis(150));
+        tap.send(&[3; 60]).unwrap();
+        wait_for("the third frame", || {
+            stats.frames.load(Ordering::Relaxed) == 3
+        });
+        assert_eq!(rolling.files().len(), 2, "a new file after 100 ms");
+        assert_eq!(stats.rotations.load(Ordering::Relaxed), 1);
+        let (_, packets) = rolling.window(usize::MAX).unwrap();
+        assert_eq!(packets, 3);
+        drop(rolling);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn frames_the_writer_cannot_take_are_counted_as_dropped() {
         let dir = std::env::temp_dir().join(format!("ecatd-rolling-drop-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
