@@ -63,19 +63,19 @@ async fn datagrams_per_upload(delay_us: u32, uploads: u64) -> f64 {
 
 #[tokio::test]
 async fn a_slave_that_answers_after_100_us_is_read_a_few_times_per_upload() {
-    // The write, the read behind it, two eager reads, then pauses of 50 and 75 µs: six
+    // The write, the read behind it, four eager reads, then pauses of 50 and 75 µs: eight
     // datagrams when every pause ends on time, fewer when the machine makes them late; one
     // more when a "mailbox full" notice left over from the last upload ends a pause early.
     let per_upload = datagrams_per_upload(100, 20).await;
-    assert!(per_upload <= 7.0, "{per_upload} datagrams per upload");
+    assert!(per_upload <= 9.0, "{per_upload} datagrams per upload");
 }
 
 #[tokio::test]
 async fn a_slave_that_answers_after_1_ms_is_answered_without_a_read_per_round_trip() {
-    // Pauses of 50, 75, 112, 168, 253, 379 µs reach 1 ms: ten datagrams with the write and
-    // the three first reads (eleven with a left-over "mailbox full" notice). The in-process link answers in microseconds, so a
+    // Pauses of 50, 75, 112, 168, 253, 379 µs reach 1 ms: twelve datagrams with the write
+    // and the five first reads (thirteen with a left-over "mailbox full" notice). The in-process link answers in microseconds, so a
     // strategy that read at every round trip would send hundreds, and one that paused a
     // whole poll interval after the eager reads would answer a millisecond late.
     let per_upload = datagrams_per_upload(1000, 10).await;
-    assert!(per_upload <= 12.0, "{per_upload} datagrams per upload");
+    assert!(per_upload <= 13.0, "{per_upload} datagrams per upload");
 }

@@ -58,7 +58,8 @@ pub struct MailboxConfig {
     /// ends a pause at once. Default 1 ms.
     pub poll_interval: Duration,
     /// Reads of the send mailbox made back to back after the one that goes in the request's
-    /// own frame, before the pauses start. Default 2.
+    /// own frame, before the pauses start: on a veth link they cover the first 100-200 µs,
+    /// where a pause would cost more in thread wake-ups than the reads. Default 4.
     pub eager_polls: u32,
     /// Pause before the request is written again when the slave's receive mailbox is still
     /// full. Default 1 ms.
@@ -86,7 +87,7 @@ impl Default for MailboxConfig {
             eoe_tx_queue_len: 16,
             idle_poll: Some(Duration::from_millis(10)),
             poll_interval: Duration::from_millis(1),
-            eager_polls: 2,
+            eager_polls: 4,
             full_retry_interval: Duration::from_millis(1),
             emergency_history: 32,
             event_capacity: 64,
