@@ -120,7 +120,10 @@ fn link_raw_socket_spin_window_ends_in_a_sleep_and_never_outlasts_the_deadline()
         assert_eq!(a.recv(&mut buf, Wait::Until(deadline)).unwrap(), None);
         assert!(Instant::now() >= deadline, "gave up early");
         let used = thread_cpu_time() - cpu;
-        assert!(used < wait / 2, "spun through the whole wait: {used:?} of CPU");
+        assert!(
+            used < wait / 2,
+            "spun through the whole wait: {used:?} of CPU"
+        );
 
         // A window longer than the wait: the deadline still ends it.
         let mut b = RawSocket::open(
