@@ -15,7 +15,8 @@
 //!
 //! Besides p50, p99 and uploads/s, each ecatd row shows the acyclic datagrams per upload
 //! (the write and every read of SM1) and the bus thread's own frame round trip (send to
-//! receive, p50), so that the time spent outside the wire shows as the difference.
+//! receive, p50), so that the time spent outside the wire shows as the difference, and how
+//! late the 1 ms cycle started meanwhile (p99 of the bus's cycle-start delay).
 //!
 //! Environment (all optional):
 //! - `MAILBOX_VETH_COUNT` (default 2000): uploads per row;
@@ -72,18 +73,25 @@ fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
 struct Traffic {
     datagrams_per_upload: f64,
     round_trip_p50_us: f64,
+    /// How late cycles started meanwhile (p99): mailbox traffic must not hold them up.
+    cycle_delay_p99_us: f64,
 }
 
 fn traffic(before: &BusStatsSnapshot, after: &BusStatsSnapshot, uploads: usize) -> Traffic {
     Traffic {
         datagrams_per_upload: (after.datagrams_sent - before.datagrams_sent) as f64
             / uploads as f64,
-        round_trip_p50_us: p50_between(&before.round_trip, &after.round_trip),
+        round_trip_p50_us: quantile_between(&before.round_trip, &after.round_trip, 0.5),
+        cycle_delay_p99_us: quantile_between(
+            &before.cycle_start_delay,
+            &after.cycle_start_delay,
+            0.99,
+        ),
     }
 }
 
-/// The median of the round trips recorded between two snapshots (bucket middles).
-fn p50_between(before: &HistogramSnapshot, after: &HistogramSnapshot) -> f64 {
+/// The `q` quantile of what was recorded between two snapshots (bucket middles), in µs.
+fn quantile_between(before: &HistogramSnapshot, after: &HistogramSnapshot, q: f64) -> f64 {
     let old: HashMap<Duration, u64> = before.buckets().map(|(low, _, n)| (low, n)).collect();
     let new: Vec<(Duration, Duration, u64)> = after
         .buckets()
@@ -93,7 +101,7 @@ fn p50_between(before: &HistogramSnapshot, after: &HistogramSnapshot) -> f64 {
     let mut seen = 0;
     for (low, high, n) in new {
         seen += n;
-        if total > 0 && seen * 2 >= total {
+        if total > 0 && seen as f64 >= q * total as f64 {
             return (low + (high - low) / 2).as_secs_f64() * 1e6;
         }
     }
@@ -102,16 +110,21 @@ fn p50_between(before: &HistogramSnapshot, after: &HistogramSnapshot) -> f64 {
 
 fn header() {
     println!(
-        "{:<44} {:>10} {:>10} {:>12} {:>10} {:>10}",
-        "path", "p50 µs", "p99 µs", "uploads/s", "dgrams/op", "bus rtt µs"
+        "{:<44} {:>10} {:>10} {:>12} {:>10} {:>10} {:>12}",
+        "path", "p50 µs", "p99 µs", "uploads/s", "dgrams/op", "bus rtt µs", "cycle late µs"
     );
 }
 
 fn print(name: &str, r: &Row, t: Option<&Traffic>) {
     match t {
         Some(t) => println!(
-            "{name:<44} {:>10.1} {:>10.1} {:>12.0} {:>10.2} {:>10.1}",
-            r.p50, r.p99, r.per_second, t.datagrams_per_upload, t.round_trip_p50_us
+            "{name:<44} {:>10.1} {:>10.1} {:>12.0} {:>10.2} {:>10.1} {:>12.1}",
+            r.p50,
+            r.p99,
+            r.per_second,
+            t.datagrams_per_upload,
+            t.round_trip_p50_us,
+            t.cycle_delay_p99_us
         ),
         None => latency::print(name, 44, r),
     }
