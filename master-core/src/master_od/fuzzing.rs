@@ -1,6 +1,6 @@
 //! The master dictionary's request handling without a bus, for the fuzz target `master_od`
 //! (fuzz/) and the corpus replay test: a sequence of CoE requests from one client, served
-//! as [`MasterDictionary::handle`](super::MasterDictionary::handle) serves them (the
+//! as [`MasterDictionary`](crate::master_od::MasterDictionary) serves them (the
 //! dictionary rebuilt from a snapshot for each request, one SDO server state kept across
 //! them), with the write hooks' actions collected instead of carried out.
 

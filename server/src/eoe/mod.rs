@@ -3,7 +3,7 @@
 //!
 //! - [`config`]: the `[eoe]` section (names, per-slave Set IP, host address or bridge);
 //! - [`tap`]: the TAP interface itself;
-//! - [`link`]: the two tasks that carry frames between a TAP and a slave's mailbox;
+//! - `link`: the two tasks that carry frames between a TAP and a slave's mailbox;
 //! - here: the manager, which follows the master's slaves and events: an interface is made
 //!   when an EoE slave is found (made anew at every scan that finds it, with its host
 //!   settings applied again), its carrier is on only while the slave is present and in
