@@ -10,6 +10,8 @@ use std::time::{Duration, Instant};
 
 use ecat_tests::netns::NetNs;
 
+pub mod rig;
+
 /// How long anything in these tests may take to happen.
 pub const PATIENCE: Duration = Duration::from_secs(30);
 
