@@ -156,13 +156,8 @@ fn get_ip_of_an_unconfigured_slave_is_empty() {
 fn fragmented_ping_gets_an_echo_reply() {
     let mut bench = bench();
     configure(&mut bench);
-    let payload: Vec<u8> = (0..300u16).map(|i| (i % 251) as u8).collect();
-    let mut request = Vec::new();
-    PacketBuilder::ethernet2(MASTER_MAC, SLAVE_MAC)
-        .ipv4(MASTER_IP.octets(), SLAVE_IP.octets(), 64)
-        .icmpv4_echo_request(0x1234, 7)
-        .write(&mut request, &payload)
-        .unwrap();
+    let payload = echo_payload(300);
+    let request = echo_request(300);
     let (sent, replies) = send_frame(&mut bench, &request, 5);
     assert!(sent >= 3, "the request needs several mailboxes ({sent})");
     assert!(replies.len() >= 3, "so does the reply");
@@ -369,14 +364,17 @@ fn filters_unknown_types_and_broken_fragments() {
     assert_eq!((counters.reassembly_errors, counters.frames_in), (1, 0));
 }
 
-/// An echo request for the slave's address, `len` bytes of payload.
+fn echo_payload(len: usize) -> Vec<u8> {
+    (0..len).map(|i| (i % 251) as u8).collect()
+}
+
+/// An echo request (id 0x1234, sequence 7) for the slave's address, `len` bytes of payload.
 fn echo_request(len: usize) -> Vec<u8> {
-    let payload: Vec<u8> = (0..len).map(|i| (i % 251) as u8).collect();
     let mut request = Vec::new();
     PacketBuilder::ethernet2(MASTER_MAC, SLAVE_MAC)
         .ipv4(MASTER_IP.octets(), SLAVE_IP.octets(), 64)
-        .icmpv4_echo_request(0x77, 1)
-        .write(&mut request, &payload)
+        .icmpv4_echo_request(0x1234, 7)
+        .write(&mut request, &echo_payload(len))
         .unwrap();
     request
 }

@@ -124,15 +124,7 @@ fn ping_http_state_changes_and_rescan_through_the_drives_interface() {
     assert_eq!(ecatd.ping("10.78.0.2", 10, 56), 10, "{}", ecatd.log());
 
     // A rescan makes the interface anew; its host address comes back by itself.
-    let before = ecatd.ifindex("eoe0s0").expect("index");
-    let (status, body) = ecatd.curl(&["/api/v1/rescan", "-X", "POST"]);
-    assert_eq!(status, 200, "{body}");
-    ecatd.wait_until("eoe0s0 made anew, up, with its address", |e| {
-        e.ifindex("eoe0s0").is_some_and(|i| i != before)
-            && e.carrier("eoe0s0")
-            && e.link("eoe0s0")
-                .is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
-    });
+    ecatd.rescan_and_wait_for("eoe0s0", "10.78.0.1/24");
     assert_eq!(ecatd.ping("10.78.0.2", 10, 56), 10, "{}", ecatd.log());
 }
 
@@ -279,20 +271,7 @@ fn the_linux_stack_behind_a_bridged_slave_answers_ping_serves_16_mib_and_survive
         rig.sim.banner
     );
     // Set IP went through the slave to the device: the TAP has the MAC and the address.
-    let deadline = Instant::now() + eoe_support::PATIENCE;
-    loop {
-        let link = sim_ip(&rig, &["-o", "link", "show", "dev", DEVICE_TAP]);
-        let addr = sim_ip(&rig, &["-o", "-4", "addr", "show", "dev", DEVICE_TAP]);
-        if link.contains("02:00:00:00:bb:01") && addr.contains("10.78.0.2/24") {
-            break;
-        }
-        assert!(
-            Instant::now() < deadline,
-            "Set IP not on the TAP:\n{link}\n{addr}"
-        );
-        // The check's poll interval (the loop ends on the condition or the deadline).
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    rig.wait_for_device_tap(DEVICE_TAP);
 
     let ecatd = &mut rig.ecatd;
     assert_eq!(ecatd.ping(DEVICE_IP, 100, 56), 100, "{}", ecatd.log());
@@ -324,14 +303,6 @@ fn the_linux_stack_behind_a_bridged_slave_answers_ping_serves_16_mib_and_survive
     // A rescan makes ecatd's interface anew; its host address comes back by itself, and
     // the device behind the slave answers again.
     let ecatd = &mut rig.ecatd;
-    let before = ecatd.ifindex("eoe0s0").expect("index");
-    let (status, answer) = ecatd.curl(&["/api/v1/rescan", "-X", "POST"]);
-    assert_eq!(status, 200, "{answer}");
-    ecatd.wait_until("eoe0s0 made anew, up, with its address", |e| {
-        e.ifindex("eoe0s0").is_some_and(|i| i != before)
-            && e.carrier("eoe0s0")
-            && e.link("eoe0s0")
-                .is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
-    });
+    ecatd.rescan_and_wait_for("eoe0s0", "10.78.0.1/24");
     assert_eq!(ecatd.ping(DEVICE_IP, 10, 56), 10, "{}", ecatd.log());
 }

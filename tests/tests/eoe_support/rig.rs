@@ -3,12 +3,13 @@
 //! the drive at 10.78.0.2 (Set IP done through the API).
 
 use std::path::Path;
+use std::time::{Duration, Instant};
 
 use ecat_tests::netns::NetNs;
 use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
 
-use super::EcatdInNs;
+use super::{EcatdInNs, PATIENCE};
 
 /// ecatd's configuration: position names, the drive's interface with its host address.
 const CONFIG: &str = r#"
@@ -76,5 +77,27 @@ impl EoeRig {
         ]);
         assert_eq!(status, 200, "{body}");
         EoeRig { ecatd, sim, sim_ns }
+    }
+}
+
+impl EoeRig {
+    /// With `ecat-sim --eoe-tap <tap>`: waits until Set IP reached the device, that is
+    /// until the TAP in the simulator's namespace has the slave's MAC and address.
+    pub fn wait_for_device_tap(&self, tap: &str) {
+        let deadline = Instant::now() + PATIENCE;
+        loop {
+            let link = self.sim_ns.ip(&["-o", "link", "show", "dev", tap]);
+            let addr = self.sim_ns.ip(&["-o", "-4", "addr", "show", "dev", tap]);
+            if link.contains("02:00:00:00:bb:01") && addr.contains("10.78.0.2/24") {
+                return;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "Set IP not on the TAP:\n{link}\n{addr}\n{}",
+                self.sim.stderr()
+            );
+            // The check's poll interval (the loop ends on the condition or the deadline).
+            std::thread::sleep(Duration::from_millis(50));
+        }
     }
 }
