@@ -49,7 +49,7 @@ const TAP: &str = "eoedev0";
 const FULL_FRAME: usize = 1514;
 const TCP_PAYLOAD: f64 = 1448.0;
 /// Sequential SDO uploads of the quiet row.
-const QUIET_UPLOADS: usize = 400;
+const QUIET_UPLOADS: usize = 3000;
 /// Callers of the SDO storm.
 const STORM_CALLERS: usize = 4;
 
