@@ -360,8 +360,8 @@ impl MailboxService for EoeService {
             },
             EoeRepr::SetIpRequest { port, params } => {
                 self.config.apply(&params);
-                if let Some(port) = self.attached_port() {
-                    port.deliver(HostEvent::IpConfig(self.config.clone()));
+                if let Some(host) = self.attached_port() {
+                    host.deliver(HostEvent::IpConfig(self.config.clone()));
                 }
                 let result = EoeResult::Success;
                 Self::respond(replies, &EoeRepr::SetIpResponse { port, result });
