@@ -2,12 +2,14 @@
 //!
 //! ```text
 //! ecat-sim --iface <ifname> [--topology FILE] [--slaves N] [--pcap FILE] [--busy-poll] [--spin-us N] [--control]
+//!         [--loss FRACTION [--loss-seed N]] [--eoe-tap NAME [--eoe-slave POSITION]]
 //! ```
 //!
 //! Prints one line per emulated slave, then `ecat-sim: ready on <ifname>` on stdout (scripts
 //! and tests wait for that line), then a frame counter on stderr about once per second.
 //! With `--control`, digital outputs are reported and inputs and emergencies taken as
-//! commands on the standard streams (see `frontend::control`).
+//! commands on the standard streams (see `frontend::control`). With `--eoe-tap`, an EoE
+//! slave's Ethernet side is a TAP interface in ecat-sim's namespace (`frontend::eoe_tap`).
 //! SIGINT or SIGTERM end it cleanly (the capture is flushed). Exit codes: 0 after a signal,
 //! 1 for a link or capture failure, 2 for bad arguments or a bad topology.
 
@@ -21,10 +23,12 @@ use std::sync::atomic::AtomicBool;
 
 use clap::Parser;
 use master_core::link::{FaultConfig, FaultInjector, Link, PcapTap, RawSocket, RawSocketOptions};
+use sim::device::eoe::HostPort;
 use sim::topology::{Built, Topology, build_with_handles};
 
 use frontend::counter::FrameCounter;
 use frontend::describe::slave_lines;
+use frontend::eoe_tap::TapBridge;
 use frontend::serve::serve;
 
 /// Emulated EtherCAT slaves on a network interface (raw Ethernet; needs CAP_NET_RAW).
@@ -62,6 +66,15 @@ struct Args {
     /// Seed of the loss's random choices (the same seed and traffic lose the same frames).
     #[arg(long, value_name = "N", default_value = "1")]
     loss_seed: u64,
+    /// Bridge an EoE slave's Ethernet side to a new TAP interface NAME in this network
+    /// namespace: the Linux stack here becomes the device behind the slave (run `iperf3 -s`
+    /// or any server here). Set IP parameter from the master puts its MAC and IPv4
+    /// address/mask on the TAP.
+    #[arg(long, value_name = "NAME")]
+    eoe_tap: Option<String>,
+    /// The ring position of the slave `--eoe-tap` bridges (default: the first EoE slave).
+    #[arg(long, value_name = "POSITION", requires = "eoe_tap")]
+    eoe_slave: Option<usize>,
 }
 
 fn loss_fraction(text: &str) -> Result<f64, String> {
@@ -119,6 +132,7 @@ fn run(args: &Args) -> Result<(), Failure> {
     }
     let built = build_with_handles(&topology)
         .map_err(|err| Failure::Topology(format!("cannot build the topology: {err}")))?;
+    let bridged = bridged_slave(args, &built)?;
     let options = RawSocketOptions {
         busy_poll: args.busy_poll,
         spin: std::time::Duration::from_micros(u64::from(args.spin_us)),
@@ -141,25 +155,72 @@ fn run(args: &Args) -> Result<(), Failure> {
             .map_err(|err| Failure::Io(format!("cannot handle signal {signal}: {err}")))?;
     }
 
-    let counter = match &args.pcap {
-        Some(path) => {
-            let mut tap =
-                PcapTap::create(socket, path).map_err(|err| Failure::Io(err.to_string()))?;
-            let counter = announce_and_serve(&mut tap, args, &topology, built, Arc::clone(&stop))?;
-            tap.flush()
-                .map_err(|err| Failure::Io(format!("{}: {err}", path.display())))?;
-            counter
-        }
+    let bridge = match (&args.eoe_tap, &bridged) {
+        (Some(name), Some((_, port))) => Some(
+            TapBridge::start(name, port, &stop)
+                .map_err(|err| Failure::Io(format!("cannot make the TAP {name}: {err}")))?,
+        ),
+        _ => None,
+    };
+    let served = match &args.pcap {
+        Some(path) => PcapTap::create(socket, path)
+            .map_err(|err| Failure::Io(err.to_string()))
+            .and_then(|mut tap| {
+                let counter =
+                    announce_and_serve(&mut tap, args, &topology, built, Arc::clone(&stop))?;
+                tap.flush()
+                    .map_err(|err| Failure::Io(format!("{}: {err}", path.display())))?;
+                Ok(counter)
+            }),
         None => {
             let mut socket = socket;
-            announce_and_serve(&mut socket, args, &topology, built, Arc::clone(&stop))?
+            announce_and_serve(&mut socket, args, &topology, built, Arc::clone(&stop))
         }
     };
+    // The loop is over (a signal or an error): the bridge's threads end with it.
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    if let Some(bridge) = bridge {
+        bridge.stop();
+    }
+    let counter = served?;
+    if let (Some(name), Some((_, port))) = (&args.eoe_tap, &bridged) {
+        let drops = port.drops();
+        eprintln!(
+            "ecat-sim: {name}: frames dropped to the TAP {} to the master {}",
+            drops.to_host, drops.to_master
+        );
+    }
     eprintln!(
         "ecat-sim: stopped; frames in {} out {}",
         counter.frames_in, counter.frames_out
     );
     Ok(())
+}
+
+/// The slave `--eoe-tap` bridges and its host port: the one at `--eoe-slave`, else the
+/// first EoE slave.
+fn bridged_slave(args: &Args, built: &Built) -> Result<Option<(usize, HostPort)>, Failure> {
+    if args.eoe_tap.is_none() {
+        return Ok(None);
+    }
+    let port_at = |position: usize| {
+        built
+            .slaves
+            .get(position)
+            .and_then(|handles| handles.eoe_port.clone())
+    };
+    match args.eoe_slave {
+        Some(position) => port_at(position)
+            .map(|port| Some((position, port)))
+            .ok_or_else(|| {
+                Failure::Topology(format!(
+                    "--eoe-slave {position}: no EoE slave at that position"
+                ))
+            }),
+        None => (0..built.slaves.len())
+            .find_map(|position| port_at(position).map(|port| Some((position, port))))
+            .ok_or_else(|| Failure::Topology("--eoe-tap: the topology has no EoE slave".into())),
+    }
 }
 
 fn announce_and_serve(
@@ -179,6 +240,17 @@ fn announce_and_serve(
         writeln!(out, "ecat-sim: {} slaves", topology.slaves.len())?;
         for line in slave_lines(topology, &segment) {
             writeln!(out, "  {line}")?;
+        }
+        if let Some(name) = &args.eoe_tap {
+            let position = (0..slaves.len()).find(|&p| {
+                slaves[p]
+                    .eoe_port
+                    .as_ref()
+                    .is_some_and(HostPort::is_attached)
+            });
+            if let Some(position) = position {
+                writeln!(out, "  EoE of slave {position} bridged to TAP {name}")?;
+            }
         }
         writeln!(out, "ecat-sim: ready on {}", args.iface)?;
         out.flush()

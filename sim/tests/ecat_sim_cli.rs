@@ -123,3 +123,47 @@ fn topology_and_slaves_together_are_a_usage_error() {
         stderr(&out)
     );
 }
+
+#[test]
+fn an_eoe_tap_without_an_eoe_slave_to_bridge_exits_2_and_makes_no_interface() {
+    // Slave 1 of the built-in segment is a digital output terminal: no EoE.
+    let out = run(&[
+        "--iface",
+        "lo",
+        "--eoe-tap",
+        "eoe-cli-t1",
+        "--eoe-slave",
+        "1",
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--eoe-slave 1: no EoE slave at that position"),
+        "{}",
+        stderr(&out)
+    );
+    // A segment of one slave without a mailbox has nothing to bridge.
+    let path = topology_file(
+        "no-eoe",
+        "[[slave]]\nname = \"DO\"\nvendor_id = 1\nproduct_code = 2\n",
+    );
+    let topology = path.to_str().unwrap();
+    let out = run(&[
+        "--iface",
+        "lo",
+        "--topology",
+        topology,
+        "--eoe-tap",
+        "eoe-cli-t2",
+    ]);
+    let _ = std::fs::remove_file(&path);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--eoe-tap: the topology has no EoE slave"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!std::path::Path::new("/sys/class/net/eoe-cli-t1").exists());
+    // --eoe-slave means nothing without --eoe-tap.
+    let out = run(&["--iface", "lo", "--eoe-slave", "0"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+}

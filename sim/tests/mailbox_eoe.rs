@@ -1,5 +1,6 @@
-//! The simulated EoE slave: IP parameters, frames in and out in fragments, and its endpoint
-//! answering ping and ARP (checked with etherparse).
+//! The simulated EoE slave: IP parameters, frames in and out in fragments, its endpoint
+//! answering ping and ARP (checked with etherparse), and its Ethernet side handed to the
+//! host (the host port behind ecat-sim's `--eoe-tap`).
 
 mod mailbox_support;
 
@@ -15,8 +16,10 @@ use master_core::wire::eoe::{
     Reassembler,
 };
 use master_core::wire::mailbox::{MailboxErrorCode, MailboxType};
-use sim::device::MailboxStack;
-use sim::device::eoe::{EoeService, IpConfig};
+use std::time::Duration;
+
+use sim::device::eoe::{EoeService, HostEvent, HostPort, IpConfig};
+use sim::device::{Device, MailboxStack, Outbox};
 
 use mailbox_support::{Bench, Reply};
 
@@ -153,13 +156,8 @@ fn get_ip_of_an_unconfigured_slave_is_empty() {
 fn fragmented_ping_gets_an_echo_reply() {
     let mut bench = bench();
     configure(&mut bench);
-    let payload: Vec<u8> = (0..300u16).map(|i| (i % 251) as u8).collect();
-    let mut request = Vec::new();
-    PacketBuilder::ethernet2(MASTER_MAC, SLAVE_MAC)
-        .ipv4(MASTER_IP.octets(), SLAVE_IP.octets(), 64)
-        .icmpv4_echo_request(0x1234, 7)
-        .write(&mut request, &payload)
-        .unwrap();
+    let payload = echo_payload(300);
+    let request = echo_request(300);
     let (sent, replies) = send_frame(&mut bench, &request, 5);
     assert!(sent >= 3, "the request needs several mailboxes ({sent})");
     assert!(replies.len() >= 3, "so does the reply");
@@ -364,4 +362,107 @@ fn filters_unknown_types_and_broken_fragments() {
     );
     let counters = bench.stack.service::<EoeService>().unwrap().counters();
     assert_eq!((counters.reassembly_errors, counters.frames_in), (1, 0));
+}
+
+fn echo_payload(len: usize) -> Vec<u8> {
+    (0..len).map(|i| (i % 251) as u8).collect()
+}
+
+/// An echo request (id 0x1234, sequence 7) for the slave's address, `len` bytes of payload.
+fn echo_request(len: usize) -> Vec<u8> {
+    let mut request = Vec::new();
+    PacketBuilder::ethernet2(MASTER_MAC, SLAVE_MAC)
+        .ipv4(MASTER_IP.octets(), SLAVE_IP.octets(), 64)
+        .icmpv4_echo_request(0x1234, 7)
+        .write(&mut request, &echo_payload(len))
+        .unwrap();
+    request
+}
+
+fn bridged_bench() -> (Bench, HostPort) {
+    let port = HostPort::default();
+    port.attach();
+    let service = EoeService::default()
+        .with_tcp_host(true)
+        .with_host_port(port.clone());
+    (
+        Bench::new(MailboxStack::new().with(service), 128, 128),
+        port,
+    )
+}
+
+#[test]
+fn an_attached_host_port_gets_the_masters_frames_and_set_ip_instead_of_the_endpoint() {
+    let (mut bench, port) = bridged_bench();
+    configure(&mut bench);
+    match port.next_event(Duration::ZERO) {
+        Some(HostEvent::IpConfig(config)) => {
+            assert_eq!(config.mac, Some(SLAVE_MAC));
+            assert_eq!(config.ip, Some(SLAVE_IP));
+            assert_eq!(config.subnet_mask, Some(Ipv4Addr::new(255, 255, 255, 0)));
+        }
+        other => panic!("Set IP expected, got {other:?}"),
+    }
+    // A ping to the slave's own address: the host gets it, the slave does not answer it.
+    let request = echo_request(300);
+    let (sent, replies) = send_frame(&mut bench, &request, 3);
+    assert!(sent >= 3, "{sent} fragments");
+    assert!(replies.is_empty(), "{replies:?}");
+    assert_eq!(
+        port.next_event(Duration::ZERO),
+        Some(HostEvent::Frame(request))
+    );
+    assert_eq!(port.next_event(Duration::ZERO), None);
+    let counters = bench.stack.service::<EoeService>().unwrap().counters();
+    assert_eq!((counters.frames_in, counters.icmp_replies), (1, 0));
+    assert_eq!(port.drops().to_host, 0);
+}
+
+#[test]
+fn a_port_never_attached_leaves_the_frames_to_the_endpoint() {
+    let port = HostPort::default();
+    let service = EoeService::default().with_host_port(port.clone());
+    let mut bench = Bench::new(MailboxStack::new().with(service), 128, 128);
+    configure(&mut bench);
+    let (_, replies) = send_frame(&mut bench, &echo_request(40), 0);
+    assert_eq!(reassemble(&replies).len(), 1, "the endpoint's echo reply");
+    assert_eq!(port.next_event(Duration::ZERO), None);
+}
+
+#[test]
+fn host_frames_go_to_the_master_one_frame_at_a_time_and_whole() {
+    let (mut bench, port) = bridged_bench();
+    let frames: Vec<Vec<u8>> = (0..3u8)
+        .map(|i| {
+            let mut f = MASTER_MAC.to_vec();
+            f.extend_from_slice(&SLAVE_MAC);
+            f.extend_from_slice(&[0x08, 0x00]);
+            f.extend((0..300).map(|j| i.wrapping_mul(7).wrapping_add(j as u8)));
+            f
+        })
+        .collect();
+    for frame in &frames {
+        assert!(port.send_to_master(frame.clone()));
+    }
+    // Polled while nothing is read: the first frame's fragments only, so an answer to the
+    // next request would wait behind those and no more.
+    let mut outbox = Outbox::new(64);
+    for _ in 0..5 {
+        bench.stack.poll(&bench.ctx, &mut outbox);
+    }
+    let first = outbox.len();
+    let per_frame = Fragmenter::new(&frames[0], 128, 0).unwrap().count();
+    assert_eq!(first, per_frame);
+    let mut replies = Vec::new();
+    while let Some(message) = outbox.pop() {
+        replies.push(mailbox_support::parse_reply(&message));
+    }
+    // Read as a master reads: everything, in order, whole.
+    replies.extend(bench.drain());
+    let received = reassemble(&replies);
+    let numbers: Vec<u8> = received.iter().map(|(n, _)| *n).collect();
+    assert_eq!(numbers, [0, 1, 2]);
+    let bodies: Vec<Vec<u8>> = received.into_iter().map(|(_, f)| f).collect();
+    assert_eq!(bodies, frames);
+    assert_eq!(port.drops().to_master, 0);
 }

@@ -140,14 +140,6 @@ fn ping_and_http_reach_the_simulated_device_and_a_rescan_restores_the_interface(
 
     // A rescan makes the interface anew (new index); its address comes back by itself and
     // the configured Set IP is sent again (the device is back on 10.77.0.2).
-    let before = ecatd.ifindex("eoe0s0").expect("index");
-    let (status, body) = ecatd.curl(&["/api/v1/rescan", "-X", "POST"]);
-    assert_eq!(status, 200, "{body}");
-    ecatd.wait_until("eoe0s0 made anew, up, with its address", |e| {
-        e.ifindex("eoe0s0").is_some_and(|i| i != before)
-            && e.carrier("eoe0s0")
-            && e.link("eoe0s0")
-                .is_some_and(|(_, addr)| addr.contains("10.77.0.1/24"))
-    });
+    ecatd.rescan_and_wait_for("eoe0s0", "10.77.0.1/24");
     assert_eq!(ecatd.ping("10.77.0.2", 10, 56), 10, "{}", ecatd.log());
 }

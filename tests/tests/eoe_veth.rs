@@ -6,80 +6,33 @@
 //! host address comes back without a command. With 5% of the bus frames lost a 4 MiB transfer
 //! still arrives whole (TCP retransmits what EoE loses) and the losses are counted; with the
 //! simulator's link cut the interface goes down, and comes back up when the link does.
+//!
+//! With `ecat-sim --eoe-tap`, the device is the Linux stack in the simulator's namespace
+//! behind a TAP instead: Set IP through the API gives that TAP the slave's MAC and address,
+//! 100 pings all come back, 16 MiB from a TCP server there arrive with an equal SHA-256,
+//! and after a rescan the interface comes back with its address and the device answers.
 
 mod eoe_support;
 #[path = "server_support/mod.rs"]
 mod server_support;
 
+use std::io::{Read, Write};
+use std::net::TcpListener;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
 use ecat_tests::netns::NetNs;
-use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
-use ecat_tests::sim_process::SimProcess;
+use ecat_tests::rig::SIM_IFACE;
+use eoe_support::rig::{DEVICE_IP, EoeRig};
 use eoe_support::{EcatdInNs, payload};
 use sha2::{Digest, Sha256};
-
-const CONFIG: &str = r#"
-[eoe]
-name_scheme = "position"
-
-[[eoe.slave]]
-slave = "0"
-host_address = "10.78.0.1/24"
-"#;
 
 fn sha256(data: &[u8]) -> Vec<u8> {
     Sha256::digest(data).to_vec()
 }
 
-/// The rig with ecatd's `eoe0s0` up and the device behind it at 10.78.0.2 (Set IP done).
-/// Fields drop in order: ecatd, then the simulator, then its namespace.
-struct EoeRig {
-    ecatd: EcatdInNs,
-    _sim: SimProcess,
-    sim_ns: NetNs,
-}
-
-impl EoeRig {
-    /// Starts `ecat-sim <sim_args>` and ecatd, waits for `eoe0s0` and sets the device's IP.
-    fn start(sim_args: &[&str]) -> EoeRig {
-        let Rig {
-            sim: sim_ns,
-            master,
-        } = Rig::new();
-        let sim = SimProcess::start(&sim_ns, SIM_IFACE, sim_args);
-        let config = std::env::temp_dir().join(format!(
-            "ecatd-eoe-veth-{}-{}.toml",
-            std::process::id(),
-            master.name()
-        ));
-        std::fs::write(&config, CONFIG).expect("config written");
-        let config_path = config.to_str().expect("a UTF-8 path").to_owned();
-        let mut ecatd = EcatdInNs::start_in(
-            master,
-            server_support::bin_dir(),
-            &["--iface", MASTER_IFACE, "--config", &config_path],
-        );
-        let _ = std::fs::remove_file(&config);
-        ecatd.wait_until("eoe0s0 up with its address", |e| {
-            e.carrier("eoe0s0")
-                && e.link("eoe0s0")
-                    .is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
-        });
-        let (status, body) = ecatd.curl(&[
-            "/api/v1/slaves/0/eoe/ip",
-            "-X",
-            "PUT",
-            "-H",
-            "content-type: application/json",
-            "-d",
-            r#"{"mac":"02:00:00:00:bb:01","ip":"10.78.0.2","subnet_mask":"255.255.255.0"}"#,
-        ]);
-        assert_eq!(status, 200, "{body}");
-        EoeRig {
-            ecatd,
-            _sim: sim,
-            sim_ns,
-        }
-    }
+fn start(sim_args: &[&str]) -> EoeRig {
+    EoeRig::start(server_support::bin_dir(), sim_args)
 }
 
 /// `GET http://10.78.0.2/<len>` with curl inside ecatd's namespace: the body.
@@ -119,7 +72,7 @@ fn metric(ecatd: &EcatdInNs, name: &str, filter: &str) -> u64 {
 
 #[test]
 fn ping_http_state_changes_and_rescan_through_the_drives_interface() {
-    let mut rig = EoeRig::start(&[]);
+    let mut rig = start(&[]);
     let ecatd = &mut rig.ecatd;
     assert_eq!(ecatd.ping("10.78.0.2", 100, 56), 100, "{}", ecatd.log());
 
@@ -171,21 +124,13 @@ fn ping_http_state_changes_and_rescan_through_the_drives_interface() {
     assert_eq!(ecatd.ping("10.78.0.2", 10, 56), 10, "{}", ecatd.log());
 
     // A rescan makes the interface anew; its host address comes back by itself.
-    let before = ecatd.ifindex("eoe0s0").expect("index");
-    let (status, body) = ecatd.curl(&["/api/v1/rescan", "-X", "POST"]);
-    assert_eq!(status, 200, "{body}");
-    ecatd.wait_until("eoe0s0 made anew, up, with its address", |e| {
-        e.ifindex("eoe0s0").is_some_and(|i| i != before)
-            && e.carrier("eoe0s0")
-            && e.link("eoe0s0")
-                .is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
-    });
+    ecatd.rescan_and_wait_for("eoe0s0", "10.78.0.1/24");
     assert_eq!(ecatd.ping("10.78.0.2", 10, 56), 10, "{}", ecatd.log());
 }
 
 #[test]
 fn a_transfer_survives_five_percent_bus_frame_loss_and_the_losses_are_counted() {
-    let rig = EoeRig::start(&["--loss", "0.05", "--loss-seed", "17"]);
+    let rig = start(&["--loss", "0.05", "--loss-seed", "17"]);
     let ecatd = &rig.ecatd;
 
     let len = 4 << 20;
@@ -231,7 +176,7 @@ fn a_transfer_survives_five_percent_bus_frame_loss_and_the_losses_are_counted() 
 
 #[test]
 fn the_interface_goes_down_when_the_link_is_cut_and_up_when_it_is_back() {
-    let mut rig = EoeRig::start(&[]);
+    let mut rig = start(&[]);
     assert_eq!(
         rig.ecatd.ping("10.78.0.2", 10, 56),
         10,
@@ -255,4 +200,109 @@ fn the_interface_goes_down_when_the_link_is_cut_and_up_when_it_is_back() {
         "{}",
         rig.ecatd.log()
     );
+}
+
+/// The TAP `ecat-sim --eoe-tap` makes for the drive in its namespace.
+const DEVICE_TAP: &str = "eoedev0";
+
+/// A TCP server in `ns` on port 8080 that answers one HTTP request with `body`, while
+/// `client` runs; returns what `client` returned. The server gives up (and the test fails
+/// through `client`) if nobody connects within [`eoe_support::PATIENCE`].
+fn with_http_server_in<T>(ns: &NetNs, body: &[u8], client: impl FnOnce() -> T) -> T {
+    std::thread::scope(|scope| {
+        let (listening_tx, listening) = mpsc::channel();
+        let server = scope.spawn(move || {
+            ns.enter_current_thread();
+            let listener =
+                TcpListener::bind("0.0.0.0:8080").expect("bind in the device's namespace");
+            listener.set_nonblocking(true).expect("non-blocking accept");
+            listening_tx.send(()).expect("the test waits");
+            let deadline = Instant::now() + eoe_support::PATIENCE;
+            let mut stream = loop {
+                match listener.accept() {
+                    Ok((stream, _)) => break stream,
+                    Err(err) if err.kind() == std::io::ErrorKind::WouldBlock => {
+                        if Instant::now() > deadline {
+                            return;
+                        }
+                        // The accept poll's interval (bounded by the deadline above).
+                        std::thread::sleep(Duration::from_millis(10));
+                    }
+                    Err(err) => panic!("accept: {err}"),
+                }
+            };
+            stream.set_nonblocking(false).expect("blocking stream");
+            stream
+                .set_read_timeout(Some(eoe_support::PATIENCE))
+                .expect("timeout");
+            let mut request = Vec::new();
+            let mut buf = [0u8; 512];
+            while !request.windows(4).any(|w| w == b"\r\n\r\n") && request.len() < 8192 {
+                match stream.read(&mut buf) {
+                    Ok(0) | Err(_) => return,
+                    Ok(n) => request.extend_from_slice(&buf[..n]),
+                }
+            }
+            let header = format!("HTTP/1.0 200 OK\r\nContent-Length: {}\r\n\r\n", body.len());
+            let _ = stream.write_all(header.as_bytes());
+            let _ = stream.write_all(body);
+        });
+        listening.recv().expect("the server listens");
+        let result = client();
+        server.join().expect("the server thread");
+        result
+    })
+}
+
+/// `ip <args>` inside the simulator's namespace: its stdout.
+fn sim_ip(rig: &EoeRig, args: &[&str]) -> String {
+    rig.sim_ns.ip(args)
+}
+
+#[test]
+fn the_linux_stack_behind_a_bridged_slave_answers_ping_serves_16_mib_and_survives_a_rescan() {
+    let mut rig = start(&["--eoe-tap", DEVICE_TAP]);
+    assert!(
+        rig.sim
+            .banner
+            .iter()
+            .any(|l| l.contains("EoE of slave 0 bridged to TAP eoedev0")),
+        "{:?}",
+        rig.sim.banner
+    );
+    // Set IP went through the slave to the device: the TAP has the MAC and the address.
+    rig.wait_for_device_tap(DEVICE_TAP);
+
+    let ecatd = &mut rig.ecatd;
+    assert_eq!(ecatd.ping(DEVICE_IP, 100, 56), 100, "{}", ecatd.log());
+
+    let len = 16 << 20;
+    let body = payload(len);
+    let url = format!("http://{DEVICE_IP}:8080/");
+    let out = with_http_server_in(&rig.sim_ns, &body, || {
+        rig.ecatd.run("curl", &["-s", "--max-time", "600", &url])
+    });
+    assert!(
+        out.status.success(),
+        "curl: {}\n{}",
+        String::from_utf8_lossy(&out.stderr),
+        rig.ecatd.log()
+    );
+    assert_eq!(out.stdout.len(), len);
+    assert_eq!(sha256(&out.stdout), sha256(&body));
+    // The frames reached the Linux stack: the kernel counts what ecat-sim wrote into the TAP.
+    let stats = sim_ip(&rig, &["-s", "-o", "link", "show", "dev", DEVICE_TAP]);
+    let rx_packets: u64 = stats
+        .split("RX:")
+        .nth(1)
+        .and_then(|rx| rx.split_whitespace().nth(8))
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no RX packets in {stats}"));
+    assert!(rx_packets > 100 + (len / 1500) as u64 / 4, "{stats}");
+
+    // A rescan makes ecatd's interface anew; its host address comes back by itself, and
+    // the device behind the slave answers again.
+    let ecatd = &mut rig.ecatd;
+    ecatd.rescan_and_wait_for("eoe0s0", "10.78.0.1/24");
+    assert_eq!(ecatd.ping(DEVICE_IP, 10, 56), 10, "{}", ecatd.log());
 }

@@ -3,9 +3,11 @@
 //! - [`describe`]: the lines that say what is emulated, printed at start;
 //! - [`control`]: `--control`, the terminals' physical side on the standard streams;
 //! - [`counter`]: frames in and out, and the rate line printed about once per second;
+//! - [`eoe_tap`]: `--eoe-tap`, an EoE slave's Ethernet side bridged to a TAP interface;
 //! - [`serve`]: the loop that answers frames (receive, run through the segment, send back).
 
 pub mod control;
 pub mod counter;
 pub mod describe;
+pub mod eoe_tap;
 pub mod serve;

@@ -15,7 +15,7 @@ use thiserror::Error;
 use crate::device::coe::{CoeService, EmergencyTrigger, SharedDictionary};
 use crate::device::coe_quirks::CoeQuirks;
 use crate::device::dio::{DigitalInputs, DigitalOutputs, InputDriver, OutputProbe};
-use crate::device::eoe::{EoeService, IpConfig};
+use crate::device::eoe::{EoeService, HostPort, IpConfig};
 use crate::device::foe::{BusyPhase, FileStore, FoeFile, FoeService};
 use crate::device::voe::VoeEcho;
 use crate::device::{Drive, MailboxStack, SlaveDevice};
@@ -75,6 +75,8 @@ pub struct SlaveHandles {
     pub files: Option<FileStore>,
     /// Raises CoE emergencies on the slave (CoE slaves).
     pub emergencies: Option<EmergencyTrigger>,
+    /// The Ethernet side of an EoE slave, to hand to the host (ecat-sim's TAP bridge).
+    pub eoe_port: Option<HostPort>,
 }
 
 /// A built segment, its time base and per-slave handles.
@@ -178,7 +180,13 @@ fn build_slave(position: usize, spec: &SlaveSpec) -> Result<SlaveParts, BuildErr
                 ip: spec.eoe.and_then(|e| e.ip),
                 ..IpConfig::default()
             };
-            stack = stack.with(EoeService::new(config).with_tcp_host(true));
+            let port = HostPort::default();
+            handles.eoe_port = Some(port.clone());
+            stack = stack.with(
+                EoeService::new(config)
+                    .with_tcp_host(true)
+                    .with_host_port(port),
+            );
         }
         if has(Protocol::Voe) {
             stack = stack.with(VoeEcho::new(spec.voe_vendor_id.unwrap_or(spec.vendor_id)));

@@ -10,6 +10,8 @@ use std::time::{Duration, Instant};
 
 use ecat_tests::netns::NetNs;
 
+pub mod rig;
+
 /// How long anything in these tests may take to happen.
 pub const PATIENCE: Duration = Duration::from_secs(30);
 
@@ -143,6 +145,19 @@ impl EcatdInNs {
                 rest.split_whitespace().next()?.parse().ok()
             })
             .unwrap_or_else(|| panic!("no ping summary:\n{text}"))
+    }
+
+    /// Asks for a rescan and waits until interface `name` is made anew (a new index), has
+    /// its carrier and `address` (e.g. `10.78.0.1/24`) on it, with no other command.
+    pub fn rescan_and_wait_for(&mut self, name: &str, address: &str) {
+        let before = self.ifindex(name).expect("the interface's index");
+        let (status, body) = self.curl(&["/api/v1/rescan", "-X", "POST"]);
+        assert_eq!(status, 200, "{body}");
+        self.wait_until(&format!("{name} made anew, up, with {address}"), |e| {
+            e.ifindex(name).is_some_and(|i| i != before)
+                && e.carrier(name)
+                && e.link(name).is_some_and(|(_, addr)| addr.contains(address))
+        });
     }
 
     /// Polls `check` until it holds, panicking with `what` and ecatd's log after

@@ -4,6 +4,8 @@
 //! - [`endpoint`]: the slave's own IPv4 host (ARP and ICMP echo, built with etherparse);
 //! - [`tcp_host`]: optionally, a TCP endpoint beside it (smoltcp: ARP, an HTTP server of a
 //!   known payload), which then takes the ARP and TCP frames;
+//! - [`host_port`]: the slave's Ethernet side handed to the host instead (ecat-sim's TAP
+//!   bridge): once attached, every frame goes there and neither host above sees any;
 //! - here: [`EoeService`].
 //!
 //! Frames from the master arrive as fragments and are put together by the codec's
@@ -21,6 +23,7 @@
 //! 0x0004.
 
 pub mod endpoint;
+pub mod host_port;
 pub mod ip_config;
 pub mod tcp_host;
 
@@ -37,6 +40,7 @@ use crate::device::mailbox::{MailboxService, ReplySink};
 use crate::device::{DeviceContext, OutboxFull};
 
 pub use endpoint::Answer;
+pub use host_port::{HostEvent, HostPort};
 pub use ip_config::IpConfig;
 use tcp_host::TcpHost;
 
@@ -75,6 +79,18 @@ pub struct EoeService {
     counters: EoeCounters,
     tcp_enabled: bool,
     tcp: HostSlot,
+    port: PortSlot,
+}
+
+/// The host port. A clone of the service (a snapshot) gets a port of its own, never
+/// attached: frames for the host stay with the original.
+#[derive(Debug, Default)]
+struct PortSlot(HostPort);
+
+impl Clone for PortSlot {
+    fn clone(&self) -> PortSlot {
+        PortSlot::default()
+    }
 }
 
 /// The TCP host, made once the slave has a MAC and an IP address. A clone of the service
@@ -114,7 +130,20 @@ impl EoeService {
             counters: EoeCounters::default(),
             tcp_enabled: false,
             tcp: HostSlot::default(),
+            port: PortSlot::default(),
         }
+    }
+
+    /// The service with `port` as its host port (see [`host_port`]); a port made by
+    /// default is never attached.
+    pub fn with_host_port(mut self, port: HostPort) -> Self {
+        self.port = PortSlot(port);
+        self
+    }
+
+    /// The host port, if the slave's Ethernet side is handed to the host.
+    fn attached_port(&self) -> Option<&HostPort> {
+        Some(&self.port.0).filter(|port| port.is_attached())
     }
 
     /// Whether a TCP endpoint ([`tcp_host`]) runs behind the slave (default: no). With it,
@@ -205,6 +234,12 @@ impl EoeService {
     /// A frame from the master is complete.
     fn frame_received(&mut self, frame: Vec<u8>, replies: &mut ReplySink) {
         self.counters.frames_in += 1;
+        if let Some(port) = self.attached_port() {
+            // The device is the host's: it answers, not the slave (nor is the frame kept
+            // for `take_received`, which would copy every frame of a bulk transfer).
+            port.deliver(HostEvent::Frame(frame));
+            return;
+        }
         if tcp_host::wants(&frame)
             && let Some(host) = self.tcp_host()
         {
@@ -268,6 +303,27 @@ impl EoeService {
         Ok(true)
     }
 
+    /// One frame from the host port, and only once nothing waits for SM1: the master reads
+    /// the stream as fast as it reads at all, and an answer to its next request (an SDO
+    /// upload) waits behind one frame's fragments at most, not behind a queue of them.
+    fn poll_port(&mut self, replies: &mut ReplySink) {
+        if replies.ahead() > 0 {
+            return;
+        }
+        let frame = match self.tx_queue.pop_front() {
+            Some(frame) => frame,
+            None => match self.port.0.take_for_master() {
+                Some(frame) => frame,
+                None => return,
+            },
+        };
+        match self.transmit(&frame, replies) {
+            Ok(true) => {}
+            Ok(false) => self.tx_queue.push_front(frame),
+            Err(()) => self.counters.frames_dropped += 1,
+        }
+    }
+
     fn respond(replies: &mut ReplySink, repr: &EoeRepr<'_>) {
         let _ = replies.send_emitted(build(repr));
     }
@@ -304,6 +360,9 @@ impl MailboxService for EoeService {
             },
             EoeRepr::SetIpRequest { port, params } => {
                 self.config.apply(&params);
+                if let Some(host) = self.attached_port() {
+                    host.deliver(HostEvent::IpConfig(self.config.clone()));
+                }
                 let result = EoeResult::Success;
                 Self::respond(replies, &EoeRepr::SetIpResponse { port, result });
             }
@@ -343,6 +402,9 @@ impl MailboxService for EoeService {
     }
 
     fn poll(&mut self, _ctx: &DeviceContext, replies: &mut ReplySink) {
+        if self.attached_port().is_some() {
+            return self.poll_port(replies);
+        }
         while let Some(frame) = self.tx_queue.pop_front() {
             match self.transmit(&frame, replies) {
                 Ok(true) => {}

@@ -380,7 +380,9 @@ impl Device for MailboxStack {
             let Some(service) = self.services.get_mut(i) else {
                 break;
             };
-            let mut sink = ReplySink::new(service.mailbox_type(), 0, max_data, room);
+            let ahead = self.backlog.len() + outbox.len();
+            let mut sink =
+                ReplySink::new(service.mailbox_type(), 0, max_data, room).with_ahead(ahead);
             service.poll(ctx, &mut sink);
             self.absorb(sink, ctx);
         }

@@ -66,6 +66,7 @@ pub struct ReplySink {
     address: u16,
     max_data_len: usize,
     room: usize,
+    ahead: usize,
     replies: Vec<PendingReply>,
     faults: u64,
 }
@@ -80,9 +81,23 @@ impl ReplySink {
             address,
             max_data_len,
             room,
+            ahead: 0,
             replies: Vec::new(),
             faults: 0,
         }
+    }
+
+    /// The same sink, told that `ahead` messages already wait for SM1 before its own.
+    pub(crate) fn with_ahead(mut self, ahead: usize) -> Self {
+        self.ahead = ahead;
+        self
+    }
+
+    /// Messages that wait for SM1 before the ones posted through this sink (posted earlier
+    /// by any service): a service streaming unsolicited messages (EoE) posts only when this
+    /// is 0, so an answer to a request never waits behind a long stream.
+    pub fn ahead(&self) -> usize {
+        self.ahead
     }
 
     /// Posts mailbox data of the service's own type.
