@@ -15,6 +15,9 @@
 //! - [`FaultInjector`]: drops, corrupts and delays frames, repeatably from a seed.
 //! - [`CaptureTap`]: copies frames to a live capture on request, off the bus thread.
 //!
+//! [`netdev`] holds the kernel's network-device controls (names, link up, MAC, IPv4, TAP)
+//! shared with ecatd's EoE interfaces and the simulator's EoE bridge.
+//!
 //! A link does not pad short frames to the Ethernet minimum and does not filter by MAC
 //! address: padding is the frame builder's job, and EtherCAT slaves may rewrite the source
 //! address of returning frames, so only the EtherType can be trusted to pick our traffic.
@@ -25,6 +28,7 @@ use std::time::Instant;
 mod capture;
 mod fault;
 mod memory;
+pub mod netdev;
 mod pcap;
 mod raw_socket;
 

@@ -18,7 +18,7 @@ use std::io;
 use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd, RawFd};
 use std::time::{Duration, Instant};
 
-use super::{Link, Wait};
+use super::{Link, Wait, netdev};
 use crate::wire::ethernet::ETHERTYPE_ETHERCAT;
 
 /// How to set up a [`RawSocket`].
@@ -86,7 +86,7 @@ impl RawSocket {
     /// namespace), and `PermissionDenied` without `CAP_NET_RAW`. Each error names the
     /// interface and keeps the OS error's text.
     pub fn open(interface: &str, options: RawSocketOptions) -> io::Result<RawSocket> {
-        check_interface_name(interface)?;
+        netdev::check_name(interface)?;
         let fd = sys::packet_socket().map_err(|err| {
             if err.kind() == io::ErrorKind::PermissionDenied {
                 context(
@@ -101,7 +101,7 @@ impl RawSocket {
             }
         })?;
         let fd_ref = fd.as_fd();
-        let request = sys::interface_request(interface);
+        let request = netdev::request(interface)?;
 
         let index = sys::interface_index(fd_ref, request).map_err(|err| {
             if err.raw_os_error() == Some(libc::ENODEV) {
@@ -284,28 +284,6 @@ impl AsRawFd for RawSocket {
     }
 }
 
-/// Refuses names the kernel could not hold in `ifreq` (at most 15 bytes, no NUL) or that no
-/// interface can have (empty, or containing `/` or whitespace).
-fn check_interface_name(interface: &str) -> io::Result<()> {
-    let valid = !interface.is_empty()
-        && interface.len() < libc::IFNAMSIZ
-        && !interface
-            .bytes()
-            .any(|byte| byte == 0 || byte == b'/' || byte.is_ascii_whitespace());
-    if valid {
-        Ok(())
-    } else {
-        Err(io::Error::new(
-            io::ErrorKind::InvalidInput,
-            format!(
-                "{interface:?} is not a valid network interface name (1 to {} bytes, no '/', \
-                 whitespace or NUL)",
-                libc::IFNAMSIZ - 1
-            ),
-        ))
-    }
-}
-
 /// Sizes both socket buffers, forcing past the system limit when we may.
 fn set_buffer_size(fd: BorrowedFd<'_>, size: usize) -> io::Result<()> {
     // The kernel doubles the value it is given (for bookkeeping), so ask for half.
@@ -329,17 +307,6 @@ fn context(err: io::Error, what: fmt::Arguments<'_>) -> io::Error {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn interface_names_the_kernel_cannot_hold_are_refused_before_any_system_call() {
-        for bad in ["", "sixteen-bytes-xx", "a/b", "a b", "tab\t", "nul\0"] {
-            let err = check_interface_name(bad).unwrap_err();
-            assert_eq!(err.kind(), io::ErrorKind::InvalidInput, "{bad:?}");
-        }
-        for good in ["eth0", "enp3s0f1", "veth-ecat.100", "fifteen-bytes-x"] {
-            check_interface_name(good).unwrap();
-        }
-    }
 
     #[test]
     fn default_options_are_the_conservative_ones() {

@@ -35,19 +35,6 @@ pub(super) fn packet_socket() -> io::Result<OwnedFd> {
     Ok(unsafe { OwnedFd::from_raw_fd(fd) })
 }
 
-/// An interface request (`struct ifreq`) for the interface called `name`.
-///
-/// The caller has checked that `name` is shorter than `IFNAMSIZ` and has no NUL byte.
-pub(super) fn interface_request(name: &str) -> libc::ifreq {
-    // SAFETY: `ifreq` is a C struct of byte arrays and a union of integers, socket addresses
-    // and a pointer; all-zero bytes are a valid value for each of them.
-    let mut request: libc::ifreq = unsafe { mem::zeroed() };
-    for (slot, byte) in request.ifr_name.iter_mut().zip(name.bytes()) {
-        *slot = byte as libc::c_char;
-    }
-    request
-}
-
 /// Runs one `SIOCGIF*` query that fills in `request`.
 fn interface_ioctl(
     fd: BorrowedFd<'_>,
