@@ -10,7 +10,8 @@
 //! - SM1 is read with [`BusHandle::submit_once`]: a lost read is never blindly repeated
 //!   (which could swallow the next message) but recovered with the repeat procedure, and a
 //!   message re-posted by it that the master already has is recognised by the slave's
-//!   counter and dropped (ETG.1000.4, spec-notes §mbx.repeat).
+//!   counter and dropped (ETG.1000.4, spec-notes §mbx.repeat); a repeat that fails stays
+//!   owing and is carried out before SM1 is read again (`Exchange::recover`).
 //!
 //! The first read of an answer is sent right behind the write (usually in the same frame),
 //! so a slave that answers at once is read one round trip earlier; it is always settled —
@@ -127,6 +128,9 @@ pub(crate) struct Exchange {
     /// A read of SM1 sent right behind the last write, with what it was sent for; it must
     /// be settled before anything else is read or written.
     ahead: Option<(Pending, Option<Want>)>,
+    /// A read of SM1 was lost and the repeat procedure has not been carried out yet: it
+    /// must be before SM1 is read again (see `Self::recover`).
+    repeat_owed: bool,
 }
 
 impl Exchange {
@@ -147,6 +151,7 @@ impl Exchange {
             progress: None,
             cancelled: None,
             ahead: None,
+            repeat_owed: false,
         }
     }
 
@@ -335,6 +340,7 @@ impl Exchange {
             self.keep_answer();
         }
         loop {
+            self.recover().await?;
             let write = self
                 .bus
                 .fpwr(station, start, DatagramData::from_slice(&self.tx));
@@ -470,8 +476,32 @@ impl Exchange {
 
     /// Reads SM1 once and routes what it held.
     async fn read_one(&mut self, want: Option<Want>) -> Result<Read> {
+        self.recover().await?;
         let read = self.submit_read();
         self.finish_read(read.await, want).await
+    }
+
+    /// Carries out the repeat procedure a lost read left owing, if any.
+    ///
+    /// The slave re-posts the message the lost read took only as long as the master has not
+    /// read SM1 again: its copy is of the last message read (ETG.1000.4 §6.7, spec-notes
+    /// §mbx.repeat), and the next read replaces it. So when the procedure fails (its register
+    /// accesses got no answer within the bus's retries, as when the frames of a slow or
+    /// briefly unreachable slave come back too late), SM1 is not read until it has been
+    /// carried out: every read of SM1 comes here first, and the message arrives late instead
+    /// of never.
+    async fn recover(&mut self) -> Result<()> {
+        if !self.repeat_owed {
+            return Ok(());
+        }
+        let deadline = self
+            .deadline
+            .max(Instant::now() + self.shared.engine.timeout);
+        let interval = self.shared.engine.poll_interval;
+        request_repeat(&self.bus, self.station(), deadline, interval).await?;
+        self.repeat_owed = false;
+        inc(&self.shared.stats.repeats);
+        Ok(())
     }
 
     /// Routes what a read of SM1 brought; a lost read is recovered with a repeat request.
@@ -481,12 +511,8 @@ impl Exchange {
             Ok(response) => response,
             Err(BusError::Timeout { .. }) => {
                 inc(&self.shared.stats.lost_reads);
-                let deadline = self
-                    .deadline
-                    .max(Instant::now() + self.shared.engine.timeout);
-                let interval = self.shared.engine.poll_interval;
-                request_repeat(&self.bus, station, deadline, interval).await?;
-                inc(&self.shared.stats.repeats);
+                self.repeat_owed = true;
+                self.recover().await?;
                 return Ok(Read::Nothing);
             }
             Err(err) => return Err(err.into()),
