@@ -444,7 +444,7 @@ impl Exchange {
     /// poll.
     pub async fn poll_idle(&mut self) -> Result<bool> {
         self.deadline = Instant::now() + self.shared.engine.timeout;
-        if self.eoe_rx.expire(Instant::now()) {
+        if self.eoe_rx.expire(Instant::now(), None) {
             inc(&self.shared.stats.eoe_reassembly_errors);
         }
         let mut found = false;
@@ -544,7 +544,7 @@ impl Exchange {
             Route::Emergency(repr) => shared.events.emergency(station, &repr, &shared.stats),
             Route::EoeFrame => {
                 let now = Instant::now();
-                if self.eoe_rx.expire(now) {
+                if self.eoe_rx.expire(now, Some(data)) {
                     inc(&shared.stats.eoe_reassembly_errors);
                 }
                 match self.eoe_rx.push(data, now) {
@@ -554,7 +554,7 @@ impl Exchange {
                             .eoe_frame(EoeFrame { station, frame }, &shared.stats);
                     }
                     Pushed::Dropped => inc(&shared.stats.eoe_reassembly_errors),
-                    Pushed::Partial | Pushed::Ignored => {}
+                    Pushed::Partial | Pushed::Orphan | Pushed::Ignored => {}
                 }
             }
             Route::SoeNotification => shared.events.soe_notification(

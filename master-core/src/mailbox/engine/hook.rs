@@ -13,8 +13,9 @@ use super::job::BoxFuture;
 /// spec-notes §mbx.demux) and puts them back together. `Sync`: the exchange that holds it
 /// is borrowed across the awaits of request futures, which must be `Send`.
 pub(crate) trait Reassembly: Send + Sync {
-    /// Drops a partial message whose next part is overdue; true if one was dropped.
-    fn expire(&mut self, now: Instant) -> bool;
+    /// Drops a partial message that can no longer complete: its next part is overdue, or
+    /// `next` (the message about to be pushed) starts a new one. True if one was dropped.
+    fn expire(&mut self, now: Instant, next: Option<&[u8]>) -> bool;
 
     /// Takes the data of one routed message; call [`Self::expire`] first.
     fn push(&mut self, data: &[u8], now: Instant) -> Pushed;
@@ -27,8 +28,11 @@ pub(crate) enum Pushed {
     Frame(Vec<u8>),
     /// More parts are needed.
     Partial,
-    /// The message was refused; the partial frame (if any) was dropped.
+    /// The message was refused and a frame is lost: the partial frame in progress, or the
+    /// frame this part belongs to (its first part never came).
     Dropped,
+    /// A later part of a frame already counted as lost; nothing more is lost.
+    Orphan,
     /// Nothing to put together (a timestamp response).
     Ignored,
 }
