@@ -31,8 +31,10 @@
 //! over the direct API's. Knobs: `PERF_VETH_COUNT` (reads per latency row, default 2000),
 //! `PERF_VETH_ROWS` (phases to run, comma-separated from `latency,clients,delay,bringup`;
 //! default all), `PERF_VETH_SOAK` (gateway requests of the memory soak, default 1,000,000;
-//! 0 skips it), `PERF_VETH_BRINGUP` (slave counts, default `64,512`). Not part of CI:
-//! every figure depends on the machine and its load. ecatd is built in release.
+//! 0 skips it), `PERF_VETH_BRINGUP` (slave counts, default `64,192,512`; SOEM, so pysoem,
+//! takes at most 200 slaves). The 64-client gateway row runs twice: one thread per client,
+//! and the clients as tasks of one thread (as the direct API's 64 callers run). Not part of
+//! CI: every figure depends on the machine and its load. ecatd is built in release.
 
 #![allow(missing_docs)]
 
@@ -721,7 +723,7 @@ fn main() {
         std::env::var("PERF_VETH_ROWS").unwrap_or_else(|_| "latency,clients,delay,bringup".into());
     let has = |name: &str| rows.split(',').any(|r| r.trim() == name);
     let sizes: Vec<usize> = std::env::var("PERF_VETH_BRINGUP")
-        .unwrap_or_else(|_| "64,512".into())
+        .unwrap_or_else(|_| "64,192,512".into())
         .split(',')
         .filter_map(|s| s.trim().parse().ok())
         .collect();

@@ -174,6 +174,9 @@ def bringup(args):
         t0 = time.perf_counter()
         found = master.config_init()
         t1 = time.perf_counter()
+        if found == -4:
+            # SOEM's EC_SLAVECOUNTEXCEEDED: more slaves than it was built for (EC_MAXSLAVE).
+            raise SystemExit(f"SOEM refuses {args.slaves} slaves (EC_MAXSLAVE exceeded)")
         if found != args.slaves:
             raise SystemExit(f"config_init found {found} slaves, not {args.slaves}")
         master.config_map()
