@@ -332,8 +332,15 @@ fn rss_kib(pid: u32) -> u64 {
         .expect("VmRSS")
 }
 
-/// The cumulative buckets of ecatd's cycle jitter histogram: (upper bound s, count).
-fn jitter_buckets(agent: &ureq::Agent, http: &str) -> Vec<(f64, u64)> {
+/// What ecatd's `/metrics` says of its cycle: the cumulative buckets of the jitter
+/// histogram (upper bound s, count) and the periods missed (no cycle ran in them).
+struct CycleMetrics {
+    buckets: Vec<(f64, u64)>,
+    missed: u64,
+    at: Instant,
+}
+
+fn cycle_metrics(agent: &ureq::Agent, http: &str) -> CycleMetrics {
     let text = agent
         .get(format!("{http}/metrics"))
         .call()
@@ -341,19 +348,30 @@ fn jitter_buckets(agent: &ureq::Agent, http: &str) -> Vec<(f64, u64)> {
         .body_mut()
         .read_to_string()
         .expect("metrics text");
-    text.lines()
+    let value = |rest: &str| rest.rsplit(' ').next()?.parse::<f64>().ok();
+    let buckets = text
+        .lines()
         .filter_map(|l| l.strip_prefix("ecat_process_data_cycle_jitter_seconds_bucket{le=\""))
         .filter_map(|l| {
             let (le, rest) = l.split_once('"')?;
-            let count = rest.rsplit(' ').next()?.parse::<f64>().ok()? as u64;
             let le = if le == "+Inf" {
                 f64::INFINITY
             } else {
                 le.parse().ok()?
             };
-            Some((le, count))
+            Some((le, value(rest)? as u64))
         })
-        .collect()
+        .collect();
+    let missed = text
+        .lines()
+        .find_map(|l| l.strip_prefix("ecat_process_data_cycles_missed_total"))
+        .and_then(value)
+        .unwrap_or(0.0) as u64;
+    CycleMetrics {
+        buckets,
+        missed,
+        at: Instant::now(),
+    }
 }
 
 /// Cycles counted between two bucket snapshots and the bucket bound (µs) below which each
@@ -462,9 +480,9 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
     let idle = rss_kib(ecatd.pid());
     let agent = ureq::Agent::new_with_defaults();
     // The quiet window: ecatd's cycle with nothing else asked of it.
-    let quiet_start = jitter_buckets(&agent, &ecatd.http);
+    let quiet_start = cycle_metrics(&agent, &ecatd.http);
     std::thread::sleep(QUIET);
-    let quiet_end = jitter_buckets(&agent, &ecatd.http);
+    let quiet_end = cycle_metrics(&agent, &ecatd.http);
     let n = count.to_string();
     let proto = server_support::root().join("proto");
     let proto = proto.to_str().expect("utf-8 path");
@@ -547,7 +565,7 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
             }
         }
     }
-    let loaded_end = jitter_buckets(&agent, &ecatd.http);
+    let loaded_end = cycle_metrics(&agent, &ecatd.http);
     let after_rows = rss_kib(ecatd.pid());
 
     println!();
@@ -555,17 +573,19 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         "ecatd's 1 kHz cycle, |cycle time − 1 ms| (bucket bounds of its /metrics histogram, µs)"
     );
     println!(
-        "{:<40} {:>8} {:>8} {:>8} {:>8} {:>8}",
-        "", "cycles", "p50 ≤", "p90 ≤", "p99 ≤", "p99.9 ≤"
+        "{:<28} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
+        "", "window s", "cycles", "missed", "p50 ≤", "p90 ≤", "p99 ≤", "p99.9 ≤"
     );
     let quantiles = [0.5, 0.9, 0.99, 0.999];
     for (name, before, after) in [
-        ("quiet (nothing asked)", &quiet_start, &quiet_end),
+        ("quiet", &quiet_start, &quiet_end),
         ("while the rows above ran", &quiet_end, &loaded_end),
     ] {
-        let (cycles, q) = jitter_between(before, after, &quantiles);
+        let (cycles, q) = jitter_between(&before.buckets, &after.buckets, &quantiles);
+        let window = after.at.duration_since(before.at).as_secs_f64();
+        let missed = after.missed.saturating_sub(before.missed);
         println!(
-            "{name:<40} {cycles:>8} {:>8} {:>8} {:>8} {:>8}",
+            "{name:<28} {window:>8.1} {cycles:>8} {missed:>8} {:>8} {:>8} {:>8} {:>8}",
             q[0], q[1], q[2], q[3]
         );
     }
