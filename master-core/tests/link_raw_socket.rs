@@ -80,6 +80,73 @@ fn link_raw_socket_frames_cross_veth_both_ways_in_busy_poll_mode_with_qdisc_bypa
 }
 
 #[test]
+fn link_raw_socket_frames_cross_veth_both_ways_with_a_spin_window() {
+    frames_cross_both_ways(RawSocketOptions {
+        spin: Duration::from_micros(200),
+        ..RawSocketOptions::default()
+    });
+}
+
+/// CPU time the calling thread has used.
+fn thread_cpu_time() -> Duration {
+    let mut now = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `now` is a valid, writable timespec for the call's duration.
+    let result = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut now) };
+    assert_eq!(result, 0, "clock_gettime: {}", io::Error::last_os_error());
+    Duration::new(now.tv_sec as u64, now.tv_nsec as u32)
+}
+
+#[test]
+fn link_raw_socket_spin_window_ends_in_a_sleep_and_never_outlasts_the_deadline() {
+    let ns = veth_pair();
+    ns.run_inside(|| {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        // A window shorter than the wait: spins 1 ms, then sleeps until the deadline, so
+        // the thread uses far less CPU than the wait lasts (a busy poll would use it all).
+        let wait = Duration::from_millis(200);
+        let mut a = RawSocket::open(
+            "a",
+            RawSocketOptions {
+                spin: Duration::from_millis(1),
+                ..RawSocketOptions::default()
+            },
+        )
+        .unwrap();
+        let cpu = thread_cpu_time();
+        let deadline = Instant::now() + wait;
+        assert_eq!(a.recv(&mut buf, Wait::Until(deadline)).unwrap(), None);
+        assert!(Instant::now() >= deadline, "gave up early");
+        let used = thread_cpu_time() - cpu;
+        assert!(
+            used < wait / 2,
+            "spun through the whole wait: {used:?} of CPU"
+        );
+
+        // A window longer than the wait: the deadline still ends it.
+        let mut b = RawSocket::open(
+            "b",
+            RawSocketOptions {
+                spin: Duration::from_secs(60),
+                ..RawSocketOptions::default()
+            },
+        )
+        .unwrap();
+        let deadline = Instant::now() + QUIET;
+        assert_eq!(b.recv(&mut buf, Wait::Until(deadline)).unwrap(), None);
+        let now = Instant::now();
+        assert!(now >= deadline, "gave up early");
+        assert!(now < deadline + PATIENCE, "spun past the deadline");
+        // And a frame that arrives during the window is taken.
+        a.send(&test_frame(9, MIN_FRAME_LEN)).unwrap();
+        let len = b.recv(&mut buf, soon()).unwrap().expect("the frame");
+        assert_eq!(seq_of(&buf[..len]), 9);
+    });
+}
+
+#[test]
 fn link_raw_socket_sender_does_not_read_back_its_own_frame() {
     let ns = veth_pair();
     ns.run_inside(|| {

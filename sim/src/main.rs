@@ -1,7 +1,7 @@
 //! `ecat-sim`: an emulated EtherCAT segment answering on a network interface.
 //!
 //! ```text
-//! ecat-sim --iface <ifname> [--topology FILE] [--slaves N] [--pcap FILE] [--busy-poll] [--control]
+//! ecat-sim --iface <ifname> [--topology FILE] [--slaves N] [--pcap FILE] [--busy-poll] [--spin-us N] [--control]
 //! ```
 //!
 //! Prints one line per emulated slave, then `ecat-sim: ready on <ifname>` on stdout (scripts
@@ -46,6 +46,11 @@ struct Args {
     /// Spin on the socket instead of sleeping in poll: lower latency, one busy core.
     #[arg(long)]
     busy_poll: bool,
+    /// After answering a frame, spin this many microseconds for the next one before
+    /// sleeping in poll: a master's next frame (the read after a mailbox write, say) is then
+    /// taken without a wake-up, at the price of that much CPU per frame.
+    #[arg(long, value_name = "MICROSECONDS", default_value = "0")]
+    spin_us: u32,
     /// Report digital outputs on stdout and take `input`/`emergency` commands on stdin.
     #[arg(long)]
     control: bool,
@@ -116,6 +121,7 @@ fn run(args: &Args) -> Result<(), Failure> {
         .map_err(|err| Failure::Topology(format!("cannot build the topology: {err}")))?;
     let options = RawSocketOptions {
         busy_poll: args.busy_poll,
+        spin: std::time::Duration::from_micros(u64::from(args.spin_us)),
         ..RawSocketOptions::default()
     };
     let socket =

@@ -125,6 +125,7 @@ pub(crate) use histogram::Histogram;
 pub use histogram::HistogramSnapshot;
 pub use request::{DatagramRequest, DatagramResponse, WkcCheck};
 pub use sched::ThreadPriority;
+pub(crate) use sched::set_min_timer_slack;
 pub use stats::BusStatsSnapshot;
 
 /// What the handles and the bus thread share.

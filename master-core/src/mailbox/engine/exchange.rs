@@ -16,6 +16,17 @@
 //! so a slave that answers at once is read one round trip earlier; it is always settled —
 //! routed like any other read — before the next write or read, so no message it brings is
 //! lost.
+//!
+//! How often SM1 is read while an answer is awaited: a slave's application answers after
+//! its own delay, which the master cannot know (the mailbox is a handshake: the slave
+//! fills SM1 when it is ready; ETG.1000.4, spec-notes §mbx.handshake). So a few reads go
+//! back to back ([`MailboxConfig::eager_polls`]: fast slaves are answered within a round
+//! trip or two), then the pauses between reads grow from [`FIRST_PAUSE`] by half each time
+//! up to [`MailboxConfig::poll_interval`] ([`next_pause`]), so that a slow slave costs a
+//! few frames per exchange and is read at most about half its delay late. A "mailbox full"
+//! notice (SM1 status 0x080D bit 3 mapped into the cyclic frame; ETG.1000.4, spec-notes
+//! §esc.sm) ends a pause at once. The pauses run on the engine's own timer thread
+//! ([`super::timer`]): tokio's timer would round each up to 1-2 ms.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -43,6 +54,21 @@ use super::stats::inc;
 const STASH_LEN: usize = 8;
 /// Messages an idle read takes from SM1 in a row at most.
 const IDLE_DRAIN: usize = 16;
+/// The first pause between two reads of SM1 once the eager reads found nothing. Each
+/// further pause is half as long again, up to [`MailboxConfig::poll_interval`].
+pub(crate) const FIRST_PAUSE: Duration = Duration::from_micros(50);
+
+/// The pause after `last` (zero before the first): [`FIRST_PAUSE`], then half as long
+/// again each time, at most `longest`. A slave whose application answers after a delay
+/// *d* is read at most about *d* / 2 late, after some log₁.₅(*d* / 50 µs) reads, instead of
+/// a read per frame round trip (or a pause of a whole poll interval at once).
+pub(crate) fn next_pause(last: Duration, longest: Duration) -> Duration {
+    if last.is_zero() {
+        FIRST_PAUSE.min(longest)
+    } else {
+        (last + last / 2).min(longest)
+    }
+}
 
 /// What one read of SM1 brought.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -359,6 +385,7 @@ impl Exchange {
     pub async fn receive(&mut self, mailbox_type: MailboxType) -> Result<Reply<'_>> {
         let want = Want::Reply(mailbox_type);
         let mut reads = 0u32;
+        let mut pause = Duration::ZERO;
         loop {
             // Checked first as well: a slave answering with a stream of messages the
             // caller skips must not keep the request beyond its deadline.
@@ -380,7 +407,8 @@ impl Exchange {
             }
             reads += 1;
             if reads >= self.shared.engine.eager_polls {
-                self.pause().await;
+                pause = next_pause(pause, self.shared.engine.poll_interval);
+                self.pause(pause).await;
             }
         }
         let header = Mailbox::new_checked(&self.rx[..])
@@ -395,17 +423,12 @@ impl Exchange {
         })
     }
 
-    /// Waits for the next poll (or a "mailbox full" notification), not beyond the deadline.
-    async fn pause(&self) {
-        let now = Instant::now();
-        let wait = self
-            .shared
-            .engine
-            .poll_interval
-            .min(self.deadline.saturating_duration_since(now));
+    /// Waits `pause` (or for a "mailbox full" notification), not beyond the deadline.
+    async fn pause(&self, pause: Duration) {
+        let wait = pause.min(self.deadline.saturating_duration_since(Instant::now()));
         tokio::select! {
-            _ = tokio::time::sleep(wait) => {}
-            _ = self.shared.mail.notified() => {}
+            () = self.shared.timer.sleep(wait) => {}
+            () = self.shared.mail.notified() => {}
         }
     }
 
@@ -523,5 +546,25 @@ impl Exchange {
             Route::Malformed => inc(&shared.stats.malformed),
         }
         Ok(Read::Routed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pauses_start_at_50_us_and_grow_by_half_up_to_the_poll_interval() {
+        let longest = Duration::from_millis(1);
+        let mut pause = Duration::ZERO;
+        let mut seen = Vec::new();
+        for _ in 0..9 {
+            pause = next_pause(pause, longest);
+            seen.push(pause.as_micros());
+        }
+        assert_eq!(seen, [50, 75, 112, 168, 253, 379, 569, 854, 1000]);
+        // A poll interval shorter than the first pause is kept to.
+        let short = Duration::from_micros(20);
+        assert_eq!(next_pause(Duration::ZERO, short), short);
     }
 }

@@ -9,7 +9,8 @@
 //! - [`demux`]: where each message from a slave goes;
 //! - [`hook`]: how the side traffic (EoE) plugs in, without the engine knowing it;
 //! - [`events`], [`stats`]: unsolicited messages and counters;
-//! - [`report`]: log lines for failures, rate-limited per slave.
+//! - [`report`]: log lines for failures, rate-limited per slave;
+//! - [`timer`]: the sub-millisecond pauses of the poll back-off.
 
 pub(crate) mod counter;
 pub(crate) mod demux;
@@ -22,6 +23,7 @@ pub(crate) mod repeat;
 pub(crate) mod report;
 pub(crate) mod slave;
 pub(crate) mod stats;
+pub(crate) mod timer;
 
 use std::collections::HashMap;
 use std::io;
@@ -64,6 +66,9 @@ struct Inner {
     slaves: RwLock<HashMap<u16, Arc<SlaveShared>>>,
     stop: watch::Sender<bool>,
     thread: std::sync::Mutex<Option<JoinHandle<()>>>,
+    timer: timer::Timer,
+    /// Stops the pause thread with the engine.
+    _timer_thread: timer::TimerThread,
 }
 
 impl Drop for Inner {
@@ -90,6 +95,7 @@ impl MailboxEngine {
             .enable_time()
             .build()?;
         let handle = runtime.handle().clone();
+        let (timer, timer_thread) = timer::Timer::start()?;
         let (stop, mut stopped) = watch::channel(false);
         let thread = std::thread::Builder::new()
             .name("ecat-mailbox".into())
@@ -111,6 +117,8 @@ impl MailboxEngine {
                 slaves: RwLock::new(HashMap::new()),
                 stop,
                 thread: std::sync::Mutex::new(Some(thread)),
+                timer,
+                _timer_thread: timer_thread,
             }),
         })
     }
@@ -146,6 +154,7 @@ impl MailboxEngine {
             stop,
             last_tx: AtomicU8::new(last_tx),
             log_limit: report::LogLimit::default(),
+            timer: self.inner.timer.clone(),
         });
         let inputs = owner::Inputs {
             requests: requests_rx,

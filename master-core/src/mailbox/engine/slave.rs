@@ -33,6 +33,8 @@ pub(crate) struct SlaveShared {
     pub last_tx: AtomicU8,
     /// Keeps a broken slave from flooding the log with its failures.
     pub log_limit: LogLimit,
+    /// The engine's sub-millisecond pauses (the poll back-off).
+    pub timer: super::timer::Timer,
 }
 
 /// A handle on one slave's mailbox: the entry point of every protocol client
