@@ -101,12 +101,8 @@ fn every_worker_has_its_thread_and_all_of_them_stop() {
         );
     }
     rig.gateway_mut().stop();
-    // Joined: gone at once.
-    assert!(
-        !thread_names()
-            .iter()
-            .any(|n| n.starts_with("ecat-gateway-"))
-    );
+    // Joined; the kernel may list an exited thread a moment longer.
+    expect_workers(0);
     let addr = rig.gateway_mut().start().expect("restart");
     expect_workers(WORKERS);
     let mut client = Client::new(addr);
