@@ -9,7 +9,8 @@
 //! (the gateway's row minus the direct row minus this one is the gateway's own work). The
 //! 64-caller rows spread over the segment's two CoE slaves.
 //!
-//! Run with `cargo bench -p master-core --bench gateway`.
+//! Run with `cargo bench -p master-core --bench gateway`; `GATEWAY_BENCH_WORKERS=N` sets
+//! the gateway's receive workers (default: `GatewayConfig::default()`'s, the cores up to 4).
 
 #[path = "../tests/gateway_support/mod.rs"]
 mod gateway_support;
@@ -139,9 +140,16 @@ fn tcp_upload(stream: &mut TcpStream, request: &[u8], reply: &mut Vec<u8>) {
 }
 
 fn main() {
+    let defaults = test_config();
+    let workers = std::env::var("GATEWAY_BENCH_WORKERS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(defaults.workers);
+    println!("gateway receive workers: {workers}");
     let rig = GwRig::start(GatewayConfig {
         tcp: true,
-        ..test_config()
+        workers,
+        ..defaults
     });
     let master = rig.master();
     let store = master

@@ -34,10 +34,14 @@ mod latency;
 #[path = "../tests/server_support/mod.rs"]
 mod server_support;
 
+#[path = "support/api_clients.rs"]
+mod api_clients;
+
 use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
 use std::sync::Barrier;
 use std::time::{Duration, Instant};
 
+use api_clients::{GrpcClient, RestClient};
 use latency::{Row, row};
 use master_core::bus::{Bus, BusConfig};
 use master_core::master::{Master, MasterConfig, SlaveAddress};
@@ -46,8 +50,6 @@ use master_core::wire::coe::{CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoRespo
 use master_core::wire::gateway::{GatewayMessage, GatewayRepr};
 use master_core::wire::mailbox::{MailboxHeader, MailboxType};
 use master_core::wire::register::AlState;
-use proto::v1::UploadRequest;
-use proto::v1::coe_service_client::CoeServiceClient;
 use server_support::Ecatd;
 use sim::link::InProcessLink;
 use sim::topology::{Protocol, SIM_VENDOR_ID, Topology, build};
@@ -176,67 +178,6 @@ impl GatewayClient {
             } => u32::from_le_bytes(data.try_into().expect("4 bytes")),
             other => panic!("unexpected reply {other:?}"),
         }
-    }
-}
-
-/// One tonic client on one HTTP/2 connection, driven from a current-thread runtime.
-struct GrpcClient {
-    runtime: tokio::runtime::Runtime,
-    client: CoeServiceClient<tonic::transport::Channel>,
-}
-
-impl GrpcClient {
-    fn new(addr: &str) -> GrpcClient {
-        let runtime = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .expect("runtime");
-        let client = runtime
-            .block_on(CoeServiceClient::connect(format!("http://{addr}")))
-            .expect("gRPC connects");
-        GrpcClient { runtime, client }
-    }
-
-    fn upload(&mut self, position: u16) -> Vec<u8> {
-        let request = UploadRequest {
-            slave: position.to_string(),
-            index: 0x1018,
-            subindex: 1,
-            ..UploadRequest::default()
-        };
-        self.runtime
-            .block_on(self.client.upload(request))
-            .expect("upload")
-            .into_inner()
-            .data
-    }
-}
-
-/// One HTTP/1.1 agent (keep-alive) against ecatd's REST API.
-struct RestClient {
-    agent: ureq::Agent,
-    base: String,
-}
-
-impl RestClient {
-    fn new(base: &str) -> RestClient {
-        RestClient {
-            agent: ureq::Agent::new_with_defaults(),
-            base: base.to_owned(),
-        }
-    }
-
-    fn upload(&mut self, position: u16) -> String {
-        self.agent
-            .get(format!(
-                "{}/api/v1/slaves/{position}/coe/sdo/0x1018/1",
-                self.base
-            ))
-            .call()
-            .expect("REST upload")
-            .body_mut()
-            .read_to_string()
-            .expect("body")
     }
 }
 

@@ -77,7 +77,17 @@ pub struct GatewayConfig {
     /// Clients whose last request and reply are kept for repeats; beyond it the oldest is
     /// forgotten. Default 1024.
     pub max_retry_clients: usize,
+    /// UDP receive workers, each a thread with its own socket on the gateway's port: the
+    /// kernel gives each client (address and port) to one of them, so one client's
+    /// requests stay in order while several clients are served on several cores. Sessions,
+    /// caps and stored replies are shared by all. Default: the cores available, at most
+    /// [`MAX_DEFAULT_WORKERS`]; 0 counts as 1.
+    pub workers: usize,
 }
+
+/// The most receive workers [`GatewayConfig::default`] asks for, however many cores there
+/// are: beyond a few, the slaves' mailboxes, not the gateway, limit the requests served.
+pub const MAX_DEFAULT_WORKERS: usize = 4;
 
 impl Default for GatewayConfig {
     fn default() -> GatewayConfig {
@@ -99,6 +109,9 @@ impl Default for GatewayConfig {
             tcp_idle_timeout: Duration::from_secs(60),
             retry_window: Duration::from_secs(1),
             max_retry_clients: 1024,
+            workers: std::thread::available_parallelism()
+                .map_or(1, usize::from)
+                .min(MAX_DEFAULT_WORKERS),
         }
     }
 }

@@ -15,9 +15,13 @@
 //! # Ok(()) }
 //! ```
 //!
-//! The service runs on its own thread (`ecat-gateway`, a current-thread runtime), beside
-//! the bus and the master, and reaches the slaves only through the mailbox engine, whose
-//! per-slave queues it shares with every other user: the cyclic exchange is never touched.
+//! The service runs on its own threads (`ecat-gateway-N`, [`GatewayConfig::workers`] of
+//! them, each a current-thread runtime with its own UDP socket on the shared port; the
+//! first also serves TCP), beside the bus and the master, and reaches the slaves only
+//! through the mailbox engine, whose per-slave queues it shares with every other user: the
+//! cyclic exchange is never touched. The kernel gives each client to one worker (`bind`),
+//! so a client's requests are taken in the order sent; sessions, caps and the stored
+//! replies of repeats are shared by every worker.
 //!
 //! Files: `config`, `allow` (client networks), `bind` (port and fallback), `service` (the
 //! transport-neutral request handling), `udp` (the datagram loop), `route` (addresses),
@@ -62,7 +66,7 @@ use crate::master::Master;
 use crate::master_od::MasterDictionary;
 
 pub use allow::{AllowedNet, ClientNet, ClientNetError, GatewayRole};
-pub use config::{DEFAULT_PORT, GatewayConfig, port_for_master};
+pub use config::{DEFAULT_PORT, GatewayConfig, MAX_DEFAULT_WORKERS, port_for_master};
 pub use route::{BROADCAST_ADDRESS, MASTER_ADDRESS, POSITION_BASE};
 pub use stats::{FailureCounts, FailureReason, MailboxGatewayStats};
 
@@ -71,11 +75,11 @@ use service::Shared;
 use session::Sessions;
 use stats::Stats;
 
-/// A running service: its address, how to stop it, its thread.
+/// A running service: its address, how to stop it, its worker threads.
 struct Running {
     local: SocketAddr,
     stop: watch::Sender<bool>,
-    thread: Option<JoinHandle<()>>,
+    threads: Vec<JoinHandle<()>>,
 }
 
 /// The ETG.8200 mailbox gateway of one master. See the [module documentation](self).
@@ -141,8 +145,7 @@ impl MailboxGateway {
     pub fn is_running(&self) -> bool {
         self.running
             .as_ref()
-            .and_then(|r| r.thread.as_ref())
-            .is_some_and(|t| !t.is_finished())
+            .is_some_and(|r| !r.threads.is_empty() && r.threads.iter().all(|t| !t.is_finished()))
     }
 
     /// Statistics since the last start (lock-free; any thread, any time).
@@ -166,23 +169,29 @@ impl MailboxGateway {
             self.config.wanted_port(),
             self.config.fallback,
             self.config.tcp,
+            self.config.workers,
         )?;
         let fell_back = bound.fell_back;
-        bound.udp.set_nonblocking(true)?;
-        if let Some(listener) = &bound.tcp {
-            listener.set_nonblocking(true)?;
+        let mut runtimes = Vec::with_capacity(bound.udp.len());
+        for udp in bound.udp {
+            udp.set_nonblocking(true)?;
+            let runtime = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()?;
+            let socket = {
+                let _inside = runtime.enter();
+                tokio::net::UdpSocket::from_std(udp)?
+            };
+            runtimes.push((runtime, socket));
         }
-        let local = bound.udp.local_addr()?;
-        let runtime = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()?;
-        let (socket, listener) = {
-            let _inside = runtime.enter();
-            let listener = bound
-                .tcp
-                .map(tokio::net::TcpListener::from_std)
-                .transpose()?;
-            (tokio::net::UdpSocket::from_std(bound.udp)?, listener)
+        let local = runtimes[0].1.local_addr()?;
+        let listener = match bound.tcp {
+            Some(listener) => {
+                listener.set_nonblocking(true)?;
+                let _inside = runtimes[0].0.enter();
+                Some(tokio::net::TcpListener::from_std(listener)?)
+            }
+            None => None,
         };
         if fell_back {
             eprintln!(
@@ -210,17 +219,36 @@ impl MailboxGateway {
             retries: retry::Retries::new(self.config.retry_window, self.config.max_retry_clients),
         });
         let (stop, stopped) = watch::channel(false);
-        let thread = std::thread::Builder::new()
-            .name("ecat-gateway".into())
-            .spawn(move || {
-                runtime.block_on(run(shared, socket, listener, stopped));
-                // Dropping the runtime drops the request tasks still running, which
-                // cancels their mailbox requests.
-            })?;
+        let mut listener = listener;
+        let mut threads = Vec::with_capacity(runtimes.len());
+        for (n, (runtime, socket)) in runtimes.into_iter().enumerate() {
+            let (shared, stopped) = (Arc::clone(&shared), stopped.clone());
+            // The first worker also keeps the dictionary's counters and serves TCP.
+            let first = n == 0;
+            let listener = listener.take();
+            let spawned = std::thread::Builder::new()
+                .name(format!("ecat-gateway-{n}"))
+                .spawn(move || {
+                    runtime.block_on(run(shared, socket, listener, first, stopped));
+                    // Dropping the runtime drops the request tasks still running, which
+                    // cancels their mailbox requests.
+                });
+            match spawned {
+                Ok(thread) => threads.push(thread),
+                Err(err) => {
+                    let _ = stop.send(true);
+                    for thread in threads {
+                        let _ = thread.join();
+                    }
+                    self.stats.stop();
+                    return Err(err);
+                }
+            }
+        }
         self.running = Some(Running {
             local,
             stop,
-            thread: Some(thread),
+            threads,
         });
         Ok(local)
     }
@@ -230,7 +258,7 @@ impl MailboxGateway {
     pub fn stop(&mut self) {
         if let Some(mut running) = self.running.take() {
             let _ = running.stop.send(true);
-            if let Some(thread) = running.thread.take() {
+            for thread in running.threads.drain(..) {
                 let _ = thread.join();
             }
             self.stats.stop();
@@ -238,15 +266,17 @@ impl MailboxGateway {
     }
 }
 
-/// Serves both transports until `stop` says so (or its sender is gone); the request tasks
-/// and TCP connections go with the runtime.
+/// One worker: serves its UDP socket (and TCP, with a listener) until `stop` says so (or
+/// its sender is gone); the request tasks and TCP connections go with the runtime. The
+/// `first` worker runs the dictionary's tracker.
 async fn run(
     shared: Arc<Shared>,
     socket: tokio::net::UdpSocket,
     listener: Option<tokio::net::TcpListener>,
+    first: bool,
     mut stop: watch::Receiver<bool>,
 ) {
-    let tracker = tokio::spawn(shared.dictionary.tracker());
+    let tracker = first.then(|| tokio::spawn(shared.dictionary.tracker()));
     let udp = udp::run(Arc::clone(&shared), Arc::new(socket));
     let tcp = async {
         match listener {
@@ -259,7 +289,9 @@ async fn run(
         () = udp => {}
         () = tcp => {}
     }
-    tracker.abort();
+    if let Some(tracker) = tracker {
+        tracker.abort();
+    }
 }
 
 impl Drop for MailboxGateway {

@@ -113,14 +113,19 @@ pub(crate) async fn admit(
 
 impl Shared {
     async fn send(&self, request: &Request, datagram: Vec<u8>) {
-        if request.raw.is_some() {
-            request
-                .sent
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner)
-                .push(datagram.clone());
+        if request.raw.is_none() {
+            self.send_only(request, datagram).await;
+            return;
         }
-        self.send_only(request, datagram).await;
+        // Kept for repeats: sent from here, then moved into the store (no copy).
+        if let ReplyTo::Udp(socket) = &request.reply_to {
+            let _ = socket.send_to(&datagram, request.client).await;
+        }
+        request
+            .sent
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push(datagram);
     }
 
     async fn send_only(&self, request: &Request, datagram: Vec<u8>) {
@@ -189,7 +194,11 @@ fn parse(
         Some(Err(())) => return None,
     };
     let data = match header.mailbox_type {
-        MailboxType::Coe => normalize::coe_request(&data).into_owned(),
+        // Most requests are standard already: keep their bytes, copy only a rewritten one.
+        MailboxType::Coe => match normalize::coe_request(&data) {
+            std::borrow::Cow::Borrowed(_) => data,
+            std::borrow::Cow::Owned(rewritten) => rewritten,
+        },
         _ => data,
     };
     // Only UDP loses replies; the layout without a counter never repeats.

@@ -81,7 +81,7 @@ pub async fn serve_tls(
             )
         };
     }
-    let router = Server::builder()
+    let router = transport(Server::builder())
         .layer(tower::util::MapRequestLayer::new(
             auth::with_path::<tonic::body::Body>,
         ))
@@ -130,6 +130,33 @@ pub async fn serve_tls(
         }
     };
     served.map_err(|err| format!("gRPC server: {err}"))
+}
+
+/// Streams one connection may have open at once: bounded, far above what a client
+/// multiplexes (every request waits on a slave's mailbox anyway).
+pub const MAX_STREAMS: u32 = 256;
+/// HTTP/2 flow-control windows: a unary call's messages fit in the first window, so they
+/// never wait for a WINDOW_UPDATE, and an FoE chunk (up to [`MAX_MESSAGE`]) streams in a
+/// few round trips.
+pub const STREAM_WINDOW: u32 = 1 << 20;
+/// The connection's window: several streams' worth.
+pub const CONNECTION_WINDOW: u32 = 4 << 20;
+/// HTTP/2 PING interval on an idle connection and how long its answer may take: a client
+/// that vanished without closing (a cable pulled) gives its streams back.
+pub const KEEPALIVE: (Duration, Duration) = (Duration::from_secs(30), Duration::from_secs(10));
+
+/// The HTTP/2 settings for small unary calls: fixed windows large enough that no call
+/// waits on flow control (no adaptive window: its BDP PINGs are work per call for nothing
+/// here), bounded streams per connection, keep-alive PINGs to notice dead peers. Nagle is
+/// switched off on the accepted sockets (`serve_tls`).
+fn transport(builder: Server) -> Server {
+    builder
+        .http2_adaptive_window(Some(false))
+        .initial_stream_window_size(STREAM_WINDOW)
+        .initial_connection_window_size(CONNECTION_WINDOW)
+        .max_concurrent_streams(MAX_STREAMS)
+        .http2_keepalive_interval(Some(KEEPALIVE.0))
+        .http2_keepalive_timeout(Some(KEEPALIVE.1))
 }
 
 /// Every service the health service reports on ("" is the server as a whole).

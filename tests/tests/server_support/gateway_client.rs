@@ -75,8 +75,15 @@ pub struct GatewayClient {
 impl GatewayClient {
     /// A client of the gateway at `server`.
     pub fn new(server: SocketAddr) -> GatewayClient {
+        GatewayClient::from_host(Ipv4Addr::LOCALHOST, server)
+    }
+
+    /// A client on loopback address `host` (any of 127.0.0.0/8): the gateway's in-flight
+    /// cap counts per host, so clients that stand for separate machines take separate
+    /// addresses.
+    pub fn from_host(host: Ipv4Addr, server: SocketAddr) -> GatewayClient {
         GatewayClient {
-            socket: UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("client socket"),
+            socket: UdpSocket::bind((host, 0)).expect("client socket"),
             server,
             counter: 0,
         }

@@ -1,0 +1,769 @@
+//! Issue 23's one-run performance table: reading 0x1018:01 (an expedited SDO upload) on the
+//! veth rig through every path ecatd offers, from Python clients as SCADA scripts do and from
+//! Rust clients, next to pysoem's `sdo_read` and the raw frame round trip; then 64 clients,
+//! slow slaves, the 1 kHz cycle's jitter under load, bring-up times and ecatd's memory.
+//!
+//! ```text
+//! cargo bench -p ecat-tests --bench perf_veth
+//! PERF_VETH_COUNT=300 PERF_VETH_SOAK=0 PERF_VETH_BRINGUP=64 cargo bench -p ecat-tests --bench perf_veth
+//! ```
+//!
+//! Needs root and the venv from `scripts/test` (pysoem, grpcio, grpcio-tools). The
+//! simulator (`ecat-sim`, its own network namespace, a veth pair) runs 16 drives (CoE,
+//! 128-byte mailboxes). Phases, each against a simulator of that topology:
+//! 1. no master running: the raw APRD round trip from Python (AF_PACKET), pysoem's
+//!    `sdo_read` (slaves in PREOP, `config_init`), then the direct API
+//!    (`SlaveMailbox::sdo_upload` on an in-process master, set up as ecatd's: every slave
+//!    in OP, the 1 ms cycle running), one caller, then 64 callers over the 16 slaves;
+//! 2. `ecatd --iface` as a process (its defaults: OP, 1 ms cycle) with clients on
+//!    loopback: the ETG.8200 gateway (UDP), REST (HTTP/1.1 keep-alive) and gRPC, each from
+//!    Python (plain sockets, `http.client`, grpcio with stubs generated from `proto/` at run
+//!    time) and from Rust (std UDP, ureq, tonic); 64 gateway clients over the 16 slaves;
+//!    the jitter of ecatd's cycle (its `/metrics` histogram, counted over a quiet window and
+//!    over the rows); its VmRSS idle, after the rows and after `PERF_VETH_SOAK` gateway
+//!    requests (the soak of `gateway_soak.rs`, here on veth);
+//! 3. ecatd with every slave answering 100 µs, then 1 ms late (`response_delay_us`): the
+//!    gateway's p50 from Rust, and by how much it exceeds the delay;
+//! 4. bring-up to OP of `ecat-sim --slaves N`: ecatd's master (in-process, its scan) and
+//!    pysoem (`config_init` + `config_map` + SAFEOP + OP with process data running).
+//!
+//! "vs pysoem" is pysoem's p50 over the row's (above 1: faster); "vs direct" the row's p50
+//! over the direct API's. Knobs: `PERF_VETH_COUNT` (reads per latency row, default 2000),
+//! `PERF_VETH_ROWS` (phases to run, comma-separated from `latency,clients,delay,bringup`;
+//! default all), `PERF_VETH_SOAK` (gateway requests of the memory soak, default 1,000,000;
+//! 0 skips it), `PERF_VETH_BRINGUP` (slave counts, default `64,192,512`; SOEM, so pysoem,
+//! takes at most 200 slaves). The 64-client gateway row runs twice: one thread per client,
+//! and the clients as tasks of one thread (as the direct API's 64 callers run). Not part of
+//! CI: every figure depends on the machine and its load. ecatd is built in release.
+
+#![allow(missing_docs)]
+
+#[path = "support/latency.rs"]
+#[allow(dead_code)]
+mod latency;
+
+#[path = "../tests/server_support/mod.rs"]
+mod server_support;
+
+#[path = "support/api_clients.rs"]
+mod api_clients;
+
+use std::process::Command;
+use std::sync::Barrier;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+use api_clients::{GrpcClient, RestClient};
+use ecat_tests::python::{python, run_script, script};
+use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
+use ecat_tests::sim_process::SimProcess;
+use ecat_tests::veth_master::{self, VethMaster};
+use latency::{Row, row};
+use master_core::bus::BusConfig;
+use master_core::master::{Master, MasterConfig, SlaveAddress};
+use master_core::wire::coe::{CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
+use master_core::wire::gateway::{GatewayMessage, GatewayRepr};
+use master_core::wire::mailbox::MailboxType;
+use master_core::wire::register::AlState;
+use serde_json::Value;
+use server_support::Ecatd;
+use server_support::gateway_client::{GatewayClient, coe_bytes, datagram};
+use sim::topology::{SIM_VENDOR_ID, Topology};
+
+const SLAVES: usize = 16;
+/// Clients (or direct callers) of the aggregate rows.
+const CLIENTS: usize = 64;
+/// The quiet window of the jitter table.
+const QUIET: Duration = Duration::from_secs(3);
+/// The slave whose object the single-client rows read.
+const POSITION: u16 = 0;
+
+fn station(position: u16) -> u16 {
+    1001 + position
+}
+
+fn env_usize(name: &str, default: usize) -> usize {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn topology(delay_us: u32) -> Topology {
+    let drive = Topology::default_segment().slaves[0].clone();
+    let slaves = (0..SLAVES)
+        .map(|p| {
+            let mut slave = drive.clone();
+            slave.serial = p as u32 + 1;
+            slave.eoe = None;
+            slave.esc.response_delay_us = delay_us;
+            slave
+        })
+        .collect();
+    Topology { slaves }
+}
+
+/// A topology file, removed on drop.
+struct TopologyFile(std::path::PathBuf);
+
+impl TopologyFile {
+    fn new(delay_us: u32) -> TopologyFile {
+        let path = std::env::temp_dir().join(format!(
+            "ecatd-perf-veth-{}-{delay_us}.toml",
+            std::process::id()
+        ));
+        std::fs::write(&path, topology(delay_us).to_toml().expect("toml")).expect("file");
+        TopologyFile(path)
+    }
+
+    fn path(&self) -> &str {
+        self.0.to_str().expect("utf-8 path")
+    }
+}
+
+impl Drop for TopologyFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+/// The table: rows printed as they come, with the reference p50s known by then.
+#[derive(Default)]
+struct Table {
+    pysoem: Option<f64>,
+    direct: Option<f64>,
+    direct_aggregate: Option<f64>,
+}
+
+impl Table {
+    fn header() {
+        println!(
+            "{:<58} {:>9} {:>9} {:>10} {:>10} {:>10}",
+            "path", "p50 µs", "p99 µs", "reads/s", "vs pysoem", "vs direct"
+        );
+    }
+
+    fn print(&self, name: &str, r: &Row) {
+        let faster = self
+            .pysoem
+            .map_or_else(String::new, |p| format!("{:.2}x", p / r.p50));
+        let direct = self
+            .direct
+            .map_or_else(String::new, |d| format!("{:.2}x", r.p50 / d));
+        println!(
+            "{name:<58} {:>9.1} {:>9.1} {:>10.0} {faster:>10} {direct:>10}",
+            r.p50, r.p99, r.per_second
+        );
+    }
+}
+
+/// A row from a Python client's JSON.
+fn json_row(v: &Value) -> Row {
+    let value = |k: &str| v[k].as_f64().unwrap_or_else(|| panic!("{k} in {v}"));
+    Row {
+        p50: value("p50_us"),
+        p99: value("p99_us"),
+        per_second: value("per_second"),
+    }
+}
+
+/// Runs `tests/py/perf_clients.py` in this namespace (where ecatd's loopback is).
+fn python_here(args: &[&str]) -> Result<Value, String> {
+    let output = Command::new(python())
+        .arg(script("perf_clients.py"))
+        .args(args)
+        .output()
+        .map_err(|e| format!("python: {e}"))?;
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    if !output.status.success() {
+        return Err(format!(
+            "{args:?} failed: {}{}",
+            stdout,
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    let last = stdout.lines().rev().find(|l| !l.trim().is_empty());
+    serde_json::from_str(last.unwrap_or("")).map_err(|e| format!("{e}: {stdout}"))
+}
+
+/// Runs `op` `count` times after a warm-up of a tenth, timing each.
+fn sequential(count: usize, mut op: impl FnMut()) -> Row {
+    for _ in 0..count / 10 {
+        op();
+    }
+    let mut samples = Vec::with_capacity(count);
+    let start = Instant::now();
+    for _ in 0..count {
+        let t = Instant::now();
+        op();
+        samples.push(t.elapsed());
+    }
+    row(samples, start.elapsed())
+}
+
+fn upload_request() -> Vec<u8> {
+    coe_bytes(&CoeRepr::SdoRequest(SdoRequest::InitiateUpload {
+        index: 0x1018,
+        subindex: 1,
+        complete_access: false,
+    }))
+}
+
+/// One gateway upload of 0x1018:01 from `station`; the vendor ID.
+fn gateway_upload(client: &mut GatewayClient, station: u16, request: &[u8]) -> u32 {
+    let reply = client.exchange(station, MailboxType::Coe, request);
+    let sdo = SdoFrame::new_checked(&reply.data[..]).expect("an SDO frame");
+    match SdoResponse::parse(&sdo).expect("an SDO response") {
+        SdoResponse::InitiateUpload {
+            payload: SdoPayload::Expedited(data),
+            ..
+        } => u32::from_le_bytes(data.try_into().expect("4 bytes")),
+        other => panic!("unexpected answer {other:?}"),
+    }
+}
+
+/// `CLIENTS` gateway clients on their own threads, `each` uploads each, spread over the
+/// slaves, started together.
+fn gateway_clients(gateway: std::net::SocketAddr, each: usize) -> Row {
+    let barrier = Barrier::new(CLIENTS + 1);
+    let request = upload_request();
+    let (samples, elapsed) = std::thread::scope(|scope| {
+        let threads: Vec<_> = (0..CLIENTS)
+            .map(|c| {
+                let (barrier, request) = (&barrier, &request);
+                scope.spawn(move || {
+                    // Each its own host: 64 SCADA machines, not 64 sockets of one
+                    // (the gateway caps requests in flight per host).
+                    let host = std::net::Ipv4Addr::new(127, 0, 1, c as u8 + 1);
+                    let mut client = GatewayClient::from_host(host, gateway);
+                    let at = station((c % SLAVES) as u16);
+                    barrier.wait();
+                    (0..each)
+                        .map(|_| {
+                            let t = Instant::now();
+                            assert_eq!(gateway_upload(&mut client, at, request), SIM_VENDOR_ID);
+                            t.elapsed()
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        barrier.wait();
+        let start = Instant::now();
+        let samples: Vec<Duration> = threads
+            .into_iter()
+            .flat_map(|t| t.join().expect("client"))
+            .collect();
+        (samples, start.elapsed())
+    });
+    row(samples, elapsed)
+}
+
+/// The vendor ID in a gateway reply datagram of an expedited upload.
+fn vendor_of(reply: &[u8]) -> u32 {
+    let message = GatewayMessage::new_checked(reply).expect("a gateway message");
+    let repr = GatewayRepr::parse(&message).expect("a gateway reply");
+    let sdo = SdoFrame::new_checked(repr.data).expect("an SDO frame");
+    match SdoResponse::parse(&sdo).expect("an SDO response") {
+        SdoResponse::InitiateUpload {
+            payload: SdoPayload::Expedited(data),
+            ..
+        } => u32::from_le_bytes(data.try_into().expect("4 bytes")),
+        other => panic!("unexpected answer {other:?}"),
+    }
+}
+
+/// `CLIENTS` gateway clients, each its own socket and host, as tasks of one current-thread
+/// runtime (as the direct API's callers are): what the gateway serves without the
+/// benchmark's own 64 threads competing for the cores.
+fn gateway_clients_async(gateway: std::net::SocketAddr, each: usize) -> Row {
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("runtime");
+    let request = upload_request();
+    runtime.block_on(async {
+        let mut sockets = Vec::with_capacity(CLIENTS);
+        for c in 0..CLIENTS {
+            let host = std::net::Ipv4Addr::new(127, 0, 2, c as u8 + 1);
+            sockets.push(
+                tokio::net::UdpSocket::bind((host, 0))
+                    .await
+                    .expect("socket"),
+            );
+        }
+        let start = Instant::now();
+        let mut tasks = tokio::task::JoinSet::new();
+        for (c, socket) in sockets.into_iter().enumerate() {
+            let request = request.clone();
+            tasks.spawn(async move {
+                let at = station((c % SLAVES) as u16);
+                let mut reply = [0u8; 2048];
+                let mut samples = Vec::with_capacity(each);
+                for i in 0..each {
+                    let bytes = datagram(at, MailboxType::Coe, (i % 7 + 1) as u8, &request);
+                    let t = Instant::now();
+                    socket.send_to(&bytes, gateway).await.expect("send");
+                    let len = tokio::time::timeout(Duration::from_secs(5), socket.recv(&mut reply))
+                        .await
+                        .expect("a reply in time")
+                        .expect("recv");
+                    assert_eq!(vendor_of(&reply[..len]), SIM_VENDOR_ID);
+                    samples.push(t.elapsed());
+                }
+                samples
+            });
+        }
+        let mut all = Vec::new();
+        while let Some(joined) = tasks.join_next().await {
+            all.extend(joined.expect("client"));
+        }
+        row(all, start.elapsed())
+    })
+}
+
+/// ecatd's resident set size in KiB.
+fn rss_kib(pid: u32) -> u64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).expect("/proc status");
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.split_whitespace().next()?.parse().ok())
+        .expect("VmRSS")
+}
+
+/// What ecatd's `/metrics` says of its cycle: the cumulative buckets of the jitter
+/// histogram (upper bound s, count) and the periods missed (no cycle ran in them).
+struct CycleMetrics {
+    buckets: Vec<(f64, u64)>,
+    missed: u64,
+    at: Instant,
+}
+
+fn cycle_metrics(agent: &ureq::Agent, http: &str) -> CycleMetrics {
+    let text = agent
+        .get(format!("{http}/metrics"))
+        .call()
+        .expect("/metrics")
+        .body_mut()
+        .read_to_string()
+        .expect("metrics text");
+    let value = |rest: &str| rest.rsplit(' ').next()?.parse::<f64>().ok();
+    let buckets = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("ecat_process_data_cycle_jitter_seconds_bucket{le=\""))
+        .filter_map(|l| {
+            let (le, rest) = l.split_once('"')?;
+            let le = if le == "+Inf" {
+                f64::INFINITY
+            } else {
+                le.parse().ok()?
+            };
+            Some((le, value(rest)? as u64))
+        })
+        .collect();
+    let missed = text
+        .lines()
+        .find_map(|l| l.strip_prefix("ecat_process_data_cycles_missed_total"))
+        .and_then(value)
+        .unwrap_or(0.0) as u64;
+    CycleMetrics {
+        buckets,
+        missed,
+        at: Instant::now(),
+    }
+}
+
+/// Cycles counted between two bucket snapshots and the bucket bound (µs) below which each
+/// of `quantiles` falls.
+fn jitter_between(
+    before: &[(f64, u64)],
+    after: &[(f64, u64)],
+    quantiles: &[f64],
+) -> (u64, Vec<f64>) {
+    let diff: Vec<(f64, u64)> = after
+        .iter()
+        .zip(before)
+        .map(|(&(le, a), &(_, b))| (le, a.saturating_sub(b)))
+        .collect();
+    let total = diff.last().map_or(0, |d| d.1);
+    let bounds = quantiles
+        .iter()
+        .map(|q| {
+            let want = (q * total as f64).ceil() as u64;
+            diff.iter()
+                .find(|d| d.1 >= want.max(1))
+                .map_or(f64::NAN, |d| d.0 * 1e6)
+        })
+        .collect();
+    (total, bounds)
+}
+
+fn phase_direct(table: &mut Table, count: usize, each: usize) {
+    let file = TopologyFile::new(0);
+    let rig = Rig::new();
+    let _sim = SimProcess::start(&rig.sim, SIM_IFACE, &["--topology", file.path()]);
+    let raw = run_script(
+        &rig.master,
+        "perf_clients.py",
+        &["raw", MASTER_IFACE, "--count", &count.to_string()],
+    );
+    table.print(
+        "raw APRD frame round trip (Python, AF_PACKET)",
+        &json_row(&raw),
+    );
+    let pysoem = run_script(
+        &rig.master,
+        "pysoem_sdo_bench.py",
+        &[MASTER_IFACE, "--slave", "0", "--count", &count.to_string()],
+    );
+    let pysoem = json_row(&pysoem);
+    table.pysoem = Some(pysoem.p50);
+    table.print("pysoem sdo_read (PREOP)", &pysoem);
+
+    // As ecatd sets up its master (`server::segment::open`): OP, the 1 ms cycle.
+    let veth = VethMaster::start(&rig, MasterConfig::default());
+    let report = veth.scan();
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    let master = veth.master();
+    assert!(master.slaves().iter().all(|s| s.al_state == AlState::Op));
+    let drive = master
+        .mailbox(SlaveAddress::Position(POSITION))
+        .expect("mailbox");
+    let direct = sequential(count, || {
+        let data = veth.block_on(drive.sdo_upload(0x1018, 1)).expect("upload");
+        assert_eq!(data, SIM_VENDOR_ID.to_le_bytes());
+    });
+    table.direct = Some(direct.p50);
+    table.print("direct API, Rust in-process (OP, 1 ms cycle)", &direct);
+
+    let mailboxes: Vec<_> = (0..CLIENTS)
+        .map(|c| {
+            master
+                .mailbox(SlaveAddress::Position((c % SLAVES) as u16))
+                .expect("mailbox")
+        })
+        .collect();
+    let start = Instant::now();
+    let samples = veth.block_on(async {
+        let mut tasks = tokio::task::JoinSet::new();
+        for mailbox in mailboxes {
+            tasks.spawn(async move {
+                let mut samples = Vec::with_capacity(each);
+                for _ in 0..each {
+                    let t = Instant::now();
+                    let data = mailbox.sdo_upload(0x1018, 1).await.expect("upload");
+                    assert_eq!(data, SIM_VENDOR_ID.to_le_bytes());
+                    samples.push(t.elapsed());
+                }
+                samples
+            });
+        }
+        let mut all = Vec::new();
+        while let Some(joined) = tasks.join_next().await {
+            all.extend(joined.expect("caller"));
+        }
+        all
+    });
+    let aggregate = row(samples, start.elapsed());
+    table.direct_aggregate = Some(aggregate.per_second);
+    table.print(
+        &format!("direct API, {CLIENTS} callers over {SLAVES} slaves"),
+        &aggregate,
+    );
+}
+
+fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: bool) {
+    let file = TopologyFile::new(0);
+    let ecatd = Ecatd::start_with(&["--simulate", file.path()], &[]);
+    let gateway = ecatd.gateway_addr();
+    let idle = rss_kib(ecatd.pid());
+    let agent = ureq::Agent::new_with_defaults();
+    // The quiet window: ecatd's cycle with nothing else asked of it.
+    let quiet_start = cycle_metrics(&agent, &ecatd.http);
+    std::thread::sleep(QUIET);
+    let quiet_end = cycle_metrics(&agent, &ecatd.http);
+    let n = count.to_string();
+    let proto = server_support::root().join("proto");
+    let proto = proto.to_str().expect("utf-8 path");
+    let python = |name: &str, args: &[&str]| match python_here(args) {
+        Ok(v) => table.print(name, &json_row(&v)),
+        Err(e) => println!("{name:<58} failed: {e}"),
+    };
+    let position = POSITION.to_string();
+    let station_arg = station(POSITION).to_string();
+    python(
+        "ecatd gateway (UDP), Python",
+        &[
+            "gateway",
+            &gateway.to_string(),
+            "--station",
+            &station_arg,
+            "--count",
+            &n,
+        ],
+    );
+    let request = upload_request();
+    let mut gw = GatewayClient::new(gateway);
+    table.print(
+        "ecatd gateway (UDP), Rust",
+        &sequential(count, || {
+            assert_eq!(
+                gateway_upload(&mut gw, station(POSITION), &request),
+                SIM_VENDOR_ID
+            );
+        }),
+    );
+    python(
+        "ecatd REST (HTTP/1.1 keep-alive), Python http.client",
+        &["rest", &ecatd.http, "--slave", &position, "--count", &n],
+    );
+    let mut rest = RestClient::new(&ecatd.http);
+    table.print(
+        "ecatd REST (HTTP/1.1 keep-alive), Rust ureq",
+        &sequential(count, || assert!(!rest.upload(POSITION).is_empty())),
+    );
+    python(
+        "ecatd gRPC, Python grpcio",
+        &[
+            "grpc",
+            &ecatd.grpc,
+            "--slave",
+            &position,
+            "--count",
+            &n,
+            "--proto",
+            proto,
+        ],
+    );
+    let mut grpc = GrpcClient::new(&ecatd.grpc);
+    table.print(
+        "ecatd gRPC, Rust tonic",
+        &sequential(count, || {
+            assert_eq!(grpc.upload(POSITION), SIM_VENDOR_ID.to_le_bytes())
+        }),
+    );
+    if clients {
+        let threads = gateway_clients(gateway, each);
+        table.print(
+            &format!("ecatd gateway (UDP), {CLIENTS} Rust clients, a thread each"),
+            &threads,
+        );
+        let tasks = gateway_clients_async(gateway, each);
+        table.print(
+            &format!("ecatd gateway (UDP), {CLIENTS} Rust clients, tasks of 1 thread"),
+            &tasks,
+        );
+        if let Some(direct) = table.direct_aggregate {
+            for (how, r) in [("a thread each", &threads), ("tasks of 1 thread", &tasks)] {
+                println!(
+                    "  {CLIENTS} gateway clients over {SLAVES} slaves ({how}): {:.0} reads/s, \
+                     {:.0} % of the direct API's {direct:.0} (goal ≥ 80 %)",
+                    r.per_second,
+                    r.per_second / direct * 100.0,
+                );
+            }
+        }
+    }
+    let loaded_end = cycle_metrics(&agent, &ecatd.http);
+    let after_rows = rss_kib(ecatd.pid());
+
+    println!();
+    println!(
+        "ecatd's 1 kHz cycle, |cycle time − 1 ms| (bucket bounds of its /metrics histogram, µs)"
+    );
+    println!(
+        "{:<28} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
+        "", "window s", "cycles", "missed", "p50 ≤", "p90 ≤", "p99 ≤", "p99.9 ≤"
+    );
+    let quantiles = [0.5, 0.9, 0.99, 0.999];
+    for (name, before, after) in [
+        ("quiet", &quiet_start, &quiet_end),
+        ("while the rows above ran", &quiet_end, &loaded_end),
+    ] {
+        let (cycles, q) = jitter_between(&before.buckets, &after.buckets, &quantiles);
+        let window = after.at.duration_since(before.at).as_secs_f64();
+        let missed = after.missed.saturating_sub(before.missed);
+        println!(
+            "{name:<28} {window:>8.1} {cycles:>8} {missed:>8} {:>8} {:>8} {:>8} {:>8}",
+            q[0], q[1], q[2], q[3]
+        );
+    }
+
+    println!();
+    let soaked = (soak > 0).then(|| {
+        let done = AtomicUsize::new(0);
+        let start = Instant::now();
+        std::thread::scope(|scope| {
+            for c in 0..4 {
+                let (done, request) = (&done, &request);
+                scope.spawn(move || {
+                    let mut client = GatewayClient::new(gateway);
+                    let mut i = c;
+                    while done.fetch_add(1, Ordering::Relaxed) < soak {
+                        let at = station((i % SLAVES) as u16);
+                        assert_eq!(gateway_upload(&mut client, at, request), SIM_VENDOR_ID);
+                        i += 1;
+                    }
+                });
+            }
+        });
+        (
+            rss_kib(ecatd.pid()),
+            soak as f64 / start.elapsed().as_secs_f64(),
+        )
+    });
+    let mib = |kib: u64| kib as f64 / 1024.0;
+    println!(
+        "ecatd VmRSS: idle {:.1} MiB, after the rows {:.1} MiB{}",
+        mib(idle),
+        mib(after_rows),
+        soaked.map_or_else(
+            || ", soak not run (PERF_VETH_SOAK=1000000)".to_owned(),
+            |(kib, rate)| format!(
+                ", after {soak} more gateway requests (4 clients, {rate:.0}/s) {:.1} MiB",
+                mib(kib)
+            ),
+        )
+    );
+    drop(ecatd);
+}
+
+fn phase_delay(table: &Table, count: usize) {
+    println!();
+    println!("every slave answering late (response_delay_us), ecatd gateway (UDP), Rust, 1 client");
+    for delay in [100u32, 1000] {
+        let file = TopologyFile::new(delay);
+        let ecatd = Ecatd::start_with(&["--simulate", file.path()], &[]);
+        let mut gw = GatewayClient::new(ecatd.gateway_addr());
+        let request = upload_request();
+        let r = sequential(count, || {
+            assert_eq!(
+                gateway_upload(&mut gw, station(POSITION), &request),
+                SIM_VENDOR_ID
+            );
+        });
+        table.print(&format!("delay {delay} µs"), &r);
+        println!(
+            "  p50 − delay: {:.0} µs (goal ≤ 150 µs)",
+            r.p50 - f64::from(delay)
+        );
+        drop(ecatd);
+    }
+}
+
+/// ecatd's master (in-process, as `bringup_veth.rs`) scanning `slaves` to OP.
+fn ecatd_bringup(slaves: usize) -> Duration {
+    let rig = Rig::new();
+    let n = slaves.to_string();
+    let _sim = SimProcess::start(&rig.sim, SIM_IFACE, &["--slaves", &n]);
+    // Hundreds of simulated slaves take about a millisecond per frame.
+    let (bus, thread) = veth_master::open_bus(
+        &rig,
+        BusConfig {
+            response_timeout: Duration::from_millis(100),
+            ..BusConfig::default()
+        },
+    );
+    let master = Master::start(
+        bus.clone(),
+        MasterConfig {
+            watch_interval: None,
+            ..MasterConfig::default()
+        },
+    )
+    .expect("master");
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_time()
+        .build()
+        .expect("runtime");
+    let start = Instant::now();
+    let report = runtime.block_on(master.scan()).expect("scan");
+    let elapsed = start.elapsed();
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    assert!(report.slaves.iter().all(|s| s.al_state == AlState::Op));
+    drop(master);
+    bus.shutdown();
+    drop(bus);
+    let _ = thread.join();
+    elapsed
+}
+
+fn phase_bringup(sizes: &[usize]) {
+    println!();
+    println!("bring-up to OP (ecat-sim --slaves N), ms");
+    println!(
+        "{:>7} {:>12} {:>14} {:>16} {:>12} {:>14}",
+        "slaves", "ecatd", "pysoem total", "config_init", "map+SAFEOP", "OP"
+    );
+    for &slaves in sizes {
+        let ecatd = ecatd_bringup(slaves);
+        let rig = Rig::new();
+        let n = slaves.to_string();
+        let _sim = SimProcess::start(&rig.sim, SIM_IFACE, &["--slaves", &n]);
+        let output = Command::new("ip")
+            .args(["netns", "exec", rig.master.name()])
+            .arg(python())
+            .arg(script("perf_clients.py"))
+            .args(["bringup", MASTER_IFACE, "--slaves", &n])
+            .output()
+            .expect("python runs");
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        let pysoem: Option<Value> = stdout
+            .lines()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .and_then(|l| serde_json::from_str(l).ok());
+        let ms = |v: &Value, k: &str| v[k].as_f64().map_or("?".into(), |x| format!("{x:.1}"));
+        match pysoem.filter(|_| output.status.success()) {
+            Some(v) => println!(
+                "{slaves:>7} {:>12.1} {:>14} {:>16} {:>12} {:>14}",
+                ecatd.as_secs_f64() * 1e3,
+                ms(&v, "total_ms"),
+                ms(&v, "init_ms"),
+                ms(&v, "map_safeop_ms"),
+                ms(&v, "op_ms")
+            ),
+            None => println!(
+                "{slaves:>7} {:>12.1}   pysoem failed: {}",
+                ecatd.as_secs_f64() * 1e3,
+                format!("{stdout}{}", String::from_utf8_lossy(&output.stderr))
+                    .lines()
+                    .last()
+                    .unwrap_or("")
+            ),
+        }
+    }
+}
+
+fn main() {
+    let count = env_usize("PERF_VETH_COUNT", 2000).max(20);
+    let soak = env_usize("PERF_VETH_SOAK", 1_000_000);
+    let rows =
+        std::env::var("PERF_VETH_ROWS").unwrap_or_else(|_| "latency,clients,delay,bringup".into());
+    let has = |name: &str| rows.split(',').any(|r| r.trim() == name);
+    let sizes: Vec<usize> = std::env::var("PERF_VETH_BRINGUP")
+        .unwrap_or_else(|_| "64,192,512".into())
+        .split(',')
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
+    // Every client of the aggregate rows reads this often.
+    let each = (count / 8).max(10);
+    println!(
+        "SDO upload of 0x1018:01 over veth against ecat-sim ({SLAVES} drives), {count} per row, \
+         {CLIENTS} x {each} in the aggregate rows"
+    );
+    println!();
+    Table::header();
+    let mut table = Table::default();
+    if has("latency") || has("clients") {
+        phase_direct(&mut table, count, each);
+        phase_ecatd(&table, count, each, soak, has("clients"));
+    }
+    if has("delay") {
+        phase_delay(&table, count / 4);
+    }
+    if has("bringup") && !sizes.is_empty() {
+        phase_bringup(&sizes);
+    }
+}
