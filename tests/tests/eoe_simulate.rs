@@ -3,6 +3,7 @@
 //! Set IP; ping and an HTTP transfer reach the device behind the slave (sim's TCP host) and
 //! come back intact; the counters move in the API and `/metrics`; Set IP through the API
 //! moves the device; a rescan makes the interface anew with its address, without a command.
+//! Configured into a Linux bridge instead, the interface joins it at every re-creation.
 
 mod eoe_support;
 #[path = "server_support/mod.rs"]
@@ -142,4 +143,50 @@ fn ping_and_http_reach_the_simulated_device_and_a_rescan_restores_the_interface(
     // the configured Set IP is sent again (the device is back on 10.77.0.2).
     ecatd.rescan_and_wait_for("eoe0s0", "10.77.0.1/24");
     assert_eq!(ecatd.ping("10.77.0.2", 10, 56), 10, "{}", ecatd.log());
+}
+
+/// The host side as a bridge port: with `bridge = "eoebr0"` the interface joins the bridge
+/// (which holds the host's address) when it is made, the device behind the slave answers
+/// through the bridge, and after a rescan the interface made anew is a port of the bridge
+/// again without a command.
+#[test]
+fn an_interface_configured_into_a_bridge_joins_it_and_joins_it_again_after_a_rescan() {
+    let config = tempfile_path::write(
+        r#"
+[eoe]
+name_scheme = "position"
+
+[[eoe.slave]]
+slave = "0"
+slave_mac = "02:00:00:00:aa:02"
+ip = "10.76.0.2"
+subnet_mask = "255.255.255.0"
+bridge = "eoebr0"
+"#,
+    );
+    let ns = ecat_tests::netns::NetNs::new();
+    ns.ip(&["link", "add", "eoebr0", "type", "bridge"]);
+    ns.ip(&["addr", "add", "10.76.0.1/24", "dev", "eoebr0"]);
+    ns.ip(&["link", "set", "dev", "eoebr0", "up"]);
+    let config_path = config.0.to_str().expect("a UTF-8 path");
+    let mut ecatd = EcatdInNs::start_in(
+        ns,
+        server_support::bin_dir(),
+        &["--simulate", "--config", config_path],
+    );
+    let in_bridge = |e: &EcatdInNs| {
+        e.carrier("eoe0s0")
+            && e.link("eoe0s0")
+                .is_some_and(|(link, addr)| link.contains("master eoebr0") && addr.is_empty())
+    };
+    ecatd.wait_until("eoe0s0 up as a port of eoebr0", in_bridge);
+    assert_eq!(ecatd.ping("10.76.0.2", 10, 56), 10, "{}", ecatd.log());
+
+    let before = ecatd.ifindex("eoe0s0").expect("the interface's index");
+    let (status, body) = ecatd.curl(&["/api/v1/rescan", "-X", "POST"]);
+    assert_eq!(status, 200, "{body}");
+    ecatd.wait_until("eoe0s0 made anew, up, a port of eoebr0 again", |e| {
+        e.ifindex("eoe0s0").is_some_and(|i| i != before) && in_bridge(e)
+    });
+    assert_eq!(ecatd.ping("10.76.0.2", 10, 56), 10, "{}", ecatd.log());
 }
