@@ -6,56 +6,20 @@
 
 mod gateway_support;
 
-use std::sync::Barrier;
 use std::time::Duration;
 
-use gateway_support::{COE_STORE, Client, GwRig, sdo, station, test_config};
+use gateway_support::{
+    COE_STORE, Client, GwRig, one_download_against_uploads, sdo, station, stored, test_config,
+};
 use master_core::gateway::GatewayConfig;
 use master_core::wire::coe::{SdoPayload, SdoRequest, SdoResponse};
 use master_core::wire::mailbox::MailboxType;
 
-fn stored(rig: &GwRig) -> Vec<u8> {
-    let dict = rig.handles[COE_STORE].dictionary.as_ref().unwrap();
-    dict.lock().unwrap().get_bytes(0x2000, 0).unwrap().to_vec()
-}
-
 #[test]
 fn concurrent_segmented_transfers_to_one_slave_all_finish_correctly() {
     let rig = GwRig::start(test_config());
-    let address = station(COE_STORE);
-    let original = stored(&rig);
     let new: Vec<u8> = (0..4096u32).map(|i| (i % 13) as u8 ^ 0x5A).collect();
-    let clients = 4;
-    let start = Barrier::new(clients + 1);
-    std::thread::scope(|s| {
-        let writer = s.spawn(|| {
-            let mut client = rig.client();
-            start.wait();
-            client.download(address, 0x2000, 0, &new)
-        });
-        let readers: Vec<_> = (0..clients)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut client = rig.client();
-                    start.wait();
-                    (0..3)
-                        .map(|_| client.upload(address, 0x2000, 0))
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        assert_eq!(writer.join().unwrap(), Ok(()), "the download finished");
-        for reader in readers {
-            for value in reader.join().unwrap() {
-                let value = value.expect("every upload finished");
-                assert!(
-                    value == original || value == new,
-                    "a whole value, never a mix of two transfers"
-                );
-            }
-        }
-    });
-    assert_eq!(stored(&rig), new);
+    one_download_against_uploads(&rig, &new, 4, 3);
     let stats = rig.gateway().stats();
     assert_eq!(stats.failed_requests, 0, "{stats:?}");
 }

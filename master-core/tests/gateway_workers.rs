@@ -11,7 +11,8 @@ use std::sync::Barrier;
 use std::time::{Duration, Instant};
 
 use gateway_support::{
-    COE_STORE, Client, DRIVE, GwRig, PATIENCE, datagram, sdo, station, test_config,
+    COE_STORE, Client, DRIVE, GwRig, PATIENCE, datagram, one_download_against_uploads, sdo,
+    station, test_config,
 };
 use master_core::gateway::GatewayConfig;
 use master_core::wire::coe::{SdoPayload, SdoRequest, SdoResponse};
@@ -171,44 +172,8 @@ fn repeats_run_once_with_many_clients_on_many_workers() {
 #[test]
 fn a_segmented_transfer_holds_its_slave_against_clients_of_other_workers() {
     let rig = GwRig::start(config());
-    let address = station(COE_STORE);
-    let stored = || {
-        let dict = rig.handles[COE_STORE].dictionary.as_ref().unwrap();
-        dict.lock().unwrap().get_bytes(0x2000, 0).unwrap().to_vec()
-    };
-    let original = stored();
     let new: Vec<u8> = (0..4096u32).map(|i| (i % 11) as u8 ^ 0xA5).collect();
-    let readers = CLIENTS - 1;
-    let start = Barrier::new(readers + 1);
-    std::thread::scope(|s| {
-        let writer = s.spawn(|| {
-            let mut client = rig.client();
-            start.wait();
-            client.download(address, 0x2000, 0, &new)
-        });
-        let readers: Vec<_> = (0..readers)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut client = rig.client();
-                    start.wait();
-                    (0..2)
-                        .map(|_| client.upload(address, 0x2000, 0))
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        assert_eq!(writer.join().unwrap(), Ok(()), "the download finished");
-        for reader in readers {
-            for value in reader.join().unwrap() {
-                let value = value.expect("every upload finished");
-                assert!(
-                    value == original || value == new,
-                    "a whole value, never a mix of two transfers"
-                );
-            }
-        }
-    });
-    assert_eq!(stored(), new);
+    one_download_against_uploads(&rig, &new, CLIENTS - 1, 2);
     let stats = rig.gateway().stats();
     assert_eq!(stats.failed_requests, 0, "{stats:?}");
 }

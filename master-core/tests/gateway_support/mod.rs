@@ -121,6 +121,51 @@ impl Drop for GwRig {
     }
 }
 
+/// The bytes of 0x2000:00 in the CoE store slave ([`COE_STORE`]), read in the simulator.
+pub fn stored(rig: &GwRig) -> Vec<u8> {
+    let dict = rig.handles[COE_STORE].dictionary.as_ref().unwrap();
+    dict.lock().unwrap().get_bytes(0x2000, 0).unwrap().to_vec()
+}
+
+/// One client downloads `new` into 0x2000:00 of the CoE store while `readers` clients each
+/// upload it `reads` times, all let go at once: the download finishes, and every upload
+/// finishes with a whole value, the one before (`original`) or `new`, never a mix of two
+/// segmented transfers.
+pub fn one_download_against_uploads(rig: &GwRig, new: &[u8], readers: usize, reads: usize) {
+    let address = station(COE_STORE);
+    let original = stored(rig);
+    let start = std::sync::Barrier::new(readers + 1);
+    std::thread::scope(|s| {
+        let writer = s.spawn(|| {
+            let mut client = rig.client();
+            start.wait();
+            client.download(address, 0x2000, 0, new)
+        });
+        let readers: Vec<_> = (0..readers)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut client = rig.client();
+                    start.wait();
+                    (0..reads)
+                        .map(|_| client.upload(address, 0x2000, 0))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        assert_eq!(writer.join().unwrap(), Ok(()), "the download finished");
+        for reader in readers {
+            for value in reader.join().unwrap() {
+                let value = value.expect("every upload finished");
+                assert!(
+                    value == original || value == new,
+                    "a whole value, never a mix of two transfers"
+                );
+            }
+        }
+    });
+    assert_eq!(stored(rig), new);
+}
+
 /// A reply datagram, parsed.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Reply {
