@@ -247,6 +247,62 @@ async fn a_cancelled_write_is_ended_towards_the_slave() {
     assert_eq!(read, before);
 }
 
+/// A request runs in its caller's future; when the caller's whole runtime goes away in the
+/// middle of a transfer, the rest of the work moves to the engine's thread, which ends the
+/// transfer towards the slave the protocol's way, so the next caller finds the mailbox clean.
+#[test]
+fn a_write_whose_runtime_shuts_down_is_ended_and_the_next_request_works() {
+    let rig = Rig::default_segment();
+    let drive = rig.slave(DRIVE).with_timeout(Duration::from_secs(60));
+    let store = rig.handles[DRIVE].files.clone().unwrap();
+    let before = store.data("firmware.bin").unwrap();
+    let caller = tokio::runtime::Builder::new_current_thread()
+        .build()
+        .unwrap();
+    let (halfway, reached) = std::sync::mpsc::channel();
+    let options = FoeOptions {
+        password: 0,
+        progress: Some(Arc::new(move |p: FoeProgress| {
+            if let FoeProgress::Transferred { bytes, .. } = p
+                && bytes >= 64 * 1024
+            {
+                let _ = halfway.send(());
+            }
+        })),
+    };
+    let content = file(256 * 1024);
+    let writer = drive.clone();
+    let write =
+        caller.spawn(async move { writer.foe_write("firmware.bin", &content, options).await });
+    // The caller's runtime runs the transfer on this thread until half of it is through.
+    caller.block_on(async {
+        while reached.try_recv().is_err() {
+            assert!(
+                !write.is_finished(),
+                "the write ended before half of it was through"
+            );
+            tokio::task::yield_now().await;
+        }
+    });
+    drop(caller);
+    mailbox_support::wait_until("the cancellation", Duration::from_secs(10), || {
+        drive.stats().cancelled == 1
+    });
+    assert_eq!(
+        store.data("firmware.bin").unwrap(),
+        before,
+        "nothing stored"
+    );
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .build()
+        .unwrap();
+    let read = runtime
+        .block_on(drive.foe_read("firmware.bin", FoeOptions::default()))
+        .unwrap();
+    assert_eq!(read, before);
+    assert_eq!(drive.stats().failed, 0, "{:?}", drive.stats());
+}
+
 #[tokio::test]
 async fn files_survive_ten_percent_frame_loss() {
     // Thousands of exchanges with lost reads (recovered by the repeat procedure, twice in

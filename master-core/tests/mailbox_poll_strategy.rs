@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 
 use mailbox_support::{DRIVE, Rig, bus_config};
 use master_core::link::FaultConfig;
+use master_core::mailbox::MailboxConfig;
 use sim::topology::Topology;
 
 /// The default segment with the drive answering `delay_us` after each request.
@@ -16,6 +17,24 @@ fn topology(delay_us: u32) -> Topology {
     let mut topology = Topology::default_segment();
     topology.slaves[DRIVE].esc.response_delay_us = delay_us;
     topology
+}
+
+/// The drive's segment with idle polling off, so that every read of SM1 counted is one an
+/// upload asked for (the owner's idle reads, every 10 ms by default, would land among the
+/// uploads whenever they take longer than that).
+fn rig(delay_us: u32) -> Rig {
+    let mailbox = MailboxConfig {
+        idle_poll: None,
+        ..MailboxConfig::default()
+    };
+    Rig::start_with(
+        &topology(delay_us),
+        FaultConfig::default(),
+        1,
+        bus_config(),
+        mailbox,
+        |_, _| {},
+    )
 }
 
 fn vendor_id() -> Vec<u8> {
@@ -27,7 +46,7 @@ fn vendor_id() -> Vec<u8> {
 
 #[tokio::test]
 async fn a_slave_that_answers_at_once_costs_one_write_and_one_read_per_upload() {
-    let rig = Rig::start(&topology(0), FaultConfig::default(), 1, bus_config());
+    let rig = rig(0);
     let drive = rig.slave(DRIVE);
     assert_eq!(drive.sdo_upload(0x1018, 1).await.unwrap(), vendor_id());
     let bus = rig.bus.stats();
@@ -41,13 +60,18 @@ async fn a_slave_that_answers_at_once_costs_one_write_and_one_read_per_upload() 
     assert_eq!(after.writes - mailbox.writes, UPLOADS);
     assert_eq!(after.reads - mailbox.reads, UPLOADS);
     // The read that found the answer is the one sent behind the write: no other.
-    assert_eq!(sent, 2 * UPLOADS, "datagrams for {UPLOADS} uploads");
+    assert_eq!(
+        sent,
+        2 * UPLOADS,
+        "datagrams for {UPLOADS} uploads: {bus:?} then {:?}",
+        rig.bus.stats()
+    );
 }
 
 /// Datagrams (the write and every read of SM1) for `uploads` uploads from the drive when
 /// it answers `delay_us` after each request; each upload is checked.
 async fn datagrams_per_upload(delay_us: u32, uploads: u64) -> f64 {
-    let rig = Rig::start(&topology(delay_us), FaultConfig::default(), 1, bus_config());
+    let rig = rig(delay_us);
     let drive = rig.slave(DRIVE);
     let before = rig.bus.stats();
     for _ in 0..uploads {

@@ -170,7 +170,7 @@ async fn write_packets(
                 if x.cancelled() {
                     return Err(MailboxError::Cancelled);
                 }
-                tokio::time::sleep(x.config().poll_interval).await;
+                x.sleep(x.config().poll_interval).await;
                 if packet == 0 {
                     send_foe(x, request).await?;
                     continue;
@@ -241,7 +241,7 @@ async fn read_packets(
                 if x.cancelled() {
                     return Err(MailboxError::Cancelled);
                 }
-                tokio::time::sleep(x.config().poll_interval).await;
+                x.sleep(x.config().poll_interval).await;
                 if acked == 0 {
                     send_foe(x, request).await?;
                 } else {

@@ -18,9 +18,12 @@
 //!
 //! # How a slave's mailbox is run
 //!
-//! One task per slave owns the mailbox: it takes requests from the slave's bounded queue
-//! one at a time, so a transaction (a segmented SDO transfer, a whole FoE file) is never
-//! interleaved with another; tasks of different slaves run concurrently and their
+//! Each slave's mailbox is taken in turns (a fair lock): a request runs in its caller's
+//! own future once its turn comes, at most [`MailboxConfig::queue_len`] waiting, so a
+//! transaction (a segmented SDO transfer, a whole FoE file) is never interleaved with
+//! another and a request crosses no thread but the bus thread's; the slave's owner task on
+//! the engine's thread takes turns for the side traffic (EoE) and for reading what the
+//! slave sends on its own. Requests to different slaves run concurrently and their
 //! datagrams share frames on the bus. Each request carries the next mailbox counter
 //! (1..7); a write refused because the slave's receive mailbox is still full (working
 //! counter 0) is written again. The send mailbox is read by polling — right after a

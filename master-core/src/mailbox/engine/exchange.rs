@@ -1,8 +1,8 @@
 //! One slave's mailbox as the protocol code sees it: write a message into SM0, wait for the
 //! answer in SM1. Everything else read from SM1 on the way is routed to where it belongs.
 //!
-//! Only the slave's owner task has an `Exchange`, so there is exactly one reader of the
-//! slave's send mailbox and one transaction at a time.
+//! An `Exchange` is only reached through a turn ([`super::turn`]), so there is exactly one
+//! reader of the slave's send mailbox and one transaction at a time.
 //!
 //! Guards against a bus that may deliver a retried write twice and lose a read:
 //! - every request carries the next counter 1..7, and a write the bus retried carries the
@@ -111,7 +111,7 @@ impl<'a> Reply<'a> {
     }
 }
 
-/// The owner task's access to one slave's mailbox.
+/// Access to one slave's mailbox, held by one turn at a time.
 pub(crate) struct Exchange {
     shared: Arc<SlaveShared>,
     bus: BusHandle,
@@ -131,6 +131,8 @@ pub(crate) struct Exchange {
     /// A read of SM1 was lost and the repeat procedure has not been carried out yet: it
     /// must be before SM1 is read again (see `Self::recover`).
     repeat_owed: bool,
+    /// The last turn was dropped in the middle of its work (see [`super::turn`]).
+    was_interrupted: bool,
 }
 
 impl Exchange {
@@ -152,6 +154,7 @@ impl Exchange {
             cancelled: None,
             ahead: None,
             repeat_owed: false,
+            was_interrupted: false,
         }
     }
 
@@ -230,6 +233,32 @@ impl Exchange {
         let shared = &*self.shared;
         let why = "the request it came during did not take it";
         report::unexpected(&shared.log_limit, shared.config.station, mailbox_type, why);
+    }
+
+    /// The turn holding the exchange was dropped in the middle of its work: whatever it
+    /// had under way is unknown (a read of SM1 may have emptied it without the message
+    /// arriving here).
+    pub fn interrupted(&mut self) {
+        self.was_interrupted = true;
+    }
+
+    /// Starts a turn after an interrupted one: the read sent ahead is forgotten, answers
+    /// kept for it are dropped (counted as unexpected), and, since a read of SM1 may have
+    /// been lost on the way, the repeat procedure is owed before SM1 is read again, as
+    /// after a lost read (ETG.1000.4, spec-notes §mbx.repeat).
+    pub async fn recover_interrupted(&mut self) {
+        if !std::mem::take(&mut self.was_interrupted) {
+            return;
+        }
+        self.ahead = None;
+        self.repeat_owed = true;
+        self.end().await;
+    }
+
+    /// Waits `pause` on the engine's timer (it works from any executor, to the
+    /// microsecond).
+    pub async fn sleep(&self, pause: Duration) {
+        self.shared.timer.sleep(pause).await;
     }
 
     /// Whether the caller went away.
@@ -365,7 +394,10 @@ impl Exchange {
             if self.expired() {
                 return Err(self.timeout("room in the receive mailbox"));
             }
-            tokio::time::sleep(self.shared.engine.full_retry_interval).await;
+            self.shared
+                .timer
+                .sleep(self.shared.engine.full_retry_interval)
+                .await;
         }
     }
 
@@ -392,6 +424,8 @@ impl Exchange {
         let want = Want::Reply(mailbox_type);
         let mut reads = 0u32;
         let mut pause = Duration::ZERO;
+        // A notice kept from before this message was written is about an older one.
+        std::pin::pin!(self.shared.answer.notified()).enable();
         loop {
             // Checked first as well: a slave answering with a stream of messages the
             // caller skips must not keep the request beyond its deadline.
@@ -434,7 +468,7 @@ impl Exchange {
         let wait = pause.min(self.deadline.saturating_duration_since(Instant::now()));
         tokio::select! {
             () = self.shared.timer.sleep(wait) => {}
-            () = self.shared.mail.notified() => {}
+            () = self.shared.answer.notified() => {}
         }
     }
 
@@ -498,7 +532,14 @@ impl Exchange {
             .deadline
             .max(Instant::now() + self.shared.engine.timeout);
         let interval = self.shared.engine.poll_interval;
-        request_repeat(&self.bus, self.station(), deadline, interval).await?;
+        request_repeat(
+            &self.bus,
+            self.station(),
+            deadline,
+            interval,
+            &self.shared.timer,
+        )
+        .await?;
         self.repeat_owed = false;
         inc(&self.shared.stats.repeats);
         Ok(())
@@ -506,6 +547,7 @@ impl Exchange {
 
     /// Routes what a read of SM1 brought; a lost read is recovered with a repeat request.
     async fn finish_read(&mut self, result: DatagramResult, want: Option<Want>) -> Result<Read> {
+        self.shared.sm1_reads.fetch_add(1, Ordering::AcqRel);
         let station = self.station();
         let response = match result {
             Ok(response) => response,

@@ -1,9 +1,12 @@
-//! The engine: one thread with a current-thread tokio runtime, one task per slave owning
-//! that slave's mailbox.
+//! The engine: each slave's mailbox behind a fair lock, taken in turns by the requests
+//! (in their callers' futures) and by the slave's owner task, which runs on the
+//! engine's own thread (a current-thread tokio runtime) and sends the side traffic and
+//! reads what the slave sends on its own.
 //!
 //! - [`slave`]: the public per-slave handle and what it shares with the owner;
-//! - [`job`]: a request's trip from a caller to the owner and back (cancellation included);
-//! - [`owner`]: the owner task's loop (requests first, then EoE, then idle reads);
+//! - [`turn`]: one piece of work at the mailbox, and the lock that orders them;
+//! - [`job`]: a request's trip from a caller to the mailbox and back (cancellation included);
+//! - [`owner`]: the owner task's loop (EoE, then idle reads);
 //! - [`exchange`]: writing SM0, reading SM1, routing what was read;
 //! - [`counter`], [`repeat`]: the guards against retried writes and lost reads;
 //! - [`demux`]: where each message from a slave goes;
@@ -24,21 +27,24 @@ pub(crate) mod report;
 pub(crate) mod slave;
 pub(crate) mod stats;
 pub(crate) mod timer;
+pub(crate) mod turn;
 
 use std::collections::HashMap;
 use std::io;
-use std::sync::atomic::AtomicU8;
+use std::sync::atomic::{AtomicU8, AtomicU64, AtomicUsize};
 use std::sync::{Arc, PoisonError, RwLock};
 use std::thread::JoinHandle;
 
-use tokio::sync::{Notify, mpsc, watch};
+use tokio::sync::{Notify, watch};
 
 use crate::bus::BusHandle;
 
 use super::config::{MailboxConfig, SlaveMailboxConfig};
 use super::error::{MailboxError, Result};
 use events::Events;
+use exchange::Exchange;
 use slave::{SlaveMailbox, SlaveShared};
+use turn::Mailbox;
 
 /// The mailbox engine of a master: owns the mailbox of every slave added to it.
 ///
@@ -63,12 +69,18 @@ struct Inner {
     bus: BusHandle,
     config: MailboxConfig,
     runtime: tokio::runtime::Handle,
-    slaves: RwLock<HashMap<u16, Arc<SlaveShared>>>,
+    slaves: RwLock<HashMap<u16, Entry>>,
     stop: watch::Sender<bool>,
     thread: std::sync::Mutex<Option<JoinHandle<()>>>,
     timer: timer::Timer,
     /// Stops the pause thread with the engine.
     _timer_thread: timer::TimerThread,
+}
+
+/// A slave the engine owns: what its handles share, and its mailbox.
+struct Entry {
+    shared: Arc<SlaveShared>,
+    mailbox: Mailbox,
 }
 
 impl Drop for Inner {
@@ -137,47 +149,55 @@ impl MailboxEngine {
             .unwrap_or_else(PoisonError::into_inner)
             .get(&config.station)
             .map_or(0, |old| {
-                old.last_tx.load(std::sync::atomic::Ordering::Relaxed)
+                old.shared
+                    .last_tx
+                    .load(std::sync::atomic::Ordering::Relaxed)
             });
         let engine = self.inner.config;
-        let (requests, requests_rx) = mpsc::channel(engine.queue_len.max(1));
         let side = super::side_traffic(&engine);
         let (stop, stop_rx) = watch::channel(false);
         let shared = Arc::new(SlaveShared {
             config,
             engine,
-            requests,
+            waiting: AtomicUsize::new(0),
+            runtime: self.inner.runtime.clone(),
+            engine_stop: self.inner.stop.subscribe(),
             side_queue: side.queue,
             events: Events::new(engine.emergency_history, engine.event_capacity),
             stats: stats::Stats::default(),
             mail: Notify::new(),
+            answer: Notify::new(),
+            sm1_reads: AtomicU64::new(0),
             stop,
             last_tx: AtomicU8::new(last_tx),
             log_limit: report::LogLimit::default(),
             timer: self.inner.timer.clone(),
         });
+        let exchange = Exchange::new(Arc::clone(&shared), self.inner.bus.clone(), side.reassembly);
+        let mailbox: Mailbox = Arc::new(tokio::sync::Mutex::new(exchange));
         let inputs = owner::Inputs {
-            requests: requests_rx,
+            mailbox: Arc::clone(&mailbox),
             background: side.background,
-            reassembly: side.reassembly,
             stop: stop_rx,
             engine_stop: self.inner.stop.subscribe(),
         };
-        self.inner.runtime.spawn(owner::run(
-            Arc::clone(&shared),
-            self.inner.bus.clone(),
-            inputs,
-        ));
+        self.inner
+            .runtime
+            .spawn(owner::run(Arc::clone(&shared), inputs));
+        let entry = Entry {
+            shared: Arc::clone(&shared),
+            mailbox: Arc::clone(&mailbox),
+        };
         let replaced = self
             .inner
             .slaves
             .write()
             .unwrap_or_else(PoisonError::into_inner)
-            .insert(config.station, Arc::clone(&shared));
+            .insert(config.station, entry);
         if let Some(old) = replaced {
-            old.stop.send_replace(true);
+            old.shared.stop.send_replace(true);
         }
-        SlaveMailbox::new(shared)
+        SlaveMailbox::new(shared, mailbox)
     }
 
     /// Stops owning the mailbox of slave `station` (it left the segment); its queued
@@ -189,8 +209,8 @@ impl MailboxEngine {
             .write()
             .unwrap_or_else(PoisonError::into_inner)
             .remove(&station);
-        if let Some(shared) = &removed {
-            shared.stop.send_replace(true);
+        if let Some(entry) = &removed {
+            entry.shared.stop.send_replace(true);
         }
         removed.is_some()
     }
@@ -202,7 +222,7 @@ impl MailboxEngine {
             .read()
             .unwrap_or_else(PoisonError::into_inner)
             .get(&station)
-            .map(|shared| SlaveMailbox::new(Arc::clone(shared)))
+            .map(|entry| SlaveMailbox::new(Arc::clone(&entry.shared), Arc::clone(&entry.mailbox)))
             .ok_or(MailboxError::UnknownSlave(station))
     }
 

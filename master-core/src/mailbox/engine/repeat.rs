@@ -13,6 +13,8 @@ use crate::bus::{BusError, BusHandle};
 use crate::mailbox::error::{MailboxError, Result};
 use crate::wire::register::sync_manager::{SmActivate, SmPdiControl};
 
+use super::timer::Timer;
+
 /// SM1 status (0x080D) and activate (0x080E).
 const SM1_STATUS: u16 = 0x080D;
 /// SM1 activate: bit 1 is the repeat request.
@@ -21,12 +23,13 @@ const SM1_ACTIVATE: u16 = 0x080E;
 const SM1_PDI_CONTROL: u16 = 0x080F;
 
 /// Toggles the repeat request of slave `station` and waits until the slave acknowledges
-/// it (or `deadline`, checking every `interval`).
+/// it (or `deadline`, checking every `interval` on the engine's `timer`).
 pub(crate) async fn request_repeat(
     bus: &BusHandle,
     station: u16,
     deadline: Instant,
     interval: Duration,
+    timer: &Timer,
 ) -> Result<()> {
     let registers = checked(bus.fprd(station, SM1_STATUS, 2).await, station)?;
     let raw = registers.get(1).copied().unwrap_or(0);
@@ -49,7 +52,7 @@ pub(crate) async fn request_repeat(
                 waiting_for: "the repeat acknowledge",
             });
         }
-        tokio::time::sleep(interval).await;
+        timer.sleep(interval).await;
     }
 }
 

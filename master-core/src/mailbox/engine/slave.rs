@@ -2,23 +2,29 @@
 
 use std::any::Any;
 use std::sync::Arc;
-use std::sync::atomic::AtomicU8;
+use std::sync::atomic::{AtomicU8, AtomicU64, AtomicUsize, Ordering};
 use std::time::Duration;
 
-use tokio::sync::{Notify, broadcast, mpsc, watch};
+use tokio::sync::{Notify, broadcast, watch};
 
 use crate::mailbox::config::{MailboxConfig, SlaveMailboxConfig};
 
 use super::events::{Emergency, EoeFrame, Events, SoeNotification};
-use super::job::Job;
 use super::report::LogLimit;
 use super::stats::{MailboxStats, Stats};
+use super::turn::Mailbox;
 
-/// Shared between the slave's owner task and every handle.
+/// Shared between the slave's owner task, its exchange and every handle.
 pub(crate) struct SlaveShared {
     pub config: SlaveMailboxConfig,
     pub engine: MailboxConfig,
-    pub requests: mpsc::Sender<Job>,
+    /// Requests waiting for their turn at the mailbox (not the one under way); at most
+    /// [`MailboxConfig::queue_len`].
+    pub waiting: AtomicUsize,
+    /// The engine's runtime: where a request whose caller went away finishes its work.
+    pub runtime: tokio::runtime::Handle,
+    /// The engine stopped: requests that get their turn afterwards are not started.
+    pub engine_stop: watch::Receiver<bool>,
     /// The sending end of the side traffic's queue (EoE frames), of a type its protocol
     /// module knows ([`SideTraffic::queue`](super::hook::SideTraffic::queue)).
     pub side_queue: Box<dyn Any + Send + Sync>,
@@ -26,7 +32,13 @@ pub(crate) struct SlaveShared {
     pub stats: Stats,
     /// Wakes the owner to read the send mailbox now (a "mailbox full" seen elsewhere).
     pub mail: Notify,
-    /// Tells the owner to stop (the slave was removed).
+    /// Ends the pause of a request waiting for its answer (the same notice).
+    pub answer: Notify,
+    /// Reads of SM1 finished, whatever they found: tells the owner whether a notice it
+    /// got was already answered by a request's read.
+    pub sm1_reads: AtomicU64,
+    /// Tells the owner to stop (the slave was removed); requests that get their turn
+    /// afterwards are not started.
     pub stop: watch::Sender<bool>,
     /// Counter of the last request written (0 before the first): an owner that replaces
     /// this one on a live mailbox continues the sequence from it.
@@ -37,15 +49,33 @@ pub(crate) struct SlaveShared {
     pub timer: super::timer::Timer,
 }
 
+impl SlaveShared {
+    /// Says the send mailbox has something: a request waiting for its answer reads at
+    /// once (or after the read under way), and the owner once it is idle. Each notice is
+    /// kept for its party if it is busy, which costs at most one read.
+    pub fn notify_mail(&self) {
+        self.answer.notify_one();
+        self.mail.notify_one();
+    }
+
+    /// The slave was removed or the engine stopped: requests are not started any more.
+    pub fn stopped(&self) -> bool {
+        *self.stop.borrow() || *self.engine_stop.borrow()
+    }
+}
+
 /// A handle on one slave's mailbox: the entry point of every protocol client
 /// (`sdo_upload`, `soe_read`, `foe_write`, `voe`, `eoe_send`, `raw`, ...).
 ///
-/// Cheap to clone; usable from any thread and any executor. Every request goes through the
-/// slave's bounded queue to the task that owns its mailbox, which works on one request at
-/// a time; requests to different slaves proceed in parallel.
+/// Cheap to clone; usable from any thread and any executor. A request runs inside the
+/// caller's own future once it has its turn at the slave's mailbox: one request at a time
+/// per slave, in the order called, at most [`MailboxConfig::queue_len`] waiting; requests
+/// to different slaves proceed in parallel. A request dropped before it is done finishes
+/// on the engine's thread (see the protocol clients on cancellation).
 #[derive(Clone)]
 pub struct SlaveMailbox {
     shared: Arc<SlaveShared>,
+    mailbox: Mailbox,
     timeout: Duration,
     /// With progress deadlines: the cap on the whole request (see
     /// [`SlaveMailbox::with_progress_deadlines`]).
@@ -63,17 +93,22 @@ impl std::fmt::Debug for SlaveMailbox {
 }
 
 impl SlaveMailbox {
-    pub(crate) fn new(shared: Arc<SlaveShared>) -> SlaveMailbox {
+    pub(crate) fn new(shared: Arc<SlaveShared>, mailbox: Mailbox) -> SlaveMailbox {
         let timeout = shared.engine.timeout;
         SlaveMailbox {
             shared,
+            mailbox,
             timeout,
             cap: None,
         }
     }
 
-    pub(crate) fn shared(&self) -> &SlaveShared {
+    pub(crate) fn shared(&self) -> &Arc<SlaveShared> {
         &self.shared
+    }
+
+    pub(crate) fn mailbox(&self) -> &Mailbox {
+        &self.mailbox
     }
 
     /// The same handle with another deadline for its requests (counted from each call,
@@ -81,6 +116,7 @@ impl SlaveMailbox {
     pub fn with_timeout(&self, timeout: Duration) -> SlaveMailbox {
         SlaveMailbox {
             shared: Arc::clone(&self.shared),
+            mailbox: Arc::clone(&self.mailbox),
             timeout,
             cap: None,
         }
@@ -95,6 +131,7 @@ impl SlaveMailbox {
     pub fn with_progress_deadlines(&self, exchange: Duration, cap: Duration) -> SlaveMailbox {
         SlaveMailbox {
             shared: Arc::clone(&self.shared),
+            mailbox: Arc::clone(&self.mailbox),
             timeout: exchange,
             cap: Some(cap.max(exchange)),
         }
@@ -121,9 +158,10 @@ impl SlaveMailbox {
         &self.shared.config
     }
 
-    /// Requests waiting in the slave's queue (not counting the one under way).
+    /// Requests waiting for their turn at the slave's mailbox (not counting the one under
+    /// way).
     pub fn queued(&self) -> usize {
-        self.shared.requests.max_capacity() - self.shared.requests.capacity()
+        self.shared.waiting.load(Ordering::Relaxed)
     }
 
     /// The slave's mailbox counters.
@@ -155,6 +193,6 @@ impl SlaveMailbox {
     /// Reads the send mailbox now instead of at the next poll (the process-data path saw
     /// the "mailbox full" bit of SM1).
     pub fn notify_mailbox_full(&self) {
-        self.shared.mail.notify_one();
+        self.shared.notify_mail();
     }
 }
