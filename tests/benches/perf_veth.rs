@@ -31,7 +31,9 @@
 //! over the direct API's. Knobs: `PERF_VETH_COUNT` (reads per latency row, default 2000),
 //! `PERF_VETH_ROWS` (phases to run, comma-separated from `latency,clients,delay,bringup`;
 //! default all), `PERF_VETH_SOAK` (gateway requests of the memory soak, default 1,000,000;
-//! 0 skips it), `PERF_VETH_BRINGUP` (slave counts, default `64,192,512`; SOEM, so pysoem,
+//! 0 skips it), `PERF_VETH_RT` (`SCHED_FIFO` priority of ecatd's bus thread, default 50 as
+//! `deploy/systemd/ecatd.service` runs it; 0: ordinary scheduling), `PERF_VETH_BRINGUP`
+//! (slave counts, default `64,192,512`; SOEM, so pysoem,
 //! takes at most 200 slaves). The 64-client gateway row runs twice: one thread per client,
 //! and the clients as tasks of one thread (as the direct API's 64 callers run). Not part of
 //! CI: every figure depends on the machine and its load. ecatd is built in release.
@@ -103,17 +105,23 @@ fn topology(delay_us: u32) -> Topology {
     Topology { slaves }
 }
 
-/// A topology file, removed on drop.
-struct TopologyFile(std::path::PathBuf);
+/// A file of the bench's (a topology, ecatd's configuration), removed on drop.
+struct TempFile(std::path::PathBuf);
 
-impl TopologyFile {
-    fn new(delay_us: u32) -> TopologyFile {
+impl TempFile {
+    fn new(name: &str, text: &str) -> TempFile {
         let path = std::env::temp_dir().join(format!(
-            "ecatd-perf-veth-{}-{delay_us}.toml",
+            "ecatd-perf-veth-{}-{name}.toml",
             std::process::id()
         ));
-        std::fs::write(&path, topology(delay_us).to_toml().expect("toml")).expect("file");
-        TopologyFile(path)
+        std::fs::write(&path, text).expect("file");
+        TempFile(path)
+    }
+
+    /// The topology of [`topology`] with every slave answering `delay_us` late.
+    fn topology(delay_us: u32) -> TempFile {
+        let text = topology(delay_us).to_toml().expect("toml");
+        TempFile::new(&format!("topology-{delay_us}"), &text)
     }
 
     fn path(&self) -> &str {
@@ -121,10 +129,33 @@ impl TopologyFile {
     }
 }
 
-impl Drop for TopologyFile {
+impl Drop for TempFile {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.0);
     }
+}
+
+/// `SCHED_FIFO` priority of ecatd's bus thread (`PERF_VETH_RT`, default 50, as the systemd
+/// unit of `deploy/` runs ecatd; 0: ordinary scheduling).
+fn rt_priority() -> usize {
+    env_usize("PERF_VETH_RT", 50).min(99)
+}
+
+/// ecatd as the bench starts it: its defaults, with the bus thread under `SCHED_FIFO` at
+/// [`rt_priority`] unless that is 0.
+fn start_ecatd(topology: &TempFile) -> (Ecatd, Option<TempFile>) {
+    let config = match rt_priority() {
+        0 => None,
+        priority => Some(TempFile::new(
+            "ecatd",
+            &format!("[bus]\nrt_priority = {priority}\n"),
+        )),
+    };
+    let extra: Vec<&str> = config
+        .as_ref()
+        .map_or_else(Vec::new, |c| vec!["--config", c.path()]);
+    let ecatd = Ecatd::start_with(&["--simulate", topology.path()], &extra);
+    (ecatd, config)
 }
 
 /// The table: rows printed as they come, with the reference p50s known by then.
@@ -400,7 +431,7 @@ fn jitter_between(
 }
 
 fn phase_direct(table: &mut Table, count: usize, each: usize) {
-    let file = TopologyFile::new(0);
+    let file = TempFile::topology(0);
     let rig = Rig::new();
     let _sim = SimProcess::start(&rig.sim, SIM_IFACE, &["--topology", file.path()]);
     let raw = run_script(
@@ -474,8 +505,8 @@ fn phase_direct(table: &mut Table, count: usize, each: usize) {
 }
 
 fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: bool) {
-    let file = TopologyFile::new(0);
-    let ecatd = Ecatd::start_with(&["--simulate", file.path()], &[]);
+    let file = TempFile::topology(0);
+    let (ecatd, _config) = start_ecatd(&file);
     let gateway = ecatd.gateway_addr();
     let idle = rss_kib(ecatd.pid());
     let agent = ureq::Agent::new_with_defaults();
@@ -570,7 +601,12 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
 
     println!();
     println!(
-        "ecatd's 1 kHz cycle, |cycle time − 1 ms| (bucket bounds of its /metrics histogram, µs)"
+        "ecatd's 1 kHz cycle, |cycle time − 1 ms| (bucket bounds of its /metrics histogram, µs), \
+         bus thread {}",
+        match rt_priority() {
+            0 => "ordinary scheduling (PERF_VETH_RT=0)".to_owned(),
+            p => format!("SCHED_FIFO {p} (PERF_VETH_RT)"),
+        }
     );
     println!(
         "{:<28} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
@@ -633,8 +669,8 @@ fn phase_delay(table: &Table, count: usize) {
     println!();
     println!("every slave answering late (response_delay_us), ecatd gateway (UDP), Rust, 1 client");
     for delay in [100u32, 1000] {
-        let file = TopologyFile::new(delay);
-        let ecatd = Ecatd::start_with(&["--simulate", file.path()], &[]);
+        let file = TempFile::topology(delay);
+        let (ecatd, _config) = start_ecatd(&file);
         let mut gw = GatewayClient::new(ecatd.gateway_addr());
         let request = upload_request();
         let r = sequential(count, || {

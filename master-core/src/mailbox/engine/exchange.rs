@@ -547,7 +547,6 @@ impl Exchange {
 
     /// Routes what a read of SM1 brought; a lost read is recovered with a repeat request.
     async fn finish_read(&mut self, result: DatagramResult, want: Option<Want>) -> Result<Read> {
-        self.shared.sm1_reads.fetch_add(1, Ordering::AcqRel);
         let station = self.station();
         let response = match result {
             Ok(response) => response,

@@ -31,7 +31,7 @@ pub(crate) mod turn;
 
 use std::collections::HashMap;
 use std::io;
-use std::sync::atomic::{AtomicU8, AtomicU64, AtomicUsize};
+use std::sync::atomic::{AtomicU8, AtomicUsize};
 use std::sync::{Arc, PoisonError, RwLock};
 use std::thread::JoinHandle;
 
@@ -167,7 +167,6 @@ impl MailboxEngine {
             stats: stats::Stats::default(),
             mail: Notify::new(),
             answer: Notify::new(),
-            sm1_reads: AtomicU64::new(0),
             stop,
             last_tx: AtomicU8::new(last_tx),
             log_limit: report::LogLimit::default(),

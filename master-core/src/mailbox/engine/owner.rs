@@ -9,9 +9,14 @@
 //! driven by demand: an idle read that found something is followed by another at once, so a
 //! slave streaming frames is served as fast as the bus allows; only an empty read falls
 //! back to the idle poll interval.
+//!
+//! A "mailbox full" notice (the SM1 status bit in the cyclic frame) is taken only if the
+//! mailbox is free: while a request holds it, that request reads SM1 itself (what it finds
+//! is routed), and queueing behind it would only add an empty read and a wake-up of this
+//! thread between it and the next request. The notices repeat every cycle while SM1 stays
+//! full, so a message that arrives after the request's last read is taken at the next one.
 
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use tokio::sync::watch;
@@ -60,7 +65,7 @@ pub(crate) async fn run(shared: Arc<SlaveShared>, inputs: Inputs) {
         }
         let now = Instant::now();
         if reading || (idle_poll.is_some() && now >= next_poll) {
-            reading = idle_read(&mailbox, None).await;
+            reading = idle_read(Turn::take(&mailbox).await).await;
             if let Some(interval) = idle_poll {
                 next_poll = Instant::now() + interval;
             }
@@ -73,8 +78,9 @@ pub(crate) async fn run(shared: Arc<SlaveShared>, inputs: Inputs) {
             changed = engine_stop.changed() => if changed.is_err() { break },
             () = side.start_next() => {},
             () = shared.mail.notified() => {
-                let mark = shared.sm1_reads.load(Ordering::Acquire);
-                reading = idle_read(&mailbox, Some((&shared, mark))).await;
+                if let Some(turn) = Turn::try_take(&mailbox).await {
+                    reading = idle_read(turn).await;
+                }
             }
             () = sleep, if idle_poll.is_some() => {}
         }
@@ -84,20 +90,7 @@ pub(crate) async fn run(shared: Arc<SlaveShared>, inputs: Inputs) {
 
 /// One read of the send mailbox in a turn of its own; whether it found something (a failed
 /// read, the slave unplugged say, is retried at the next poll).
-///
-/// After a "mailbox full" notice (`notice`: the count of SM1 reads when it came), the read
-/// is skipped if SM1 was read since, in the turn of a request that was under way: the
-/// notice was most likely about that request's answer, and an extra empty read would hold
-/// up the next request by a bus round trip. The notices repeat every cycle while SM1 stays
-/// full, so a message that did arrive meanwhile is read at the next one.
-async fn idle_read(mailbox: &Mailbox, notice: Option<(&SlaveShared, u64)>) -> bool {
-    let mut turn = Turn::take(mailbox).await;
-    if let Some((shared, mark)) = notice
-        && shared.sm1_reads.load(Ordering::Acquire) != mark
-    {
-        turn.finish();
-        return false;
-    }
+async fn idle_read(mut turn: Turn) -> bool {
     let found = matches!(turn.poll_idle().await, Ok(true));
     turn.finish();
     found

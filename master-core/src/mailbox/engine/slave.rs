@@ -2,7 +2,7 @@
 
 use std::any::Any;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU8, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
 use std::time::Duration;
 
 use tokio::sync::{Notify, broadcast, watch};
@@ -34,9 +34,6 @@ pub(crate) struct SlaveShared {
     pub mail: Notify,
     /// Ends the pause of a request waiting for its answer (the same notice).
     pub answer: Notify,
-    /// Reads of SM1 finished, whatever they found: tells the owner whether a notice it
-    /// got was already answered by a request's read.
-    pub sm1_reads: AtomicU64,
     /// Tells the owner to stop (the slave was removed); requests that get their turn
     /// afterwards are not started.
     pub stop: watch::Sender<bool>,

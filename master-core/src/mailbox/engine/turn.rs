@@ -38,6 +38,17 @@ impl Turn {
         }
     }
 
+    /// The mailbox if nobody holds it or waits for it now (then cleared up after a turn
+    /// that was interrupted).
+    pub async fn try_take(mailbox: &Mailbox) -> Option<Turn> {
+        let mut guard = Arc::clone(mailbox).try_lock_owned().ok()?;
+        guard.recover_interrupted().await;
+        Some(Turn {
+            guard,
+            finished: false,
+        })
+    }
+
     /// The work is done (the exchange is in a clean state): release it as it is.
     pub fn finish(mut self) {
         self.finished = true;
