@@ -31,8 +31,10 @@
 //! over the direct API's. Knobs: `PERF_VETH_COUNT` (reads per latency row, default 2000),
 //! `PERF_VETH_ROWS` (phases to run, comma-separated from `latency,clients,delay,bringup`;
 //! default all), `PERF_VETH_SOAK` (gateway requests of the memory soak, default 1,000,000;
-//! 0 skips it), `PERF_VETH_RT` (`SCHED_FIFO` priority of ecatd's bus thread, default 50 as
-//! `deploy/systemd/ecatd.service` runs it; 0: ordinary scheduling), `PERF_VETH_BRINGUP`
+//! 0 skips it), `PERF_VETH_RT` (`SCHED_FIFO` priority of ecatd's bus thread, default 0: ordinary
+//! scheduling; `deploy/systemd/ecatd.service` gives 50), `PERF_VETH_SIM_SPIN_US`
+//! (ecat-sim's `--spin-us` in the latency, client and delay phases, default 0),
+//! `PERF_VETH_BRINGUP`
 //! (slave counts, default `64,192,512`; SOEM, so pysoem,
 //! takes at most 200 slaves). The 64-client gateway row runs twice: one thread per client,
 //! and the clients as tasks of one thread (as the direct API's 64 callers run). Not part of
@@ -135,10 +137,19 @@ impl Drop for TempFile {
     }
 }
 
-/// `SCHED_FIFO` priority of ecatd's bus thread (`PERF_VETH_RT`, default 50, as the systemd
-/// unit of `deploy/` runs ecatd; 0: ordinary scheduling).
+/// `SCHED_FIFO` priority of ecatd's bus thread (`PERF_VETH_RT`, default 0: ordinary
+/// scheduling; 50 is what the systemd unit of `deploy/` gives ecatd). On the 2-core VM of
+/// `docs/performance.md` it keeps the loaded cycle's p99 at the quiet one's but costs REST
+/// and gRPC about 130 µs p50, so the table's default is ordinary scheduling.
 fn rt_priority() -> usize {
-    env_usize("PERF_VETH_RT", 50).min(99)
+    env_usize("PERF_VETH_RT", 0).min(99)
+}
+
+/// How long ecat-sim spins on its socket after each frame before it sleeps
+/// (`PERF_VETH_SIM_SPIN_US`, default 0): a spinning simulator answers the next frame at
+/// once, as an ESC's hardware does, instead of after its thread's wake-up.
+fn sim_spin_us() -> usize {
+    env_usize("PERF_VETH_SIM_SPIN_US", 0)
 }
 
 /// ecatd as the bench starts it: its defaults, with the bus thread under `SCHED_FIFO` at
@@ -154,7 +165,12 @@ fn start_ecatd(topology: &TempFile) -> (Ecatd, Option<TempFile>) {
     let extra: Vec<&str> = config
         .as_ref()
         .map_or_else(Vec::new, |c| vec!["--config", c.path()]);
-    let ecatd = Ecatd::start_with(&["--simulate", topology.path()], &extra);
+    let spin = sim_spin_us().to_string();
+    let mut segment = vec!["--simulate", topology.path()];
+    if sim_spin_us() > 0 {
+        segment.extend(["--spin-us", spin.as_str()]);
+    }
+    let ecatd = Ecatd::start_with(&segment, &extra);
     (ecatd, config)
 }
 
@@ -433,7 +449,12 @@ fn jitter_between(
 fn phase_direct(table: &mut Table, count: usize, each: usize) {
     let file = TempFile::topology(0);
     let rig = Rig::new();
-    let _sim = SimProcess::start(&rig.sim, SIM_IFACE, &["--topology", file.path()]);
+    let spin = sim_spin_us().to_string();
+    let _sim = SimProcess::start(
+        &rig.sim,
+        SIM_IFACE,
+        &["--topology", file.path(), "--spin-us", &spin],
+    );
     let raw = run_script(
         &rig.master,
         "perf_clients.py",
@@ -786,8 +807,9 @@ fn main() {
     // Every client of the aggregate rows reads this often.
     let each = (count / 8).max(10);
     println!(
-        "SDO upload of 0x1018:01 over veth against ecat-sim ({SLAVES} drives), {count} per row, \
-         {CLIENTS} x {each} in the aggregate rows"
+        "SDO upload of 0x1018:01 over veth against ecat-sim ({SLAVES} drives, spinning {} µs \
+         after each frame), {count} per row, {CLIENTS} x {each} in the aggregate rows",
+        sim_spin_us()
     );
     println!();
     Table::header();
