@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use mailbox_support::{DRIVE, Rig};
-use master_core::mailbox::{FoeOptions, FoeProgress, MailboxConfig, MailboxError};
+use master_core::mailbox::{FoeOptions, FoeProgress, MailboxConfig, MailboxError, SlaveMailbox};
 use master_core::wire::foe::FoeError;
 use sha2::{Digest, Sha256};
 use sim::device::foe::{BusyPhase, FileStore, FoeFile, FoeService};
@@ -204,33 +204,24 @@ async fn the_slaves_foe_errors_come_with_code_and_text() {
     assert_eq!(store.data("rom.txt").unwrap(), b"fixed");
 }
 
-#[tokio::test]
-async fn a_cancelled_write_is_ended_towards_the_slave() {
-    let rig = Rig::default_segment();
-    let drive = rig.slave(DRIVE).with_timeout(Duration::from_secs(60));
-    let store = rig.handles[DRIVE].files.clone().unwrap();
-    let before = store.data("firmware.bin").unwrap();
-    let (halfway, reached) = tokio::sync::oneshot::channel();
-    let halfway = Mutex::new(Some(halfway));
+/// Options whose progress callback says once 64 KiB of a write are through.
+fn signal_halfway() -> (FoeOptions, tokio::sync::mpsc::UnboundedReceiver<()>) {
+    let (halfway, reached) = tokio::sync::mpsc::unbounded_channel();
     let options = FoeOptions {
         password: 0,
         progress: Some(Arc::new(move |p: FoeProgress| {
             if let FoeProgress::Transferred { bytes, .. } = p
                 && bytes >= 64 * 1024
-                && let Some(tx) = halfway.lock().unwrap().take()
             {
-                let _ = tx.send(());
+                let _ = halfway.send(());
             }
         })),
     };
-    let content = file(256 * 1024);
-    tokio::select! {
-        result = drive.foe_write("firmware.bin", &content, options) => {
-            panic!("the write finished before it was cancelled: {result:?}")
-        }
-        _ = reached => {}
-    }
-    // The write's future is dropped: the engine ends the transfer with an FoE ERROR.
+    (options, reached)
+}
+
+/// The dropped write was counted as cancelled and stored nothing.
+fn assert_cancelled_without_a_trace(drive: &SlaveMailbox, store: &FileStore, before: &[u8]) {
     mailbox_support::wait_until("the cancellation", Duration::from_secs(10), || {
         drive.stats().cancelled == 1
     });
@@ -239,6 +230,24 @@ async fn a_cancelled_write_is_ended_towards_the_slave() {
         before,
         "nothing stored"
     );
+}
+
+#[tokio::test]
+async fn a_cancelled_write_is_ended_towards_the_slave() {
+    let rig = Rig::default_segment();
+    let drive = rig.slave(DRIVE).with_timeout(Duration::from_secs(60));
+    let store = rig.handles[DRIVE].files.clone().unwrap();
+    let before = store.data("firmware.bin").unwrap();
+    let (options, mut reached) = signal_halfway();
+    let content = file(256 * 1024);
+    tokio::select! {
+        result = drive.foe_write("firmware.bin", &content, options) => {
+            panic!("the write finished before it was cancelled: {result:?}")
+        }
+        _ = reached.recv() => {}
+    }
+    // The write's future is dropped: the engine ends the transfer with an FoE ERROR.
+    assert_cancelled_without_a_trace(&drive, &store, &before);
     // The slave's FoE server is idle: the next transfer works from the start.
     let read = drive
         .foe_read("firmware.bin", FoeOptions::default())
@@ -259,17 +268,7 @@ fn a_write_whose_runtime_shuts_down_is_ended_and_the_next_request_works() {
     let caller = tokio::runtime::Builder::new_current_thread()
         .build()
         .unwrap();
-    let (halfway, reached) = std::sync::mpsc::channel();
-    let options = FoeOptions {
-        password: 0,
-        progress: Some(Arc::new(move |p: FoeProgress| {
-            if let FoeProgress::Transferred { bytes, .. } = p
-                && bytes >= 64 * 1024
-            {
-                let _ = halfway.send(());
-            }
-        })),
-    };
+    let (options, mut reached) = signal_halfway();
     let content = file(256 * 1024);
     let writer = drive.clone();
     let write =
@@ -285,14 +284,7 @@ fn a_write_whose_runtime_shuts_down_is_ended_and_the_next_request_works() {
         }
     });
     drop(caller);
-    mailbox_support::wait_until("the cancellation", Duration::from_secs(10), || {
-        drive.stats().cancelled == 1
-    });
-    assert_eq!(
-        store.data("firmware.bin").unwrap(),
-        before,
-        "nothing stored"
-    );
+    assert_cancelled_without_a_trace(&drive, &store, &before);
     let runtime = tokio::runtime::Builder::new_current_thread()
         .build()
         .unwrap();

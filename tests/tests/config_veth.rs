@@ -208,8 +208,8 @@ impl Drop for Daemon {
     }
 }
 
-/// The datagrams of an EtherCAT frame: (command, ADP, ADO, data).
-fn datagrams(frame: &[u8]) -> Vec<(u8, u16, u16, &[u8])> {
+/// The datagrams of an EtherCAT frame: command, ADP, ADO, data and working counter.
+fn datagrams(frame: &[u8]) -> Vec<(u8, u16, u16, &[u8], u16)> {
     let mut out = Vec::new();
     if frame.len() < 16 || frame[12..14] != [0x88, 0xA4] {
         return out;
@@ -221,10 +221,13 @@ fn datagrams(frame: &[u8]) -> Vec<(u8, u16, u16, &[u8])> {
         let ado = u16::from_le_bytes([frame[at + 4], frame[at + 5]]);
         let len_word = u16::from_le_bytes([frame[at + 6], frame[at + 7]]);
         let len = usize::from(len_word & 0x07FF);
-        let Some(data) = frame.get(at + 10..at + 10 + len) else {
+        let (Some(data), Some(wkc)) = (
+            frame.get(at + 10..at + 10 + len),
+            frame.get(at + 10 + len..at + 12 + len),
+        ) else {
             break;
         };
-        out.push((cmd, adp, ado, data));
+        out.push((cmd, adp, ado, data, u16::from_le_bytes([wkc[0], wkc[1]])));
         if len_word & 0x8000 == 0 {
             break;
         }
@@ -248,7 +251,7 @@ fn sdo_downloads(
     let mut out: Vec<(u16, u8, Vec<u8>)> = Vec::new();
     let mut last: Option<Vec<u8>> = None;
     for (_, frame) in frames {
-        for (cmd, adp, ado, data) in datagrams(frame) {
+        for (cmd, adp, ado, data, _) in datagrams(frame) {
             if cmd != FPWR || adp != station || ado != sm0 || data.len() < 16 {
                 continue;
             }
@@ -291,25 +294,32 @@ fn sdo_downloads(
 
 /// The median time between two cyclic exchanges (LRW frames), each received once.
 fn cycle_on_the_wire(frames: &[(Duration, Vec<u8>)]) -> Duration {
-    let times: Vec<Duration> = frames
-        .iter()
-        .filter(|(_, f)| datagrams(f).iter().any(|d| d.0 == LRW))
-        .map(|(t, _)| *t)
-        .collect();
-    // A frame and its answer are recorded microseconds apart: one exchange.
+    // The capture holds each frame twice, as it came and as it went back. The copy sent
+    // back has its LRW's working counter above 0 once the slave exchanges process data,
+    // so it never counts as a cycle of its own, however late a loaded simulator sends it;
+    // before that (both copies at 0) a copy within half a period of a cycle is its answer.
     let mut starts: Vec<Duration> = Vec::new();
-    for t in times {
-        if starts
-            .last()
-            .is_none_or(|&s| t - s > Duration::from_micros(150))
+    for (t, frame) in frames {
+        if lrw_working_counter(frame) == Some(0)
+            && starts
+                .last()
+                .is_none_or(|&s| *t - s > Duration::from_micros(250))
         {
-            starts.push(t);
+            starts.push(*t);
         }
     }
     let mut gaps: Vec<Duration> = starts.windows(2).map(|w| w[1] - w[0]).collect();
     assert!(gaps.len() > 100, "too few cycles captured: {}", gaps.len());
     gaps.sort();
     gaps[gaps.len() / 2]
+}
+
+/// The working counter of the frame's LRW datagram, if it has one.
+fn lrw_working_counter(frame: &[u8]) -> Option<u16> {
+    datagrams(frame)
+        .into_iter()
+        .find(|d| d.0 == LRW)
+        .map(|d| d.4)
 }
 
 fn le(value: u32, len: usize) -> Vec<u8> {
@@ -637,7 +647,7 @@ fn bad_files_are_refused_with_what_is_wrong_and_where() {
 /// write, 0x0120, of PREOP, SAFEOP or OP) or wrote a mailbox.
 fn anything_applied(frames: &[(Duration, Vec<u8>)]) -> bool {
     frames.iter().any(|(_, f)| {
-        datagrams(f).iter().any(|&(cmd, _, ado, data)| {
+        datagrams(f).iter().any(|&(cmd, _, ado, data, _)| {
             let writes = matches!(cmd, 2 | 5 | 8); // APWR, FPWR, BWR
             writes
                 && ((ado == 0x0120 && data.first().is_some_and(|s| matches!(s & 0x0F, 2 | 4 | 8)))

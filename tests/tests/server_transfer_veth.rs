@@ -238,7 +238,14 @@ fn eight_mib_through_rest_grpc_and_ecat_at_one_percent_loss() {
     // REST: PUT the file, GET it back.
     let (status, body) = rest_put(&ecatd, "rest.bin", &scratch.path("big.bin"));
     assert_eq!(status, 200, "{body}");
-    assert_eq!(rest_get(&ecatd, "rest.bin", &scratch.path("rest.out")), 200);
+    let status = rest_get(&ecatd, "rest.bin", &scratch.path("rest.out"));
+    assert_eq!(
+        status,
+        200,
+        "{}\n{}",
+        String::from_utf8_lossy(&std::fs::read(scratch.path("rest.out")).unwrap_or_default()),
+        ecatd.log()
+    );
     assert_eq!(
         sha(&std::fs::read(scratch.path("rest.out")).unwrap()),
         digest

@@ -27,7 +27,8 @@ pub(crate) struct Bound {
 }
 
 /// Binds `workers` UDP sockets (and TCP if `tcp`) at `ip:port`; if that port is in use and
-/// `fallback` is set, binds a port the system chooses, free for both.
+/// `fallback` is set, binds a port the system chooses, free for both. With port 0 (any), a
+/// port the system gave for UDP but another program holds for TCP is simply tried again.
 pub(crate) fn bind(
     ip: IpAddr,
     port: u16,
@@ -42,7 +43,7 @@ pub(crate) fn bind(
             tcp,
             fell_back: false,
         }),
-        Err(err) if fallback && err.kind() == io::ErrorKind::AddrInUse => {
+        Err(err) if (fallback || port == 0) && err.kind() == io::ErrorKind::AddrInUse => {
             let mut last = err;
             for _ in 0..PAIR_ATTEMPTS {
                 match bind_pair(ip, 0, tcp, workers) {
@@ -50,7 +51,7 @@ pub(crate) fn bind(
                         return Ok(Bound {
                             udp,
                             tcp,
-                            fell_back: true,
+                            fell_back: port != 0,
                         });
                     }
                     Err(err) if err.kind() == io::ErrorKind::AddrInUse => last = err,
