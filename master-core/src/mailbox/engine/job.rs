@@ -84,7 +84,15 @@ where
         terms,
         move |exchange: &mut Exchange| {
             Box::pin(async move {
-                let result = work(&mut *exchange).await;
+                // A request whose deadline passed while it waited for its turn is not
+                // started: its answer could only arrive after the caller gave up.
+                let result = if exchange.expired() {
+                    Err(exchange.timeout("its turn at the mailbox"))
+                } else {
+                    // With progress deadlines the first exchange gets a whole window.
+                    exchange.progressed();
+                    work(&mut *exchange).await
+                };
                 if let Err(err) = &result
                     && *err != MailboxError::Cancelled
                 {
@@ -166,17 +174,7 @@ where
         return Err(MailboxError::Cancelled);
     }
     turn.begin(terms.deadline, terms.progress, Some(terms.cancelled));
-    // A request whose deadline passed while it waited for its turn is not started: its
-    // answer could only arrive after the caller gave up.
-    let result = if turn.expired() {
-        let err = turn.timeout("its turn at the mailbox");
-        turn.count_failed();
-        Err(err)
-    } else {
-        // With progress deadlines the first exchange gets a whole window.
-        turn.progressed();
-        work(&mut turn).await
-    };
+    let result = work(&mut turn).await;
     if turn.cancelled() {
         turn.count_cancelled();
     }
