@@ -394,10 +394,7 @@ impl Exchange {
             if self.expired() {
                 return Err(self.timeout("room in the receive mailbox"));
             }
-            self.shared
-                .timer
-                .sleep(self.shared.engine.full_retry_interval)
-                .await;
+            self.sleep(self.shared.engine.full_retry_interval).await;
         }
     }
 
@@ -467,7 +464,7 @@ impl Exchange {
     async fn pause(&self, pause: Duration) {
         let wait = pause.min(self.deadline.saturating_duration_since(Instant::now()));
         tokio::select! {
-            () = self.shared.timer.sleep(wait) => {}
+            () = self.sleep(wait) => {}
             () = self.shared.answer.notified() => {}
         }
     }
