@@ -115,18 +115,27 @@ fn an_emergency_is_noticed_through_the_mapped_bit_not_by_polling() {
     );
     let frames = returned.frames();
     let bit = 1u8 << STORE;
-    assert!(
-        datagrams(&frames)
-            .iter()
-            .any(|(c, a, data, _)| *c == Command::Lrd
+    // Cycles whose status read saw the store's mailbox full: each is one notice.
+    let notices = datagrams(&frames)
+        .iter()
+        .filter(|(c, a, data, _)| {
+            *c == Command::Lrd
                 && *a == Some(DatagramAddress::Logical(STATUS_BASE))
-                && data.first().is_some_and(|b| b & bit != 0)),
+                && data.first().is_some_and(|b| b & bit != 0)
+        })
+        .count();
+    assert!(
+        notices >= 1,
         "the cyclic frame saw the store's mailbox full"
     );
+    // Polling is off: SM1 is read only on a notice (the cycles that read the status before
+    // the emergency was fetched each give one; how many depends on the machine's timing).
+    // The notice that finds the emergency reads until SM1 is empty (two reads) and the owner
+    // then reads once more at once, as after any find; a later notice reads once.
     let reads = sm1_reads(&rig, &frames);
     assert!(
-        (1..=3).contains(&reads),
-        "{reads} reads of SM1: one to fetch the emergency (and at most a late notice or two)"
+        (1..=notices + 2).contains(&reads),
+        "{reads} reads of SM1 for {notices} notices: three for the one that finds the emergency, one for each later one"
     );
     assert!(rig.master().cycle_stats().mailbox_notices >= 1);
 }
