@@ -30,23 +30,23 @@ pub(crate) struct Turn {
 impl Turn {
     /// Waits for the mailbox, then clears up after a turn that was interrupted.
     pub async fn take(mailbox: &Mailbox) -> Turn {
-        let mut guard = Arc::clone(mailbox).lock_owned().await;
-        guard.recover_interrupted().await;
-        Turn {
-            guard,
-            finished: false,
-        }
+        Turn::start(Arc::clone(mailbox).lock_owned().await).await
     }
 
     /// The mailbox if nobody holds it or waits for it now (then cleared up after a turn
     /// that was interrupted).
     pub async fn try_take(mailbox: &Mailbox) -> Option<Turn> {
-        let mut guard = Arc::clone(mailbox).try_lock_owned().ok()?;
+        let guard = Arc::clone(mailbox).try_lock_owned().ok()?;
+        Some(Turn::start(guard).await)
+    }
+
+    /// A turn on the mailbox just locked, after what an interrupted turn left is cleared.
+    async fn start(mut guard: OwnedMutexGuard<Exchange>) -> Turn {
         guard.recover_interrupted().await;
-        Some(Turn {
+        Turn {
             guard,
             finished: false,
-        })
+        }
     }
 
     /// The work is done (the exchange is in a clean state): release it as it is.
