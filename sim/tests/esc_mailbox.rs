@@ -142,6 +142,33 @@ fn unsolicited_messages_are_posted_when_polled() {
     assert!(r.data[16..].iter().all(|&b| b == 0));
 }
 
+/// The firmware runs between frames: a message its application posted since the last frame
+/// is in SM1 for the next frame's first datagram, not one frame later (a delayed reply is
+/// read as soon as it is due; spec-notes §mbx.handshake).
+#[test]
+fn a_message_posted_between_frames_is_read_by_the_next_frame() {
+    let mut bench = bench();
+    // The previous frame's end found nothing to post; the application posts after it.
+    bench.one(b(Command::Nop, 0, &[]));
+    let polls = bench.dev(0).polls;
+    bench
+        .dev(0)
+        .unsolicited
+        .push_back(message(10, 0xEE)[..16].to_vec());
+    let r = bench.one(fp(Command::Fprd, S, 0x1080, &[0; 128]));
+    assert_eq!(
+        (r.wkc, r.data[6]),
+        (1, 0xEE),
+        "read by the frame right after"
+    );
+    assert!(bench.dev(0).polls > polls);
+    assert_eq!(
+        bench.one(fp(Command::Fprd, S, 0x1080, &[0; 128])).wkc,
+        0,
+        "and only once"
+    );
+}
+
 #[test]
 fn no_mailbox_in_init() {
     let mut bench = Bench::new(1);

@@ -187,6 +187,11 @@ impl Esc {
     ) {
         self.frame = timing;
         self.check_watchdog(device);
+        // The firmware runs between frames, not only when one passes: a reply that came due
+        // since the last frame is in SM1 for this frame's first read, as on a real slave
+        // whose application writes SM1 over the PDI at its own time (spec-notes
+        // §mbx.handshake). Without this, a delayed reply would wait one frame more.
+        self.run_firmware(device);
         // A real ESC ignores the reserved length bits; KickCAT leaves them uninitialised.
         for datagram in DatagramsMut::ignoring_reserved_bits(payload) {
             match datagram {
@@ -305,6 +310,12 @@ impl Esc {
     /// After the last datagram of a frame: the device may post (spec-notes §mbx.handshake), then the next queued
     /// message goes into SM1.
     fn end_of_frame(&mut self, device: &mut dyn Device) {
+        self.run_firmware(device);
+    }
+
+    /// The slave's application between frames: it may post, and the next queued message
+    /// goes into SM1.
+    fn run_firmware(&mut self, device: &mut dyn Device) {
         self.poll_device(device);
         self.service_mailbox(device);
     }
