@@ -543,8 +543,16 @@ impl<L: Link> Engine<L> {
         match kind {
             RecordKind::Acyclic => {
                 let returned = frame.datagrams().into_iter().flatten().flatten();
-                for (datagram, entry) in returned.zip(record.entries.drain(..)) {
-                    complete(entry, &datagram, stats);
+                for (datagram, mut entry) in returned.zip(record.entries.drain(..)) {
+                    if datagram.wkc == 0 && entry.again > 0 {
+                        // A poll that found nothing: again in the next frame, without
+                        // waking its caller (`BusHandle::submit_once_polling`).
+                        entry.again -= 1;
+                        stats.datagrams_polled_again.inc();
+                        self.staging.push_back(entry);
+                    } else {
+                        complete(entry, &datagram, stats);
+                    }
                 }
             }
             RecordKind::Cyclic => {

@@ -53,7 +53,7 @@ impl BusHandle {
     /// addressing mode than the command's, data too long for a frame) and submissions to
     /// a full queue or a stopped bus complete at once with the error.
     pub fn submit(&self, request: DatagramRequest) -> Pending {
-        self.submit_single(request, false)
+        self.submit_single(request, false, 0)
     }
 
     /// Queues one datagram that is **never sent again**: if its frame is lost, it fails
@@ -66,10 +66,24 @@ impl BusHandle {
     /// reads SM1 with this and recovers a lost read with the repeat procedure instead
     /// (ETG.1000.4, spec-notes §mbx.repeat).
     pub fn submit_once(&self, request: DatagramRequest) -> Pending {
-        self.submit_single(request, true)
+        self.submit_single(request, true, 0)
     }
 
-    fn submit_single(&self, request: DatagramRequest, once: bool) -> Pending {
+    /// [`Self::submit_once`] for polling: while the datagram comes back with working
+    /// counter 0 the bus thread sends it again at once, in the next frame out, up to `again`
+    /// more times, and completes it with the first reply that counted or the last empty
+    /// one. The caller is woken once, not at every try.
+    ///
+    /// The mailbox layer polls SM1 this way while it waits for an answer: a read of an empty
+    /// send mailbox is not counted by the slave and takes nothing, so sending it again is
+    /// harmless, and the tries follow each other at the wire's pace instead of the pace of
+    /// two thread wake-ups per try. A lost frame ends the polling with [`BusError::Timeout`]
+    /// as with `submit_once`.
+    pub fn submit_once_polling(&self, request: DatagramRequest, again: u16) -> Pending {
+        self.submit_single(request, true, again)
+    }
+
+    fn submit_single(&self, request: DatagramRequest, once: bool, again: u16) -> Pending {
         if let Err(err) = self.check(&request) {
             return Pending::ready(Err(err));
         }
@@ -79,6 +93,7 @@ impl BusHandle {
             completer,
             group_left: 1,
             once,
+            again,
         };
         if let Err((err, refused)) = self.shared().queue.push(std::iter::once(queued)) {
             for entry in refused {
@@ -120,6 +135,7 @@ impl BusHandle {
                     // Checked: a group has at most `MAX_DATAGRAMS_PER_FRAME` members.
                     group_left: (count - i) as u16,
                     once: false,
+                    again: 0,
                 });
         let refused = match checked {
             Ok(()) => self.shared().queue.push(batch).err(),

@@ -28,6 +28,9 @@ pub(crate) struct Queued {
     /// Sent once only: if its frame is lost it fails with `Timeout` instead of being sent
     /// again (see [`BusHandle::submit_once`](super::BusHandle::submit_once)).
     pub once: bool,
+    /// Sent again at once, up to this many more times, while it comes back with working
+    /// counter 0 (see [`BusHandle::submit_once_polling`](super::BusHandle::submit_once_polling)).
+    pub again: u16,
 }
 
 /// A change of cyclic task asked for: `Some(task)` to run one, `None` to stop.
@@ -214,6 +217,7 @@ mod tests {
             completer,
             group_left: 1,
             once: false,
+            again: 0,
         }
     }
 

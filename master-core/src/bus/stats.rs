@@ -22,6 +22,7 @@ pub(crate) struct BusStats {
     pub datagrams_sent: Counter,
     pub datagrams_completed: Counter,
     pub datagrams_failed: Counter,
+    pub datagrams_polled_again: Counter,
     pub wkc_mismatches: Counter,
     pub cycles_run: Counter,
     pub cycles_late: Counter,
@@ -76,6 +77,10 @@ pub struct BusStatsSnapshot {
     pub datagrams_completed: u64,
     /// Datagrams that failed without a reply: timeout or shutdown.
     pub datagrams_failed: u64,
+    /// Polls that came back empty (working counter 0) and were sent again by the bus
+    /// thread itself ([`BusHandle::submit_once_polling`](super::BusHandle::submit_once_polling));
+    /// each try also counts in `datagrams_sent`.
+    pub datagrams_polled_again: u64,
     /// Replies whose working counter was not the one the caller expected.
     pub wkc_mismatches: u64,
     /// Cycles of the cyclic task that were started.
@@ -122,6 +127,7 @@ impl BusStats {
             datagrams_sent: self.datagrams_sent.get(),
             datagrams_completed: self.datagrams_completed.get(),
             datagrams_failed: self.datagrams_failed.get(),
+            datagrams_polled_again: self.datagrams_polled_again.get(),
             wkc_mismatches: self.wkc_mismatches.get(),
             cycles_run: self.cycles_run.get(),
             cycles_late: self.cycles_late.get(),

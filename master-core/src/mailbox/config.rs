@@ -59,7 +59,10 @@ pub struct MailboxConfig {
     pub poll_interval: Duration,
     /// Reads of the send mailbox made back to back after the one that goes in the request's
     /// own frame, before the pauses start: on a veth link they cover the first 100-200 µs,
-    /// where a pause would cost more in thread wake-ups than the reads. Default 4.
+    /// where a pause would cost more in thread wake-ups than the reads. The bus thread makes
+    /// them itself, each in the next frame out, while SM1 is empty
+    /// ([`BusHandle::submit_once_polling`](crate::bus::BusHandle::submit_once_polling)).
+    /// Default 4.
     pub eager_polls: u32,
     /// Pause before the request is written again when the slave's receive mailbox is still
     /// full. Default 1 ms.

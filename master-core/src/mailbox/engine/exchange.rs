@@ -22,7 +22,8 @@
 //! its own delay, which the master cannot know (the mailbox is a handshake: the slave
 //! fills SM1 when it is ready; ETG.1000.4, spec-notes §mbx.handshake). So a few reads go
 //! back to back ([`MailboxConfig::eager_polls`]: fast slaves are answered within a round
-//! trip or two), then the pauses between reads grow from [`FIRST_PAUSE`] by half each time
+//! trip or two; the bus thread repeats an empty read itself, so no thread wakes between
+//! them), then the pauses between reads grow from [`FIRST_PAUSE`] by half each time
 //! up to [`MailboxConfig::poll_interval`] ([`next_pause`]), so that a slow slave costs a
 //! few frames per exchange and is read at most about half its delay late. A "mailbox full"
 //! notice (SM1 status 0x080D bit 3 mapped into the cyclic frame; ETG.1000.4, spec-notes
@@ -376,7 +377,7 @@ impl Exchange {
             // The first read of the answer goes right behind the write, usually in the same
             // frame: a slave that answers at once (as the simulator does) is read one
             // round trip earlier, and one that does not just returns an empty read.
-            let read = self.submit_read();
+            let read = self.submit_read(0);
             let written = write.await;
             if let Ok(response) = &written
                 && response.wkc == 1
@@ -436,14 +437,23 @@ impl Exchange {
             if self.settle().await? == Read::Answer {
                 break;
             }
-            if self.read_one(Some(want)).await? == Read::Answer {
+            // The eager reads go as one poll the bus thread repeats while SM1 is empty, so
+            // they follow each other at the wire's pace, without waking this task between
+            // them; the later ones go one by one, after the pauses.
+            let eager = self.shared.engine.eager_polls;
+            let again = if reads == 0 {
+                u16::try_from(eager.saturating_sub(1)).unwrap_or(u16::MAX)
+            } else {
+                0
+            };
+            if self.read_one(Some(want), again).await? == Read::Answer {
                 break;
             }
             if self.expired() {
                 return Err(self.timeout(want.describe()));
             }
-            reads += 1;
-            if reads >= self.shared.engine.eager_polls {
+            reads += 1 + u32::from(again);
+            if reads >= eager {
                 pause = next_pause(pause, self.shared.engine.poll_interval);
                 self.pause(pause).await;
             }
@@ -490,7 +500,7 @@ impl Exchange {
             Read::Nothing => {}
         }
         for _ in 0..IDLE_DRAIN {
-            if self.read_one(None).await? == Read::Nothing {
+            if self.read_one(None, 0).await? == Read::Nothing {
                 break;
             }
             found = true;
@@ -498,17 +508,18 @@ impl Exchange {
         Ok(found)
     }
 
-    /// Sends one read of the whole SM1, never to be resent by the bus.
-    fn submit_read(&self) -> Pending {
+    /// Sends one read of the whole SM1, never to be resent by the bus after a lost frame;
+    /// while it finds SM1 empty the bus reads again, `again` more times at most.
+    fn submit_read(&self, again: u16) -> Pending {
         let area = self.shared.config.read;
         let request = DatagramRequest::fprd(self.station(), area.start, usize::from(area.len));
-        self.bus.submit_once(request)
+        self.bus.submit_once_polling(request, again)
     }
 
-    /// Reads SM1 once and routes what it held.
-    async fn read_one(&mut self, want: Option<Want>) -> Result<Read> {
+    /// Reads SM1 (up to `1 + again` times while it is empty) and routes what it held.
+    async fn read_one(&mut self, want: Option<Want>, again: u16) -> Result<Read> {
         self.recover().await?;
-        let read = self.submit_read();
+        let read = self.submit_read(again);
         self.finish_read(read.await, want).await
     }
 
