@@ -88,6 +88,8 @@ pub async fn run(config: Config) -> Result<(), String> {
         http = %config.http_listen_of(&http_listener),
         tokens = tokens.enabled(),
         tls = tls.is_some(),
+        // The runtime's own count (`api_threads`, or whatever runtime a caller gave).
+        api_threads = tokio::runtime::Handle::current().metrics().num_workers(),
         "listening"
     );
     let (stop_tx, stop_rx) = watch::channel(false);

@@ -42,6 +42,7 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(config.api_threads)
         .enable_all()
         .build()
     {

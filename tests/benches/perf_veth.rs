@@ -421,6 +421,44 @@ fn cycle_metrics(agent: &ureq::Agent, http: &str) -> CycleMetrics {
     }
 }
 
+/// The sum (s) and count of ecatd's CoE requests from its API handlers
+/// (`ecat_mailbox_protocol_request_duration_seconds{protocol="coe"}`): the time the handler
+/// spends in the mailbox call, from resolving the slave to the answer.
+fn coe_calls(agent: &ureq::Agent, http: &str) -> (f64, f64) {
+    let text = agent
+        .get(format!("{http}/metrics"))
+        .call()
+        .expect("/metrics")
+        .body_mut()
+        .read_to_string()
+        .expect("metrics text");
+    let value = |suffix: &str| {
+        let name =
+            format!("ecat_mailbox_protocol_request_duration_seconds_{suffix}{{protocol=\"coe\"}} ");
+        text.lines()
+            .find_map(|l| l.strip_prefix(name.as_str()))
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
+    (value("sum"), value("count"))
+}
+
+/// Runs `row` and prints below it the mean time ecatd's handlers spent in the mailbox
+/// call meanwhile ([`coe_calls`]): the rest of the row's time is the transport, the API
+/// stack and the hand-offs to and from it.
+fn with_call_time(agent: &ureq::Agent, http: &str, row: impl FnOnce()) {
+    let before = coe_calls(agent, http);
+    row();
+    let after = coe_calls(agent, http);
+    let calls = after.1 - before.1;
+    if calls > 0.0 {
+        println!(
+            "  of which in ecatd's mailbox call (server side, mean)     {:>10.1}",
+            (after.0 - before.0) / calls * 1e6
+        );
+    }
+}
+
 /// Cycles counted between two bucket snapshots and the bucket bound (µs) below which each
 /// of `quantiles` falls.
 fn jitter_between(
@@ -571,9 +609,15 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         &["rest", &ecatd.http, "--slave", &position, "--count", &n],
     );
     let mut rest = RestClient::new(&ecatd.http);
+    with_call_time(&agent, &ecatd.http, || {
+        table.print(
+            "ecatd REST (HTTP/1.1 keep-alive), Rust ureq",
+            &sequential(count, || assert!(!rest.upload(POSITION).is_empty())),
+        )
+    });
     table.print(
-        "ecatd REST (HTTP/1.1 keep-alive), Rust ureq",
-        &sequential(count, || assert!(!rest.upload(POSITION).is_empty())),
+        "  the same, no slave (/healthz: the transport)",
+        &sequential(count, || assert_eq!(rest.floor(), "ok\n")),
     );
     python(
         "ecatd gRPC, Python grpcio",
@@ -589,11 +633,17 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         ],
     );
     let mut grpc = GrpcClient::new(&ecatd.grpc);
+    with_call_time(&agent, &ecatd.http, || {
+        table.print(
+            "ecatd gRPC, Rust tonic",
+            &sequential(count, || {
+                assert_eq!(grpc.upload(POSITION), SIM_VENDOR_ID.to_le_bytes())
+            }),
+        )
+    });
     table.print(
-        "ecatd gRPC, Rust tonic",
-        &sequential(count, || {
-            assert_eq!(grpc.upload(POSITION), SIM_VENDOR_ID.to_le_bytes())
-        }),
+        "  the same, no slave (GetLogFilter: the transport)",
+        &sequential(count, || assert!(!grpc.floor().is_empty())),
     );
     if clients {
         let threads = gateway_clients(gateway, each);

@@ -298,10 +298,18 @@ fn main() {
             assert_eq!(grpc.upload(store), vendor.to_le_bytes())
         }),
     );
+    print(
+        "ecatd gRPC, 1 client, no slave (GetLogFilter)",
+        &sequential(count, |_| assert!(!grpc.floor().is_empty())),
+    );
     let mut rest = RestClient::new(&ecatd.http);
     print(
         "ecatd REST, 1 client",
         &sequential(count, |_| assert!(!rest.upload(store).is_empty())),
+    );
+    print(
+        "ecatd REST, 1 client, no slave (/healthz)",
+        &sequential(count, |_| assert_eq!(rest.floor(), "ok\n")),
     );
     print(
         &format!("ecatd gateway (UDP), {PARALLEL} clients"),

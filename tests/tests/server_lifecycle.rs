@@ -60,6 +60,45 @@ fn bad_configuration_is_refused() {
     assert!(String::from_utf8_lossy(&output.stderr).contains("/nonexistent/ecatd.toml"));
 }
 
+/// The worker threads of ecatd's API runtime, as its (JSON) `listening` line says.
+fn api_threads(ecatd: &Ecatd) -> u64 {
+    let log = ecatd.log();
+    log.lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .find(|v| v["fields"]["message"] == "listening")
+        .and_then(|v| v["fields"]["api_threads"].as_u64())
+        .unwrap_or_else(|| panic!("no listening line with api_threads in\n{log}"))
+}
+
+#[test]
+fn the_api_runtime_has_the_configured_threads_one_by_default() {
+    let ecatd = Ecatd::start(&[]);
+    assert_eq!(api_threads(&ecatd), 1);
+    drop(ecatd);
+    let file = std::env::temp_dir().join(format!("ecatd-threads-{}.toml", std::process::id()));
+    std::fs::write(&file, "api_threads = 3\n").unwrap();
+    let ecatd = Ecatd::start(&["--config", file.to_str().unwrap()]);
+    assert_eq!(api_threads(&ecatd), 3);
+    drop(ecatd);
+    std::fs::write(&file, "api_threads = 0\n").unwrap();
+    let output = Command::new(bin_dir().join("ecatd"))
+        .args([
+            "--config",
+            file.to_str().unwrap(),
+            "--simulate",
+            "--print-config",
+        ])
+        .output()
+        .unwrap();
+    std::fs::remove_file(&file).unwrap();
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&output.stderr).contains("api_threads must be 1 to 64, not 0"),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
+
 /// The whole shutdown's budget (ecatd's default `shutdown_timeout_ms`) and a margin for the
 /// process to start its exit and the test to see it.
 const SHUTDOWN: Duration = Duration::from_secs(5);

@@ -364,6 +364,9 @@ pub struct SegmentSetup {
     pub groups: Vec<master_core::master::SlaveGroup>,
 }
 
+/// Most threads `api_threads` may ask for.
+pub const MAX_API_THREADS: usize = 64;
+
 /// The effective configuration.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -392,6 +395,13 @@ pub struct Config {
     pub safe_state: SafeState,
     /// The whole shutdown's time limit, signal to exit, in milliseconds.
     pub shutdown_timeout_ms: u64,
+    /// Threads of the runtime that serves gRPC and HTTP (1 to [`MAX_API_THREADS`]). The
+    /// bus, the mailbox timer and the gateway have threads of their own. One keeps a
+    /// request on one thread from socket to answer: with more, each answer from the bus
+    /// thread wakes a second, idle worker as well, which cost REST and gRPC about 25 µs
+    /// per request (`docs/performance.md`). More serve many concurrent clients on more
+    /// cores.
+    pub api_threads: usize,
     /// Host names the HTTP API answers to besides loopback and the listener's address.
     pub allowed_hosts: Vec<String>,
     /// Where the audit lines (one JSON object per line, whatever the log level) go: a file
@@ -437,6 +447,7 @@ impl Default for Config {
             watch: Vec::new(),
             safe_state: SafeState::Init,
             shutdown_timeout_ms: 5000,
+            api_threads: 1,
             allowed_hosts: Vec::new(),
             audit_log: None,
             metrics_token: false,
@@ -528,6 +539,12 @@ impl Config {
             config.eni = Some(eni.clone());
         }
         config.import_eni()?;
+        if !(1..=MAX_API_THREADS).contains(&config.api_threads) {
+            return Err(format!(
+                "api_threads must be 1 to {MAX_API_THREADS}, not {}",
+                config.api_threads
+            ));
+        }
         let named = |err: String| match &config.file {
             Some(path) => format!("{}: {err}", path.display()),
             None => err,

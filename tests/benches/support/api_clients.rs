@@ -2,13 +2,15 @@
 //! `ecat.v1` client (one HTTP/2 connection) and ureq (HTTP/1.1 with keep-alive), each
 //! uploading 0x1018:01 from a slave by position.
 
-use proto::v1::UploadRequest;
+use proto::v1::bus_service_client::BusServiceClient;
 use proto::v1::coe_service_client::CoeServiceClient;
+use proto::v1::{GetLogFilterRequest, UploadRequest};
 
 /// One tonic client on one HTTP/2 connection, driven from a current-thread runtime.
 pub struct GrpcClient {
     runtime: tokio::runtime::Runtime,
     client: CoeServiceClient<tonic::transport::Channel>,
+    bus: BusServiceClient<tonic::transport::Channel>,
 }
 
 impl GrpcClient {
@@ -17,10 +19,30 @@ impl GrpcClient {
             .enable_all()
             .build()
             .expect("runtime");
-        let client = runtime
-            .block_on(CoeServiceClient::connect(format!("http://{addr}")))
+        let channel = runtime
+            .block_on(
+                tonic::transport::Endpoint::from_shared(format!("http://{addr}"))
+                    .expect("URL")
+                    .connect(),
+            )
             .expect("gRPC connects");
-        GrpcClient { runtime, client }
+        // Both clients share the one connection: a channel is a handle on it.
+        let client = CoeServiceClient::new(channel.clone());
+        let bus = BusServiceClient::new(channel);
+        GrpcClient {
+            runtime,
+            client,
+            bus,
+        }
+    }
+
+    /// A call that involves no slave (ecatd's log filter): what the transport alone costs.
+    pub fn floor(&mut self) -> String {
+        self.runtime
+            .block_on(self.bus.get_log_filter(GetLogFilterRequest::default()))
+            .expect("GetLogFilter")
+            .into_inner()
+            .filter
     }
 
     pub fn upload(&mut self, position: u16) -> Vec<u8> {
@@ -50,6 +72,17 @@ impl RestClient {
             agent: ureq::Agent::new_with_defaults(),
             base: base.to_owned(),
         }
+    }
+
+    /// `/healthz`, which involves no slave: what the transport alone costs.
+    pub fn floor(&mut self) -> String {
+        self.agent
+            .get(format!("{}/healthz", self.base))
+            .call()
+            .expect("healthz")
+            .body_mut()
+            .read_to_string()
+            .expect("body")
     }
 
     pub fn upload(&mut self, position: u16) -> String {
