@@ -33,6 +33,7 @@
 #![allow(missing_docs)]
 
 #[path = "support/latency.rs"]
+#[allow(dead_code)]
 mod latency;
 
 use std::collections::HashMap;

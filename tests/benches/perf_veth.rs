@@ -62,7 +62,7 @@ use ecat_tests::python::{python, run_script, script};
 use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
 use ecat_tests::veth_master::{self, VethMaster};
-use latency::{Row, row};
+use latency::{Row, row, sequential};
 use master_core::bus::BusConfig;
 use master_core::master::{Master, MasterConfig, SlaveAddress};
 use master_core::wire::coe::{CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
@@ -233,21 +233,6 @@ fn python_here(args: &[&str]) -> Result<Value, String> {
     serde_json::from_str(last.unwrap_or("")).map_err(|e| format!("{e}: {stdout}"))
 }
 
-/// Runs `op` `count` times after a warm-up of a tenth, timing each.
-fn sequential(count: usize, mut op: impl FnMut()) -> Row {
-    for _ in 0..count / 10 {
-        op();
-    }
-    let mut samples = Vec::with_capacity(count);
-    let start = Instant::now();
-    for _ in 0..count {
-        let t = Instant::now();
-        op();
-        samples.push(t.elapsed());
-    }
-    row(samples, start.elapsed())
-}
-
 fn upload_request() -> Vec<u8> {
     coe_bytes(&CoeRepr::SdoRequest(SdoRequest::InitiateUpload {
         index: 0x1018,
@@ -387,14 +372,19 @@ struct CycleMetrics {
     at: Instant,
 }
 
-fn cycle_metrics(agent: &ureq::Agent, http: &str) -> CycleMetrics {
-    let text = agent
+/// ecatd's `/metrics` page.
+fn metrics_text(agent: &ureq::Agent, http: &str) -> String {
+    agent
         .get(format!("{http}/metrics"))
         .call()
         .expect("/metrics")
         .body_mut()
         .read_to_string()
-        .expect("metrics text");
+        .expect("metrics text")
+}
+
+fn cycle_metrics(agent: &ureq::Agent, http: &str) -> CycleMetrics {
+    let text = metrics_text(agent, http);
     let value = |rest: &str| rest.rsplit(' ').next()?.parse::<f64>().ok();
     let buckets = text
         .lines()
@@ -425,13 +415,7 @@ fn cycle_metrics(agent: &ureq::Agent, http: &str) -> CycleMetrics {
 /// (`ecat_mailbox_protocol_request_duration_seconds{protocol="coe"}`): the time the handler
 /// spends in the mailbox call, from resolving the slave to the answer.
 fn coe_calls(agent: &ureq::Agent, http: &str) -> (f64, f64) {
-    let text = agent
-        .get(format!("{http}/metrics"))
-        .call()
-        .expect("/metrics")
-        .body_mut()
-        .read_to_string()
-        .expect("metrics text");
+    let text = metrics_text(agent, http);
     let value = |suffix: &str| {
         let name =
             format!("ecat_mailbox_protocol_request_duration_seconds_{suffix}{{protocol=\"coe\"}} ");

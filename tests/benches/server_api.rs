@@ -29,6 +29,7 @@
 #![allow(missing_docs)]
 
 #[path = "support/latency.rs"]
+#[allow(dead_code)]
 mod latency;
 
 #[path = "../tests/server_support/mod.rs"]

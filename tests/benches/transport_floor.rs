@@ -15,28 +15,17 @@
 #[path = "support/latency.rs"]
 mod latency;
 
+#[path = "support/api_clients.rs"]
+#[allow(dead_code)]
+mod api_clients;
+
 use std::net::UdpSocket;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use tonic_health::pb::HealthCheckRequest;
 use tonic_health::pb::health_client::HealthClient;
 
 const WIDTH: usize = 58;
-
-/// Times `count` calls of `op` after a tenth as many untimed ones.
-fn timed(count: usize, mut op: impl FnMut()) -> latency::Row {
-    for _ in 0..count / 10 {
-        op();
-    }
-    let mut samples = Vec::with_capacity(count);
-    let start = Instant::now();
-    for _ in 0..count {
-        let t = Instant::now();
-        op();
-        samples.push(t.elapsed());
-    }
-    latency::row(samples, start.elapsed())
-}
 
 /// A multi-thread runtime (as ecatd's) serving a bare tonic health service and a bare axum
 /// `/healthz`; returns their addresses. The runtime lives as long as the process.
@@ -108,7 +97,7 @@ fn main() {
         .expect("timeout");
     let request = [0u8; 32];
     let mut reply = [0u8; 1500];
-    let r = timed(count, || {
+    let r = latency::sequential(count, || {
         client.send_to(&request, echo).expect("send");
         assert_eq!(client.recv(&mut reply).expect("echo"), request.len());
     });
@@ -116,7 +105,7 @@ fn main() {
 
     let agent = ureq::Agent::new_with_defaults();
     let url = format!("http://{http}/healthz");
-    let r = timed(count, || {
+    let r = latency::sequential(count, || {
         let body = agent
             .get(&url)
             .call()
@@ -128,19 +117,9 @@ fn main() {
     });
     latency::print("axum GET /healthz, HTTP/1.1 keep-alive, ureq", WIDTH, &r);
 
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("runtime");
-    let channel = runtime
-        .block_on(
-            tonic::transport::Endpoint::from_shared(format!("http://{grpc}"))
-                .expect("URL")
-                .connect(),
-        )
-        .expect("connect");
+    let (runtime, channel) = api_clients::grpc_channel(&grpc.to_string());
     let mut health = HealthClient::new(channel);
-    let r = timed(count, || {
+    let r = latency::sequential(count, || {
         let status = runtime
             .block_on(health.check(HealthCheckRequest::default()))
             .expect("Check")

@@ -13,19 +13,26 @@ pub struct GrpcClient {
     bus: BusServiceClient<tonic::transport::Channel>,
 }
 
+/// A current-thread runtime to drive a tonic client from, and one HTTP/2 connection to
+/// `addr` (`host:port`) on it.
+pub fn grpc_channel(addr: &str) -> (tokio::runtime::Runtime, tonic::transport::Channel) {
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("runtime");
+    let channel = runtime
+        .block_on(
+            tonic::transport::Endpoint::from_shared(format!("http://{addr}"))
+                .expect("URL")
+                .connect(),
+        )
+        .expect("gRPC connects");
+    (runtime, channel)
+}
+
 impl GrpcClient {
     pub fn new(addr: &str) -> GrpcClient {
-        let runtime = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .expect("runtime");
-        let channel = runtime
-            .block_on(
-                tonic::transport::Endpoint::from_shared(format!("http://{addr}"))
-                    .expect("URL")
-                    .connect(),
-            )
-            .expect("gRPC connects");
+        let (runtime, channel) = grpc_channel(addr);
         // Both clients share the one connection: a channel is a handle on it.
         let client = CoeServiceClient::new(channel.clone());
         let bus = BusServiceClient::new(channel);

@@ -1,7 +1,7 @@
 //! One latency row of the request benchmarks: p50 and p99 of the timed requests and the
 //! requests per second over the whole run, printed as a table line.
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// p50 and p99 in µs, and requests per second.
 pub struct Row {
@@ -27,4 +27,19 @@ pub fn print(name: &str, width: usize, r: &Row) {
         "{name:<width$} {:>10.1} {:>10.1} {:>12.0}",
         r.p50, r.p99, r.per_second
     );
+}
+
+/// Runs `op` `count` times after a warm-up of a tenth, timing each.
+pub fn sequential(count: usize, mut op: impl FnMut()) -> Row {
+    for _ in 0..count / 10 {
+        op();
+    }
+    let mut samples = Vec::with_capacity(count);
+    let start = Instant::now();
+    for _ in 0..count {
+        let t = Instant::now();
+        op();
+        samples.push(t.elapsed());
+    }
+    row(samples, start.elapsed())
 }
