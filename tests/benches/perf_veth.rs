@@ -354,6 +354,85 @@ fn gateway_clients_async(gateway: std::net::SocketAddr, each: usize) -> Row {
     })
 }
 
+/// CPU time (ns) of every live thread of process `pid` (`/proc/PID/task/*/schedstat`).
+fn cpu_ns_of(pid: u32) -> u64 {
+    let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
+        return 0;
+    };
+    tasks
+        .filter_map(|task| std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok())
+        .filter_map(|stat| stat.split_whitespace().next()?.parse::<u64>().ok())
+        .sum()
+}
+
+/// CPU time (ns) of this process, threads already joined included.
+fn own_cpu_ns() -> u64 {
+    let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
+    // SAFETY: getrusage fills the struct it is given; RUSAGE_SELF is always valid.
+    let usage = unsafe {
+        libc::getrusage(libc::RUSAGE_SELF, usage.as_mut_ptr());
+        usage.assume_init()
+    };
+    let ns = |t: libc::timeval| t.tv_sec as u64 * 1_000_000_000 + t.tv_usec as u64 * 1000;
+    ns(usage.ru_utime) + ns(usage.ru_stime)
+}
+
+/// The process whose command name is `comm` (ecat-sim: one runs at a time here).
+fn pid_of(comm: &str) -> Option<u32> {
+    std::fs::read_dir("/proc").ok()?.find_map(|entry| {
+        let entry = entry.ok()?;
+        let pid = entry.file_name().to_str()?.parse::<u32>().ok()?;
+        let name = std::fs::read_to_string(entry.path().join("comm")).ok()?;
+        (name.trim() == comm).then_some(pid)
+    })
+}
+
+/// Where the CPU of an aggregate row goes: ecatd (if it runs), ecat-sim and this process
+/// (the clients, or the direct API's master), per read. With every core busy, their sum
+/// is what one read costs the machine.
+struct CpuMeter {
+    ecatd: Option<u32>,
+    sim: Option<u32>,
+    start: [u64; 3],
+}
+
+impl CpuMeter {
+    fn start(ecatd: Option<u32>) -> CpuMeter {
+        let sim = pid_of("ecat-sim");
+        let mut meter = CpuMeter {
+            ecatd,
+            sim,
+            start: [0; 3],
+        };
+        meter.start = meter.now();
+        meter
+    }
+
+    fn now(&self) -> [u64; 3] {
+        [
+            self.ecatd.map_or(0, cpu_ns_of),
+            self.sim.map_or(0, cpu_ns_of),
+            own_cpu_ns(),
+        ]
+    }
+
+    fn print(&self, reads: usize) {
+        let end = self.now();
+        let per = |i: usize| (end[i] - self.start[i]) as f64 / reads as f64 / 1000.0;
+        let ecatd = if self.ecatd.is_some() {
+            format!("ecatd {:.1}, ", per(0))
+        } else {
+            String::new()
+        };
+        println!(
+            "  CPU per read, µs: {ecatd}ecat-sim {:.1}, this process {:.1}; sum {:.1}",
+            per(1),
+            per(2),
+            per(0) + per(1) + per(2)
+        );
+    }
+}
+
 /// ecatd's resident set size in KiB.
 fn rss_kib(pid: u32) -> u64 {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).expect("/proc status");
@@ -518,6 +597,7 @@ fn phase_direct(table: &mut Table, count: usize, each: usize) {
                 .expect("mailbox")
         })
         .collect();
+    let cpu = CpuMeter::start(None);
     let start = Instant::now();
     let samples = veth.block_on(async {
         let mut tasks = tokio::task::JoinSet::new();
@@ -545,6 +625,7 @@ fn phase_direct(table: &mut Table, count: usize, each: usize) {
         &format!("direct API, {CLIENTS} callers over {SLAVES} slaves"),
         &aggregate,
     );
+    cpu.print(CLIENTS * each);
 }
 
 fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: bool) {
@@ -630,16 +711,20 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         &sequential(count, || assert!(!grpc.floor().is_empty())),
     );
     if clients {
+        let cpu = CpuMeter::start(Some(ecatd.pid()));
         let threads = gateway_clients(gateway, each);
         table.print(
             &format!("ecatd gateway (UDP), {CLIENTS} Rust clients, a thread each"),
             &threads,
         );
+        cpu.print(CLIENTS * each);
+        let cpu = CpuMeter::start(Some(ecatd.pid()));
         let tasks = gateway_clients_async(gateway, each);
         table.print(
             &format!("ecatd gateway (UDP), {CLIENTS} Rust clients, tasks of 1 thread"),
             &tasks,
         );
+        cpu.print(CLIENTS * each);
         if let Some(direct) = table.direct_aggregate {
             for (how, r) in [("a thread each", &threads), ("tasks of 1 thread", &tasks)] {
                 println!(

@@ -9,7 +9,10 @@
 //! waits, instead of both initiating and the second silently replacing the first.
 //!
 //! The lock on the table is never held across an await: waiting is done on a `Notify`
-//! registered before the table is looked at, so no release is missed.
+//! registered before the table is looked at, so no release is missed. Each slave's waiters
+//! have their own `Notify` (one of [`SHARDS`], by station address): with many clients
+//! queued on many slaves, the release of one slave wakes the clients waiting for it, not
+//! every waiting client (which cost each request as many wake-ups as clients waited).
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
@@ -30,14 +33,32 @@ struct Held {
     expires: Instant,
 }
 
+/// How many `Notify`s the waiters are spread over, by station address: stations that
+/// share one wake each other's waiters, who look again and wait on.
+const SHARDS: usize = 64;
+
 /// Who holds which slave (by station address).
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub(crate) struct Sessions {
     held: Mutex<HashMap<u16, Held>>,
-    released: Notify,
+    released: [Notify; SHARDS],
+}
+
+impl Default for Sessions {
+    fn default() -> Sessions {
+        Sessions {
+            held: Mutex::default(),
+            released: std::array::from_fn(|_| Notify::new()),
+        }
+    }
 }
 
 impl Sessions {
+    /// What a release of `station` notifies.
+    fn released(&self, station: u16) -> &Notify {
+        &self.released[usize::from(station) % SHARDS]
+    }
+
     /// Waits until `client` may talk to `station` (no one else holds it, or their hold ran
     /// out), holds it for `client` until `deadline` (the end of its exchange; see
     /// [`Self::update`]) and returns the transfer `client` is in with it, if any. `Err(())`
@@ -49,7 +70,7 @@ impl Sessions {
         deadline: Instant,
     ) -> Result<Option<Transfer>, ()> {
         loop {
-            let mut released = pin!(self.released.notified());
+            let mut released = pin!(self.released(station).notified());
             released.as_mut().enable();
             let wait_until = {
                 let mut held = self.held.lock().unwrap_or_else(PoisonError::into_inner);
@@ -113,7 +134,7 @@ impl Sessions {
             None => {
                 if held.remove(&station).is_some() {
                     drop(held);
-                    self.released.notify_waiters();
+                    self.released(station).notify_waiters();
                 }
             }
         }
@@ -155,6 +176,41 @@ mod tests {
         let start = Instant::now();
         assert_eq!(sessions.enter(2, addr(2), far).await, Ok(None));
         assert!(start.elapsed() >= hold);
+    }
+
+    /// Counts the wake-ups of the future it is the waker of.
+    #[derive(Default)]
+    struct Wakes(std::sync::atomic::AtomicUsize);
+
+    impl std::task::Wake for Wakes {
+        fn wake(self: std::sync::Arc<Self>) {
+            self.0.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        }
+    }
+
+    #[tokio::test(flavor = "current_thread")]
+    async fn a_release_wakes_the_waiters_of_that_slave_only() {
+        use std::future::Future;
+        use std::sync::atomic::Ordering;
+        let sessions = Sessions::default();
+        let far = Instant::now() + Duration::from_secs(60);
+        for station in [1, 2] {
+            assert_eq!(sessions.enter(station, addr(1), far).await, Ok(None));
+        }
+        // Client 2 waits for station 2.
+        let wakes = std::sync::Arc::new(Wakes::default());
+        let waker = std::task::Waker::from(std::sync::Arc::clone(&wakes));
+        let mut cx = std::task::Context::from_waker(&waker);
+        let mut waiting = pin!(sessions.enter(2, addr(2), far));
+        assert!(waiting.as_mut().poll(&mut cx).is_pending());
+        sessions.update(1, addr(1), None, Duration::from_secs(3));
+        assert_eq!(wakes.0.load(Ordering::SeqCst), 0, "station 1's release");
+        sessions.update(2, addr(1), None, Duration::from_secs(3));
+        assert_eq!(wakes.0.load(Ordering::SeqCst), 1, "station 2's release");
+        assert_eq!(
+            waiting.as_mut().poll(&mut cx),
+            std::task::Poll::Ready(Ok(None))
+        );
     }
 
     #[tokio::test(flavor = "current_thread")]
