@@ -2,6 +2,7 @@
 //! lines (target `audit`, from the APIs and the mailbox gateway) to their own sink, as JSON
 //! lines whatever the log filter says, so `--log warn` never hides who wrote what.
 
+use std::io::IsTerminal;
 use std::path::Path;
 use std::sync::{Mutex, OnceLock, PoisonError};
 
@@ -67,7 +68,11 @@ pub fn set_filter(filter: &str) -> Result<(), Option<String>> {
 pub fn init(format: LogFormat, filter: &str, audit_log: Option<&Path>) -> Result<(), String> {
     let text = filter.to_owned();
     let (filter, handle) = reload::Layer::new(log_filter(filter)?);
-    let log = tracing_subscriber::fmt::layer().with_writer(std::io::stderr);
+    // Colours only on a terminal: under systemd the journal (or a pipe) would keep the
+    // escape codes in every line.
+    let log = tracing_subscriber::fmt::layer()
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal());
     let log = match format {
         LogFormat::Human => log.boxed(),
         LogFormat::Json => log.json().boxed(),

@@ -51,6 +51,46 @@ fn flags_win_over_environment_over_file() {
 }
 
 #[test]
+fn human_log_lines_have_no_colour_codes_off_a_terminal() {
+    let mut child = Command::new(bin_dir().join("ecatd"))
+        .args(["--simulate", "--no-gateway", "--log-format", "human"])
+        .args([
+            "--grpc-listen",
+            "127.0.0.1:0",
+            "--http-listen",
+            "127.0.0.1:0",
+        ])
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    // Up to the `listening` line (or the end, should ecatd stop first).
+    let lines: Vec<String> = std::io::BufRead::lines(stderr)
+        .map_while(Result::ok)
+        .scan(false, |seen, line| {
+            (!*seen).then(|| {
+                *seen = line.contains("listening");
+                line
+            })
+        })
+        .collect();
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(
+        lines.iter().any(|l| l.contains("listening")),
+        "no listening line:\n{}",
+        lines.join("\n")
+    );
+    assert!(
+        lines.iter().all(|l| !l.contains('\u{1b}')),
+        "escape codes in a piped log:\n{}",
+        lines.join("\n")
+    );
+}
+
+#[test]
 fn bad_configuration_is_refused() {
     let output = Command::new(bin_dir().join("ecatd"))
         .args(["--config", "/nonexistent/ecatd.toml", "--print-config"])
