@@ -274,6 +274,16 @@ impl Exchange {
         Instant::now() >= self.deadline
     }
 
+    /// Fails once the slave's mailbox was let go (the slave was lost, power-cycled or
+    /// scanned again): a new owner may have it by now, and a read of SM1 from here would
+    /// take that owner's answers (one owner per mailbox; spec-notes §mbx.handshake).
+    fn check_owned(&self) -> Result<()> {
+        if self.shared.stopped() {
+            return Err(MailboxError::Shutdown);
+        }
+        Ok(())
+    }
+
     /// A timeout error for this slave.
     pub fn timeout(&self, waiting_for: &'static str) -> MailboxError {
         MailboxError::Timeout {
@@ -370,6 +380,7 @@ impl Exchange {
             self.keep_answer();
         }
         loop {
+            self.check_owned()?;
             self.recover().await?;
             let write = self
                 .bus
@@ -434,6 +445,7 @@ impl Exchange {
                 self.rx = message;
                 break;
             }
+            self.check_owned()?;
             if self.settle().await? == Read::Answer {
                 break;
             }
