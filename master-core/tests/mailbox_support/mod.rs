@@ -96,6 +96,32 @@ impl Rig {
         mailbox: MailboxConfig,
         prepare: impl FnOnce(&mut Segment, &[SlaveHandles]),
     ) -> Rig {
+        Rig::build(topology, faults, seed, bus, mailbox, true, prepare)
+    }
+
+    /// As [`Rig::start_with`] without faults, with the "mailbox full" bits left out of the
+    /// cyclic frame: a send mailbox is read only while a request waits or when the test
+    /// says so ([`SlaveMailbox::notify_mailbox_full`]). For tests whose slaves have
+    /// messages to send from the start: with the bits mapped, the engine reads them as
+    /// soon as the slave is in PREOP, before the test can subscribe to them.
+    pub fn start_without_status_bits(
+        topology: &Topology,
+        mailbox: MailboxConfig,
+        prepare: impl FnOnce(&mut Segment, &[SlaveHandles]),
+    ) -> Rig {
+        let faults = FaultConfig::default();
+        Rig::build(topology, faults, 1, bus_config(), mailbox, false, prepare)
+    }
+
+    fn build(
+        topology: &Topology,
+        faults: FaultConfig,
+        seed: u64,
+        bus: BusConfig,
+        mailbox: MailboxConfig,
+        map_mailbox_status: bool,
+        prepare: impl FnOnce(&mut Segment, &[SlaveHandles]),
+    ) -> Rig {
         let mut built = build_with_handles(topology).expect("topology builds");
         prepare(&mut built.segment, &built.slaves);
         let segment: SharedSegment = Arc::new(Mutex::new(built.segment));
@@ -107,7 +133,7 @@ impl Rig {
             seed,
         )));
         let (bus, _thread) = Bus::start(Shared(Arc::clone(&injector)), bus).expect("bus starts");
-        let (master, slaves) = scan_to_preop(&bus, mailbox);
+        let (master, slaves) = scan_with(&bus, mailbox, map_mailbox_status);
         lock(&injector).set_config(faults);
         Rig {
             bus,
@@ -174,11 +200,21 @@ pub fn scan_to_preop(
     bus: &BusHandle,
     mailbox: MailboxConfig,
 ) -> (Master, Vec<(usize, SlaveMailboxConfig)>) {
+    scan_with(bus, mailbox, true)
+}
+
+/// [`scan_to_preop`], the "mailbox full" bits mapped into the cyclic frame or not.
+fn scan_with(
+    bus: &BusHandle,
+    mailbox: MailboxConfig,
+    map_mailbox_status: bool,
+) -> (Master, Vec<(usize, SlaveMailboxConfig)>) {
     let config = MasterConfig {
         station_base: station(0),
         target_state: AlState::PreOp,
         watch_interval: None,
         mailbox,
+        map_mailbox_status,
         ..MasterConfig::default()
     };
     // The process-data layout from the SII: some tests replace a slave's device with one
