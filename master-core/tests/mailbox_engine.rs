@@ -139,7 +139,11 @@ async fn an_answer_behind_hundreds_of_unsolicited_messages_is_found_and_nothing_
     });
     let slave = rig.slave(EOE_PORT);
     let mut frames = slave.subscribe_eoe();
-    assert_eq!(slave.stats().eoe_frames_in, 0, "frames read before subscribing");
+    assert_eq!(
+        slave.stats().eoe_frames_in,
+        0,
+        "frames read before subscribing"
+    );
     // A short frame to the slave, then a request: its answer comes after the fragments
     // queued before it, which go to the EoE receiver meanwhile.
     slave.eoe_send(&numbered_frame(99)[..60]).await.unwrap();
