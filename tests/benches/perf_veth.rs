@@ -34,6 +34,8 @@
 //! 0 skips it), `PERF_VETH_RT` (`SCHED_FIFO` priority of ecatd's bus thread, default 0: ordinary
 //! scheduling; `deploy/systemd/ecatd.service` gives 50), `PERF_VETH_SIM_SPIN_US`
 //! (ecat-sim's `--spin-us` in the latency, client and delay phases, default 0),
+//! `PERF_VETH_CONFIG` (TOML given to ecatd, for A/B runs of its settings: say
+//! `$'[gateway]\nworkers = 1'`; the `[bus]` table is the bench's when `PERF_VETH_RT` is set),
 //! `PERF_VETH_BRINGUP`
 //! (slave counts, default `64,192,512`; SOEM, so pysoem,
 //! takes at most 200 slaves). The 64-client gateway row runs twice: one thread per client,
@@ -153,15 +155,14 @@ fn sim_spin_us() -> usize {
 }
 
 /// ecatd as the bench starts it: its defaults, with the bus thread under `SCHED_FIFO` at
-/// [`rt_priority`] unless that is 0.
+/// [`rt_priority`] unless that is 0, and `PERF_VETH_CONFIG` (TOML, top-level keys and
+/// tables: `api_threads = 2`, `[gateway]` `workers = 1`) for A/B runs of ecatd's settings.
 fn start_ecatd(topology: &TempFile) -> (Ecatd, Option<TempFile>) {
-    let config = match rt_priority() {
-        0 => None,
-        priority => Some(TempFile::new(
-            "ecatd",
-            &format!("[bus]\nrt_priority = {priority}\n"),
-        )),
-    };
+    let mut text = std::env::var("PERF_VETH_CONFIG").unwrap_or_default();
+    if rt_priority() > 0 {
+        text = format!("{text}\n[bus]\nrt_priority = {}\n", rt_priority());
+    }
+    let config = (!text.trim().is_empty()).then(|| TempFile::new("ecatd", &text));
     let extra: Vec<&str> = config
         .as_ref()
         .map_or_else(Vec::new, |c| vec!["--config", c.path()]);

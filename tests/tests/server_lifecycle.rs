@@ -139,6 +139,44 @@ fn the_api_runtime_has_the_configured_threads_one_by_default() {
     );
 }
 
+/// Threads of process `pid` whose name starts with `prefix`, once there are `want` of them
+/// (a thread names itself as it starts), within a deadline.
+fn expect_threads(pid: u32, prefix: &str, want: usize) {
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let names: Vec<String> = std::fs::read_dir(format!("/proc/{pid}/task"))
+            .unwrap()
+            .filter_map(|task| std::fs::read_to_string(task.ok()?.path().join("comm")).ok())
+            .map(|name| name.trim().to_string())
+            .collect();
+        let count = names.iter().filter(|n| n.starts_with(prefix)).count();
+        if count == want {
+            return;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "want {want} threads {prefix}*: {names:?}"
+        );
+        std::thread::yield_now();
+    }
+}
+
+#[test]
+fn the_gateway_has_the_configured_receive_workers() {
+    let file = std::env::temp_dir().join(format!("ecatd-gw-workers-{}.toml", std::process::id()));
+    std::fs::write(&file, "[gateway]\nworkers = 3\n").unwrap();
+    let ecatd = Ecatd::start(&["--config", file.to_str().unwrap()]);
+    std::fs::remove_file(&file).unwrap();
+    let log = ecatd.log();
+    let serving = log
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .find(|v| v["fields"]["message"] == "mailbox gateway serving")
+        .unwrap_or_else(|| panic!("no gateway line in\n{log}"));
+    assert_eq!(serving["fields"]["workers"], 3, "{serving}");
+    expect_threads(ecatd.pid(), "ecat-gateway-", 3);
+}
+
 /// The whole shutdown's budget (ecatd's default `shutdown_timeout_ms`) and a margin for the
 /// process to start its exit and the test to see it.
 const SHUTDOWN: Duration = Duration::from_secs(5);

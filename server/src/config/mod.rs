@@ -269,7 +269,14 @@ pub struct GatewaySettings {
     /// Milliseconds after its answer during which a repeated UDP request (same bytes,
     /// counter 1-7) is answered from the stored reply instead of running again; 0: never.
     pub retry_window_ms: u64,
+    /// UDP receive workers, each a thread with its own socket on the gateway's port (1 to
+    /// [`MAX_GATEWAY_WORKERS`]); default: the cores available, at most 4. Every client
+    /// stays with one worker, so its requests keep their order.
+    pub workers: Option<usize>,
 }
+
+/// Most receive workers `[gateway] workers` may ask for.
+pub const MAX_GATEWAY_WORKERS: usize = 64;
 
 impl Default for GatewaySettings {
     fn default() -> GatewaySettings {
@@ -283,6 +290,7 @@ impl Default for GatewaySettings {
             allow: Vec::new(),
             strict: false,
             retry_window_ms: 1000,
+            workers: None,
         }
     }
 }
@@ -301,6 +309,16 @@ impl GatewaySettings {
                 .map(GatewayAllow::allowed)
                 .collect::<Result<Vec<_>, _>>()?
         };
+        let defaults = GatewayConfig::default();
+        let workers = match self.workers {
+            None => defaults.workers,
+            Some(n) if (1..=MAX_GATEWAY_WORKERS).contains(&n) => n,
+            Some(n) => {
+                return Err(format!(
+                    "gateway workers must be 1 to {MAX_GATEWAY_WORKERS}, not {n}"
+                ));
+            }
+        };
         Ok(GatewayConfig {
             bind: self.listen.ip,
             port: self.listen.port,
@@ -308,7 +326,8 @@ impl GatewaySettings {
             allow,
             strict: self.strict,
             retry_window: std::time::Duration::from_millis(self.retry_window_ms),
-            ..GatewayConfig::default()
+            workers,
+            ..defaults
         })
     }
 
@@ -828,6 +847,27 @@ mod tests {
         assert!("300.0.0.1".parse::<GatewayListen>().is_err());
         let off: Config = toml::from_str("[gateway]\nenabled = false\n").unwrap();
         assert!(!off.gateway.unwrap().enabled);
+    }
+
+    #[test]
+    fn gateway_workers_come_from_the_file_within_bounds() {
+        let workers = |text: &str| {
+            let file: Config = toml::from_str(text).unwrap();
+            file.gateway.unwrap().gateway_config().map(|c| c.workers)
+        };
+        assert_eq!(
+            workers("[gateway]\n"),
+            Ok(GatewayConfig::default().workers),
+            "the library's default"
+        );
+        assert_eq!(workers("[gateway]\nworkers = 1\n"), Ok(1));
+        assert_eq!(workers("[gateway]\nworkers = 64\n"), Ok(64));
+        for bad in [0, 65] {
+            let err = workers(&format!("[gateway]\nworkers = {bad}\n")).unwrap_err();
+            assert!(err.contains("gateway workers must be 1 to 64"), "{err}");
+            let file: Config = toml::from_str(&format!("[gateway]\nworkers = {bad}\n")).unwrap();
+            assert!(file.check().is_err(), "refused at start-up too");
+        }
     }
 
     #[test]

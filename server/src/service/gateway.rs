@@ -272,7 +272,7 @@ impl Core {
                 if wanted != 0 && bound.port() != wanted {
                     tracing::warn!(wanted, bound = bound.port(), "mailbox gateway port taken; fell back to a free port");
                 }
-                tracing::info!(gateway = %bound, master_number = gateway.config().master_number, "mailbox gateway serving");
+                tracing::info!(gateway = %bound, master_number = gateway.config().master_number, workers = gateway.config().workers, "mailbox gateway serving");
             }
             Ok(GatewayView::of(Some(gateway)))
         })
