@@ -66,6 +66,7 @@ use ecat_tests::sim_process::SimProcess;
 use ecat_tests::veth_master::{self, VethMaster};
 use latency::{Row, row, sequential};
 use master_core::bus::BusConfig;
+use master_core::gateway::MASTER_ADDRESS;
 use master_core::master::{Master, MasterConfig, SlaveAddress};
 use master_core::wire::coe::{CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
 use master_core::wire::gateway::{GatewayMessage, GatewayRepr};
@@ -659,6 +660,17 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
             &n,
         ],
     );
+    python(
+        "  the same, no slave (the master's own 0x1018:01)",
+        &[
+            "gateway",
+            &gateway.to_string(),
+            "--station",
+            "0",
+            "--count",
+            &n,
+        ],
+    );
     let request = upload_request();
     let mut gw = GatewayClient::new(gateway);
     table.print(
@@ -670,9 +682,23 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
             );
         }),
     );
+    let own_vendor = gateway_upload(&mut gw, MASTER_ADDRESS, &request);
+    table.print(
+        "  the same, no slave (the master's own 0x1018:01)",
+        &sequential(count, || {
+            assert_eq!(
+                gateway_upload(&mut gw, MASTER_ADDRESS, &request),
+                own_vendor
+            );
+        }),
+    );
     python(
         "ecatd REST (HTTP/1.1 keep-alive), Python http.client",
         &["rest", &ecatd.http, "--slave", &position, "--count", &n],
+    );
+    python(
+        "  the same, no slave (/healthz: the transport)",
+        &["rest", &ecatd.http, "--floor", "--count", &n],
     );
     let mut rest = RestClient::new(&ecatd.http);
     with_call_time(&agent, &ecatd.http, || {
@@ -692,6 +718,18 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
             &ecatd.grpc,
             "--slave",
             &position,
+            "--count",
+            &n,
+            "--proto",
+            proto,
+        ],
+    );
+    python(
+        "  the same, no slave (GetLogFilter: the transport)",
+        &[
+            "grpc",
+            &ecatd.grpc,
+            "--floor",
             "--count",
             &n,
             "--proto",

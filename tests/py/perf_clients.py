@@ -8,6 +8,10 @@ Usage:
   perf_clients.py grpc HOST:PORT --slave P --count K --proto DIR   gRPC (grpcio)
   perf_clients.py bringup IFACE --slaves N        pysoem config_init + config_map + OP
 
+With `--station 0` the gateway reads the master's own 0x1018:01 (ETG.1510) and with
+`--floor` REST asks `/healthz` and gRPC `GetLogFilter`: no slave behind the call, so these
+time the transport and ecatd's stack alone.
+
 Every answer is checked (the vendor ID, or the working counter). The gRPC stubs are
 generated from DIR's .proto files with grpcio-tools into a temporary directory.
 """
@@ -108,13 +112,14 @@ def gateway(args):
 def rest(args):
     url = args.target.removeprefix("http://")
     conn = http.client.HTTPConnection(url, timeout=5)
-    path = f"/api/v1/slaves/{args.slave}/coe/sdo/0x1018/1"
+    # --floor: no slave behind it, only the transport and ecatd's HTTP stack.
+    path = "/healthz" if args.floor else f"/api/v1/slaves/{args.slave}/coe/sdo/0x1018/1"
 
     def op():
         conn.request("GET", path)
         response = conn.getresponse()
         body = response.read()
-        if response.status != 200 or not body:
+        if response.status != 200 or not body or (args.floor and body != b"ok\n"):
             raise SystemExit(f"REST {response.status}: {body!r}")
 
     return timed(args.count, op)
@@ -147,16 +152,26 @@ def grpc_client(args):
 
     out = grpc_stubs(args.proto)
     try:
-        from ecat.v1 import mailbox_pb2, mailbox_pb2_grpc
+        from ecat.v1 import bus_pb2, bus_pb2_grpc, mailbox_pb2, mailbox_pb2_grpc
 
         channel = grpc.insecure_channel(args.target)
-        stub = mailbox_pb2_grpc.CoeServiceStub(channel)
-        request = mailbox_pb2.UploadRequest(slave=str(args.slave), index=0x1018, subindex=1)
+        if args.floor:
+            # No slave behind it, only the transport and ecatd's HTTP/2 stack.
+            bus = bus_pb2_grpc.BusServiceStub(channel)
+            log_filter = bus_pb2.GetLogFilterRequest()
 
-        def op():
-            answer = stub.Upload(request, timeout=5)
-            if len(answer.data) != 4:
-                raise SystemExit(f"unexpected gRPC answer {answer}")
+            def op():
+                if not bus.GetLogFilter(log_filter, timeout=5).filter:
+                    raise SystemExit("an empty log filter")
+
+        else:
+            stub = mailbox_pb2_grpc.CoeServiceStub(channel)
+            request = mailbox_pb2.UploadRequest(slave=str(args.slave), index=0x1018, subindex=1)
+
+            def op():
+                answer = stub.Upload(request, timeout=5)
+                if len(answer.data) != 4:
+                    raise SystemExit(f"unexpected gRPC answer {answer}")
 
         result = timed(args.count, op)
         channel.close()
@@ -216,6 +231,7 @@ def main():
     parser.add_argument("--count", type=int, default=2000)
     parser.add_argument("--station", type=int, default=1001)
     parser.add_argument("--slave", type=int, default=0)
+    parser.add_argument("--floor", action="store_true", help="rest, grpc: a call with no slave behind it")
     parser.add_argument("--slaves", type=int, default=0)
     parser.add_argument("--proto", default="proto")
     args = parser.parse_args()
