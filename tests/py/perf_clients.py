@@ -8,9 +8,9 @@ Usage:
   perf_clients.py grpc HOST:PORT --slave P --count K --proto DIR   gRPC (grpcio)
   perf_clients.py bringup IFACE --slaves N        pysoem config_init + config_map + OP
 
-With `--station 0` the gateway reads the master's own 0x1018:01 (ETG.1510) and with
-`--floor` REST asks `/healthz` and gRPC `GetLogFilter`: no slave behind the call, so these
-time the transport and ecatd's stack alone.
+With `--floor` the gateway asks a station no slave has (the gateway answers it with an SDO
+abort itself), REST asks `/healthz` and gRPC `GetLogFilter`: no slave behind the call, so
+these time the transport and ecatd's stack alone.
 
 Every answer is checked (the vendor ID, or the working counter). The gRPC stubs are
 generated from DIR's .proto files with grpcio-tools into a temporary directory.
@@ -91,15 +91,19 @@ def gateway(args):
     sdo = struct.pack("<HBHB", 0x2000, 0x40, 0x1018, 1) + b"\0" * 4
     vendor = {}
 
+    # --floor: a station no slave has, answered by the gateway itself with an SDO abort.
+    station = 0x7FFE if args.floor else args.station
+    want = 0x80 if args.floor else 0x40
+
     def op():
         state["counter"] = state["counter"] % 7 + 1
-        mailbox = struct.pack("<HHBB", len(sdo), args.station, 0, 0x03 | (state["counter"] << 4))
+        mailbox = struct.pack("<HHBB", len(sdo), station, 0, 0x03 | (state["counter"] << 4))
         body = mailbox + sdo
         datagram = struct.pack("<H", len(body) | (5 << 12)) + body
         s.sendto(datagram, addr)
         reply, _ = s.recvfrom(2048)
         # EtherCAT header 2, mailbox header 6, CoE header 2, SDO command 1, index 2, sub 1.
-        if len(reply) < 18 or reply[10] & 0xE0 != 0x40:
+        if len(reply) < 18 or reply[10] & 0xE0 != want:
             raise SystemExit(f"unexpected gateway reply {reply.hex()}")
         value = struct.unpack_from("<I", reply, 14)[0]
         vendor.setdefault("v", value)
@@ -231,7 +235,7 @@ def main():
     parser.add_argument("--count", type=int, default=2000)
     parser.add_argument("--station", type=int, default=1001)
     parser.add_argument("--slave", type=int, default=0)
-    parser.add_argument("--floor", action="store_true", help="rest, grpc: a call with no slave behind it")
+    parser.add_argument("--floor", action="store_true", help="a call with no slave behind it")
     parser.add_argument("--slaves", type=int, default=0)
     parser.add_argument("--proto", default="proto")
     args = parser.parse_args()

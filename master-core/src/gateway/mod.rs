@@ -66,7 +66,9 @@ use crate::master::Master;
 use crate::master_od::MasterDictionary;
 
 pub use allow::{AllowedNet, ClientNet, ClientNetError, GatewayRole};
-pub use config::{DEFAULT_PORT, GatewayConfig, MAX_DEFAULT_WORKERS, port_for_master};
+pub use config::{
+    DEFAULT_PORT, GatewayConfig, MAX_DEFAULT_WORKERS, default_workers, port_for_master,
+};
 pub use route::{BROADCAST_ADDRESS, MASTER_ADDRESS, POSITION_BASE};
 pub use stats::{FailureCounts, FailureReason, MailboxGatewayStats};
 

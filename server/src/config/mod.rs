@@ -270,8 +270,9 @@ pub struct GatewaySettings {
     /// counter 1-7) is answered from the stored reply instead of running again; 0: never.
     pub retry_window_ms: u64,
     /// UDP receive workers, each a thread with its own socket on the gateway's port (1 to
-    /// [`MAX_GATEWAY_WORKERS`]); default: the cores available, at most 4. Every client
-    /// stays with one worker, so its requests keep their order.
+    /// [`MAX_GATEWAY_WORKERS`]); default: one fewer than the cores available, 1 to 4
+    /// ([`master_core::gateway::default_workers`]). Every client stays with one worker, so
+    /// its requests keep their order.
     pub workers: Option<usize>,
 }
 
