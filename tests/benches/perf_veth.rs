@@ -18,7 +18,9 @@
 //! 2. `ecatd --iface` as a process (its defaults: OP, 1 ms cycle) with clients on
 //!    loopback: the ETG.8200 gateway (UDP), REST (HTTP/1.1 keep-alive) and gRPC, each from
 //!    Python (plain sockets, `http.client`, grpcio with stubs generated from `proto/` at run
-//!    time) and from Rust (std UDP, ureq, tonic); 64 gateway clients over the 16 slaves;
+//!    time) and from Rust (std UDP, ureq, tonic), each followed by its floor: the same
+//!    client against a call ecatd answers without a slave (a gateway request to a station
+//!    no slave has, REST `/healthz`, gRPC `GetLogFilter`); 64 gateway clients over the 16 slaves;
 //!    the jitter of ecatd's cycle (its `/metrics` histogram, counted over a quiet window and
 //!    over the rows); its VmRSS idle, after the rows and after `PERF_VETH_SOAK` gateway
 //!    requests (the soak of `gateway_soak.rs`, here on veth);
