@@ -30,7 +30,9 @@
 //!    pysoem (`config_init` + `config_map` + SAFEOP + OP with process data running).
 //!
 //! "vs pysoem" is pysoem's p50 over the row's (above 1: faster); "vs direct" the row's p50
-//! over the direct API's. Knobs: `PERF_VETH_COUNT` (reads per latency row, default 2000),
+//! over the direct API's. The run ends with issue 23's goals judged on its rows, each client's
+//! next to its bound (the client's floor plus the raw round trip: what no master behind that
+//! client could beat on this machine). Knobs: `PERF_VETH_COUNT` (reads per latency row, default 2000),
 //! `PERF_VETH_ROWS` (phases to run, comma-separated from `latency,clients,delay,bringup`;
 //! default all), `PERF_VETH_SOAK` (gateway requests of the memory soak, default 1,000,000;
 //! 0 skips it), `PERF_VETH_RT` (`SCHED_FIFO` priority of ecatd's bus thread, default 0: ordinary
@@ -180,12 +182,33 @@ fn start_ecatd(topology: &TempFile) -> (Ecatd, Option<TempFile>) {
     (ecatd, config)
 }
 
-/// The table: rows printed as they come, with the reference p50s known by then.
+/// The table: rows printed as they come, with the reference p50s known by then, and the
+/// rows the issue's goals are judged on, kept by [`Key`] for [`Table::goals`].
 #[derive(Default)]
 struct Table {
     pysoem: Option<f64>,
     direct: Option<f64>,
     direct_aggregate: Option<f64>,
+    kept: std::cell::RefCell<Vec<(Key, f64, f64)>>,
+}
+
+/// The rows a goal or its bound is computed from.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Key {
+    Raw,
+    GatewayPython,
+    GatewayPythonFloor,
+    RestPython,
+    RestPythonFloor,
+    GrpcPython,
+    GrpcPythonFloor,
+    GatewayRust,
+    GatewayRustFloor,
+    GrpcRust,
+    GrpcRustFloor,
+    ClientsThreads,
+    ClientsTasks,
+    Delay100,
 }
 
 impl Table {
@@ -194,6 +217,134 @@ impl Table {
             "{:<58} {:>9} {:>9} {:>10} {:>10} {:>10}",
             "path", "p50 µs", "p99 µs", "reads/s", "vs pysoem", "vs direct"
         );
+    }
+
+    /// Prints the row and keeps its p50 and rate under `key`.
+    fn print_as(&self, key: Key, name: &str, r: &Row) {
+        self.print(name, r);
+        self.kept.borrow_mut().push((key, r.p50, r.per_second));
+    }
+
+    /// The p50 and rate of the row kept under `key`, if it ran.
+    fn kept(&self, key: Key) -> Option<(f64, f64)> {
+        let kept = self.kept.borrow();
+        kept.iter().find(|k| k.0 == key).map(|k| (k.1, k.2))
+    }
+
+    /// Issue 23's goals, judged on this run's rows, each with its bound where one applies:
+    /// a read through ecatd costs at least the client's floor (its "no slave" row) plus one
+    /// frame round trip on the wire (the raw row), so that sum is the best any master behind
+    /// that client could reach on this rig.
+    fn goals(&self) {
+        let p50 = |k: Key| self.kept(k).map(|k| k.0);
+        let mut lines = Vec::new();
+        let verdict = |met: bool| if met { "yes" } else { "no" };
+        if let Some(pysoem) = self.pysoem {
+            for (name, goal, read, floor) in [
+                (
+                    "gateway, Python: ≥ 5x pysoem",
+                    5.0,
+                    Key::GatewayPython,
+                    Key::GatewayPythonFloor,
+                ),
+                (
+                    "REST, Python: ≥ 3x pysoem",
+                    3.0,
+                    Key::RestPython,
+                    Key::RestPythonFloor,
+                ),
+                (
+                    "gRPC, Python: ≥ 2x pysoem",
+                    2.0,
+                    Key::GrpcPython,
+                    Key::GrpcPythonFloor,
+                ),
+            ] {
+                let Some(read) = p50(read) else { continue };
+                let figure = pysoem / read;
+                let bound = p50(floor)
+                    .zip(p50(Key::Raw))
+                    .map_or_else(String::new, |(f, raw)| {
+                        format!("{:.2}x", pysoem / (f + raw))
+                    });
+                lines.push((
+                    name,
+                    format!("{figure:.2}x"),
+                    bound,
+                    verdict(figure >= goal),
+                ));
+            }
+        }
+        if let Some(direct) = self.direct {
+            for (name, read, floor) in [
+                (
+                    "gateway, Rust: ≤ 2x the direct API",
+                    Key::GatewayRust,
+                    Key::GatewayRustFloor,
+                ),
+                (
+                    "gRPC, Rust: ≤ 2x the direct API",
+                    Key::GrpcRust,
+                    Key::GrpcRustFloor,
+                ),
+            ] {
+                let Some(read) = p50(read) else { continue };
+                let figure = read / direct;
+                let bound = p50(floor)
+                    .zip(p50(Key::Raw))
+                    .map_or_else(String::new, |(f, raw)| {
+                        format!("{:.2}x", (f + raw) / direct)
+                    });
+                lines.push((name, format!("{figure:.2}x"), bound, verdict(figure <= 2.0)));
+            }
+        }
+        if let Some(direct) = self.direct_aggregate {
+            for (name, key) in [
+                (
+                    "64 gateway clients (threads): ≥ 80 % of direct",
+                    Key::ClientsThreads,
+                ),
+                (
+                    "64 gateway clients (tasks): ≥ 80 % of direct",
+                    Key::ClientsTasks,
+                ),
+            ] {
+                let Some((_, rate)) = self.kept(key) else {
+                    continue;
+                };
+                let share = rate / direct * 100.0;
+                lines.push((
+                    name,
+                    format!("{share:.0} %"),
+                    String::new(),
+                    verdict(share >= 80.0),
+                ));
+            }
+        }
+        if let Some(read) = p50(Key::Delay100) {
+            let over = read - 100.0;
+            lines.push((
+                "delay 100 µs: p50 − delay ≤ 150 µs",
+                format!("{over:.0} µs"),
+                String::new(),
+                verdict(over <= 150.0),
+            ));
+        }
+        if lines.is_empty() {
+            return;
+        }
+        println!();
+        println!(
+            "issue 23's goals in this run (bound: pysoem or the direct API against the \
+             client's floor + the raw round trip)"
+        );
+        println!(
+            "{:<50} {:>10} {:>10} {:>5}",
+            "goal", "figure", "bound", "met"
+        );
+        for (name, figure, bound, met) in lines {
+            println!("{name:<50} {figure:>10} {bound:>10} {met:>5}");
+        }
     }
 
     fn print(&self, name: &str, r: &Row) {
@@ -567,7 +718,8 @@ fn phase_direct(table: &mut Table, count: usize, each: usize) {
         "perf_clients.py",
         &["raw", MASTER_IFACE, "--count", &count.to_string()],
     );
-    table.print(
+    table.print_as(
+        Key::Raw,
         "raw APRD frame round trip (Python, AF_PACKET)",
         &json_row(&raw),
     );
@@ -647,13 +799,14 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
     let n = count.to_string();
     let proto = server_support::root().join("proto");
     let proto = proto.to_str().expect("utf-8 path");
-    let python = |name: &str, args: &[&str]| match python_here(args) {
-        Ok(v) => table.print(name, &json_row(&v)),
+    let python = |key: Key, name: &str, args: &[&str]| match python_here(args) {
+        Ok(v) => table.print_as(key, name, &json_row(&v)),
         Err(e) => println!("{name:<58} failed: {e}"),
     };
     let position = POSITION.to_string();
     let station_arg = station(POSITION).to_string();
     python(
+        Key::GatewayPython,
         "ecatd gateway (UDP), Python",
         &[
             "gateway",
@@ -665,12 +818,14 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         ],
     );
     python(
+        Key::GatewayPythonFloor,
         "  the same, no slave (an unknown station: the transport)",
         &["gateway", &gateway.to_string(), "--floor", "--count", &n],
     );
     let request = upload_request();
     let mut gw = GatewayClient::new(gateway);
-    table.print(
+    table.print_as(
+        Key::GatewayRust,
         "ecatd gateway (UDP), Rust",
         &sequential(count, || {
             assert_eq!(
@@ -679,7 +834,8 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
             );
         }),
     );
-    table.print(
+    table.print_as(
+        Key::GatewayRustFloor,
         "  the same, no slave (an unknown station: the transport)",
         &sequential(count, || {
             let reply = gw.exchange(UNKNOWN_STATION, MailboxType::Coe, &request);
@@ -692,10 +848,12 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         }),
     );
     python(
+        Key::RestPython,
         "ecatd REST (HTTP/1.1 keep-alive), Python http.client",
         &["rest", &ecatd.http, "--slave", &position, "--count", &n],
     );
     python(
+        Key::RestPythonFloor,
         "  the same, no slave (/healthz: the transport)",
         &["rest", &ecatd.http, "--floor", "--count", &n],
     );
@@ -711,6 +869,7 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         &sequential(count, || assert_eq!(rest.floor(), "ok\n")),
     );
     python(
+        Key::GrpcPython,
         "ecatd gRPC, Python grpcio",
         &[
             "grpc",
@@ -724,6 +883,7 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         ],
     );
     python(
+        Key::GrpcPythonFloor,
         "  the same, no slave (GetLogFilter: the transport)",
         &[
             "grpc",
@@ -737,28 +897,32 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
     );
     let mut grpc = GrpcClient::new(&ecatd.grpc);
     with_call_time(&agent, &ecatd.http, || {
-        table.print(
+        table.print_as(
+            Key::GrpcRust,
             "ecatd gRPC, Rust tonic",
             &sequential(count, || {
                 assert_eq!(grpc.upload(POSITION), SIM_VENDOR_ID.to_le_bytes())
             }),
         )
     });
-    table.print(
+    table.print_as(
+        Key::GrpcRustFloor,
         "  the same, no slave (GetLogFilter: the transport)",
         &sequential(count, || assert!(!grpc.floor().is_empty())),
     );
     if clients {
         let cpu = CpuMeter::start(Some(ecatd.pid()));
         let threads = gateway_clients(gateway, each);
-        table.print(
+        table.print_as(
+            Key::ClientsThreads,
             &format!("ecatd gateway (UDP), {CLIENTS} Rust clients, a thread each"),
             &threads,
         );
         cpu.print(CLIENTS * each);
         let cpu = CpuMeter::start(Some(ecatd.pid()));
         let tasks = gateway_clients_async(gateway, each);
-        table.print(
+        table.print_as(
+            Key::ClientsTasks,
             &format!("ecatd gateway (UDP), {CLIENTS} Rust clients, tasks of 1 thread"),
             &tasks,
         );
@@ -857,7 +1021,12 @@ fn phase_delay(table: &Table, count: usize) {
                 SIM_VENDOR_ID
             );
         });
-        table.print(&format!("delay {delay} µs"), &r);
+        let name = format!("delay {delay} µs");
+        if delay == 100 {
+            table.print_as(Key::Delay100, &name, &r);
+        } else {
+            table.print(&name, &r);
+        }
         println!(
             "  p50 − delay: {:.0} µs (goal ≤ 150 µs)",
             r.p50 - f64::from(delay)
@@ -978,6 +1147,7 @@ fn main() {
     if has("delay") {
         phase_delay(&table, count / 4);
     }
+    table.goals();
     if has("bringup") && !sizes.is_empty() {
         phase_bringup(&sizes);
     }
