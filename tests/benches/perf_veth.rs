@@ -182,14 +182,33 @@ fn start_ecatd(topology: &TempFile) -> (Ecatd, Option<TempFile>) {
     (ecatd, config)
 }
 
-/// The table: rows printed as they come, with the reference p50s known by then, and the
-/// rows the issue's goals are judged on, kept by [`Key`] for [`Table::goals`].
+/// The table: rows printed as they come, and the rows the ratios and the issue's goals
+/// are computed from, kept by [`Key`].
 #[derive(Default)]
 struct Table {
-    pysoem: Option<f64>,
-    direct: Option<f64>,
-    direct_aggregate: Option<f64>,
-    kept: std::cell::RefCell<Vec<(Key, f64, f64)>>,
+    kept: std::cell::RefCell<Vec<(Key, Row)>>,
+}
+
+/// A client of ecatd's single-client rows.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Client {
+    GatewayPython,
+    RestPython,
+    GrpcPython,
+    GatewayRust,
+    GrpcRust,
+}
+
+impl Client {
+    fn label(self) -> &'static str {
+        match self {
+            Client::GatewayPython => "gateway, Python",
+            Client::RestPython => "REST, Python",
+            Client::GrpcPython => "gRPC, Python",
+            Client::GatewayRust => "gateway, Rust",
+            Client::GrpcRust => "gRPC, Rust",
+        }
+    }
 }
 
 /// A single client's goal: so many times faster than pysoem, or within so many times the
@@ -200,23 +219,36 @@ enum Goal {
     Within(f64),
 }
 
-/// The rows a goal or its bound is computed from.
+/// Issue 23's goal for each client.
+const CLIENT_GOALS: [(Client, Goal); 5] = [
+    (Client::GatewayPython, Goal::Faster(5.0)),
+    (Client::RestPython, Goal::Faster(3.0)),
+    (Client::GrpcPython, Goal::Faster(2.0)),
+    (Client::GatewayRust, Goal::Within(2.0)),
+    (Client::GrpcRust, Goal::Within(2.0)),
+];
+/// The aggregate gateway rows' goal: this share of the direct API's rate, in %.
+const CLIENTS_GOAL: f64 = 80.0;
+/// The slow-slave row's goal: its p50 at most this far above the delay, in µs.
+const DELAY_GOAL_US: f64 = 150.0;
+/// The delay (µs) the slow-slave goal is set for.
+const GOAL_DELAY_US: u32 = 100;
+
+/// The rows a ratio, a goal or a bound is computed from.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Key {
     Raw,
-    GatewayPython,
-    GatewayPythonFloor,
-    RestPython,
-    RestPythonFloor,
-    GrpcPython,
-    GrpcPythonFloor,
-    GatewayRust,
-    GatewayRustFloor,
-    GrpcRust,
-    GrpcRustFloor,
+    Pysoem,
+    Direct,
+    DirectAggregate,
+    /// A client reading 0x1018:01 through ecatd.
+    Read(Client),
+    /// The same client against a call ecatd answers without a slave.
+    Floor(Client),
     ClientsThreads,
     ClientsTasks,
-    Delay100,
+    /// The gateway from Rust, every slave answering [`GOAL_DELAY_US`] late.
+    Delay,
 }
 
 impl Table {
@@ -227,16 +259,20 @@ impl Table {
         );
     }
 
-    /// Prints the row and keeps its p50 and rate under `key`.
+    /// Prints the row and keeps it under `key`.
     fn print_as(&self, key: Key, name: &str, r: &Row) {
         self.print(name, r);
-        self.kept.borrow_mut().push((key, r.p50, r.per_second));
+        self.kept.borrow_mut().push((key, *r));
     }
 
-    /// The p50 and rate of the row kept under `key`, if it ran.
-    fn kept(&self, key: Key) -> Option<(f64, f64)> {
+    /// The row kept under `key`, if it ran.
+    fn kept(&self, key: Key) -> Option<Row> {
         let kept = self.kept.borrow();
-        kept.iter().find(|k| k.0 == key).map(|k| (k.1, k.2))
+        kept.iter().find(|k| k.0 == key).map(|k| k.1)
+    }
+
+    fn p50(&self, key: Key) -> Option<f64> {
+        self.kept(key).map(|r| r.p50)
     }
 
     /// Issue 23's goals, judged on this run's rows, each with its bound where one applies:
@@ -244,88 +280,51 @@ impl Table {
     /// frame round trip on the wire (the raw row), so that sum is the best any master behind
     /// that client could reach on this rig.
     fn goals(&self) {
-        let p50 = |k: Key| self.kept(k).map(|k| k.0);
         let mut lines = Vec::new();
         let verdict = |met: bool| if met { "yes" } else { "no" };
-        let best_time = |floor: Key| Some(p50(floor)? + p50(Key::Raw)?);
-        for (name, read, floor, goal) in [
-            (
-                "gateway, Python: ≥ 5x pysoem",
-                Key::GatewayPython,
-                Key::GatewayPythonFloor,
-                Goal::Faster(5.0),
-            ),
-            (
-                "REST, Python: ≥ 3x pysoem",
-                Key::RestPython,
-                Key::RestPythonFloor,
-                Goal::Faster(3.0),
-            ),
-            (
-                "gRPC, Python: ≥ 2x pysoem",
-                Key::GrpcPython,
-                Key::GrpcPythonFloor,
-                Goal::Faster(2.0),
-            ),
-            (
-                "gateway, Rust: ≤ 2x the direct API",
-                Key::GatewayRust,
-                Key::GatewayRustFloor,
-                Goal::Within(2.0),
-            ),
-            (
-                "gRPC, Rust: ≤ 2x the direct API",
-                Key::GrpcRust,
-                Key::GrpcRustFloor,
-                Goal::Within(2.0),
-            ),
-        ] {
+        let best_time = |c: Client| Some(self.p50(Key::Floor(c))? + self.p50(Key::Raw)?);
+        for (client, goal) in CLIENT_GOALS {
             let ratio = |time: f64| match goal {
-                Goal::Faster(_) => self.pysoem.map(|p| p / time),
-                Goal::Within(_) => self.direct.map(|d| time / d),
+                Goal::Faster(_) => self.p50(Key::Pysoem).map(|p| p / time),
+                Goal::Within(_) => self.p50(Key::Direct).map(|d| time / d),
             };
-            let Some(figure) = p50(read).and_then(ratio) else {
+            let Some(figure) = self.p50(Key::Read(client)).and_then(ratio) else {
                 continue;
             };
-            let bound = best_time(floor)
+            let (met, name) = match goal {
+                Goal::Faster(g) => (figure >= g, format!("{}: ≥ {g}x pysoem", client.label())),
+                Goal::Within(g) => (
+                    figure <= g,
+                    format!("{}: ≤ {g}x the direct API", client.label()),
+                ),
+            };
+            let bound = best_time(client)
                 .and_then(ratio)
                 .map_or_else(String::new, |b| format!("{b:.2}x"));
-            let met = match goal {
-                Goal::Faster(g) => figure >= g,
-                Goal::Within(g) => figure <= g,
-            };
             lines.push((name, format!("{figure:.2}x"), bound, verdict(met)));
         }
-        if let Some(direct) = self.direct_aggregate {
-            for (name, key) in [
-                (
-                    "64 gateway clients (threads): ≥ 80 % of direct",
-                    Key::ClientsThreads,
-                ),
-                (
-                    "64 gateway clients (tasks): ≥ 80 % of direct",
-                    Key::ClientsTasks,
-                ),
+        if let Some(direct) = self.kept(Key::DirectAggregate) {
+            for (how, key) in [
+                ("threads", Key::ClientsThreads),
+                ("tasks", Key::ClientsTasks),
             ] {
-                let Some((_, rate)) = self.kept(key) else {
-                    continue;
-                };
-                let share = rate / direct * 100.0;
+                let Some(row) = self.kept(key) else { continue };
+                let share = row.per_second / direct.per_second * 100.0;
                 lines.push((
-                    name,
+                    format!("{CLIENTS} gateway clients ({how}): ≥ {CLIENTS_GOAL} % of direct"),
                     format!("{share:.0} %"),
                     String::new(),
-                    verdict(share >= 80.0),
+                    verdict(share >= CLIENTS_GOAL),
                 ));
             }
         }
-        if let Some(read) = p50(Key::Delay100) {
-            let over = read - 100.0;
+        if let Some(read) = self.p50(Key::Delay) {
+            let over = read - f64::from(GOAL_DELAY_US);
             lines.push((
-                "delay 100 µs: p50 − delay ≤ 150 µs",
+                format!("delay {GOAL_DELAY_US} µs: p50 − delay ≤ {DELAY_GOAL_US} µs"),
                 format!("{over:.0} µs"),
                 String::new(),
-                verdict(over <= 150.0),
+                verdict(over <= DELAY_GOAL_US),
             ));
         }
         if lines.is_empty() {
@@ -347,10 +346,10 @@ impl Table {
 
     fn print(&self, name: &str, r: &Row) {
         let faster = self
-            .pysoem
+            .p50(Key::Pysoem)
             .map_or_else(String::new, |p| format!("{:.2}x", p / r.p50));
         let direct = self
-            .direct
+            .p50(Key::Direct)
             .map_or_else(String::new, |d| format!("{:.2}x", r.p50 / d));
         println!(
             "{name:<58} {:>9.1} {:>9.1} {:>10.0} {faster:>10} {direct:>10}",
@@ -702,7 +701,7 @@ fn jitter_between(
     (total, bounds)
 }
 
-fn phase_direct(table: &mut Table, count: usize, each: usize) {
+fn phase_direct(table: &Table, count: usize, each: usize) {
     let file = TempFile::topology(0);
     let rig = Rig::new();
     let spin = sim_spin_us().to_string();
@@ -726,9 +725,7 @@ fn phase_direct(table: &mut Table, count: usize, each: usize) {
         "pysoem_sdo_bench.py",
         &[MASTER_IFACE, "--slave", "0", "--count", &count.to_string()],
     );
-    let pysoem = json_row(&pysoem);
-    table.pysoem = Some(pysoem.p50);
-    table.print("pysoem sdo_read (PREOP)", &pysoem);
+    table.print_as(Key::Pysoem, "pysoem sdo_read (PREOP)", &json_row(&pysoem));
 
     // As ecatd sets up its master (`server::segment::open`): OP, the 1 ms cycle.
     let veth = VethMaster::start(&rig, MasterConfig::default());
@@ -743,8 +740,11 @@ fn phase_direct(table: &mut Table, count: usize, each: usize) {
         let data = veth.block_on(drive.sdo_upload(0x1018, 1)).expect("upload");
         assert_eq!(data, SIM_VENDOR_ID.to_le_bytes());
     });
-    table.direct = Some(direct.p50);
-    table.print("direct API, Rust in-process (OP, 1 ms cycle)", &direct);
+    table.print_as(
+        Key::Direct,
+        "direct API, Rust in-process (OP, 1 ms cycle)",
+        &direct,
+    );
 
     let mailboxes: Vec<_> = (0..CLIENTS)
         .map(|c| {
@@ -776,8 +776,8 @@ fn phase_direct(table: &mut Table, count: usize, each: usize) {
         all
     });
     let aggregate = row(samples, start.elapsed());
-    table.direct_aggregate = Some(aggregate.per_second);
-    table.print(
+    table.print_as(
+        Key::DirectAggregate,
         &format!("direct API, {CLIENTS} callers over {SLAVES} slaves"),
         &aggregate,
     );
@@ -804,7 +804,7 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
     let position = POSITION.to_string();
     let station_arg = station(POSITION).to_string();
     python(
-        Key::GatewayPython,
+        Key::Read(Client::GatewayPython),
         "ecatd gateway (UDP), Python",
         &[
             "gateway",
@@ -816,14 +816,14 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         ],
     );
     python(
-        Key::GatewayPythonFloor,
+        Key::Floor(Client::GatewayPython),
         "  the same, no slave (an unknown station: the transport)",
         &["gateway", &gateway.to_string(), "--floor", "--count", &n],
     );
     let request = upload_request();
     let mut gw = GatewayClient::new(gateway);
     table.print_as(
-        Key::GatewayRust,
+        Key::Read(Client::GatewayRust),
         "ecatd gateway (UDP), Rust",
         &sequential(count, || {
             assert_eq!(
@@ -833,7 +833,7 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         }),
     );
     table.print_as(
-        Key::GatewayRustFloor,
+        Key::Floor(Client::GatewayRust),
         "  the same, no slave (an unknown station: the transport)",
         &sequential(count, || {
             let reply = gw.exchange(UNKNOWN_STATION, MailboxType::Coe, &request);
@@ -846,12 +846,12 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         }),
     );
     python(
-        Key::RestPython,
+        Key::Read(Client::RestPython),
         "ecatd REST (HTTP/1.1 keep-alive), Python http.client",
         &["rest", &ecatd.http, "--slave", &position, "--count", &n],
     );
     python(
-        Key::RestPythonFloor,
+        Key::Floor(Client::RestPython),
         "  the same, no slave (/healthz: the transport)",
         &["rest", &ecatd.http, "--floor", "--count", &n],
     );
@@ -867,7 +867,7 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         &sequential(count, || assert_eq!(rest.floor(), "ok\n")),
     );
     python(
-        Key::GrpcPython,
+        Key::Read(Client::GrpcPython),
         "ecatd gRPC, Python grpcio",
         &[
             "grpc",
@@ -881,7 +881,7 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         ],
     );
     python(
-        Key::GrpcPythonFloor,
+        Key::Floor(Client::GrpcPython),
         "  the same, no slave (GetLogFilter: the transport)",
         &[
             "grpc",
@@ -896,7 +896,7 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
     let mut grpc = GrpcClient::new(&ecatd.grpc);
     with_call_time(&agent, &ecatd.http, || {
         table.print_as(
-            Key::GrpcRust,
+            Key::Read(Client::GrpcRust),
             "ecatd gRPC, Rust tonic",
             &sequential(count, || {
                 assert_eq!(grpc.upload(POSITION), SIM_VENDOR_ID.to_le_bytes())
@@ -904,7 +904,7 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         )
     });
     table.print_as(
-        Key::GrpcRustFloor,
+        Key::Floor(Client::GrpcRust),
         "  the same, no slave (GetLogFilter: the transport)",
         &sequential(count, || assert!(!grpc.floor().is_empty())),
     );
@@ -925,16 +925,6 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
             &tasks,
         );
         cpu.print(CLIENTS * each);
-        if let Some(direct) = table.direct_aggregate {
-            for (how, r) in [("a thread each", &threads), ("tasks of 1 thread", &tasks)] {
-                println!(
-                    "  {CLIENTS} gateway clients over {SLAVES} slaves ({how}): {:.0} reads/s, \
-                     {:.0} % of the direct API's {direct:.0} (goal ≥ 80 %)",
-                    r.per_second,
-                    r.per_second / direct * 100.0,
-                );
-            }
-        }
     }
     let loaded_end = cycle_metrics(&agent, &ecatd.http);
     let after_rows = rss_kib(ecatd.pid());
@@ -1008,7 +998,7 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
 fn phase_delay(table: &Table, count: usize) {
     println!();
     println!("every slave answering late (response_delay_us), ecatd gateway (UDP), Rust, 1 client");
-    for delay in [100u32, 1000] {
+    for delay in [GOAL_DELAY_US, 1000] {
         let file = TempFile::topology(delay);
         let (ecatd, _config) = start_ecatd(&file);
         let mut gw = GatewayClient::new(ecatd.gateway_addr());
@@ -1020,15 +1010,12 @@ fn phase_delay(table: &Table, count: usize) {
             );
         });
         let name = format!("delay {delay} µs");
-        if delay == 100 {
-            table.print_as(Key::Delay100, &name, &r);
+        if delay == GOAL_DELAY_US {
+            table.print_as(Key::Delay, &name, &r);
         } else {
             table.print(&name, &r);
         }
-        println!(
-            "  p50 − delay: {:.0} µs (goal ≤ 150 µs)",
-            r.p50 - f64::from(delay)
-        );
+        println!("  p50 − delay: {:.0} µs", r.p50 - f64::from(delay));
         drop(ecatd);
     }
 }
@@ -1137,9 +1124,9 @@ fn main() {
     );
     println!();
     Table::header();
-    let mut table = Table::default();
+    let table = Table::default();
     if has("latency") || has("clients") {
-        phase_direct(&mut table, count, each);
+        phase_direct(&table, count, each);
         phase_ecatd(&table, count, each, soak, has("clients"));
     }
     if has("delay") {

@@ -4,6 +4,7 @@
 use std::time::{Duration, Instant};
 
 /// p50 and p99 in µs, and requests per second.
+#[derive(Clone, Copy)]
 pub struct Row {
     pub p50: f64,
     pub p99: f64,
