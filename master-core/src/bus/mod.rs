@@ -162,7 +162,8 @@ impl Bus {
         let thread = std::thread::Builder::new()
             .name("ecat-bus".into())
             .spawn(move || {
-                let realtime = sched::apply(config.priority);
+                let sleeps = config.wait_mode == WaitMode::Poll;
+                let realtime = sched::apply(config.priority, sleeps);
                 engine.set_realtime(realtime);
                 engine.run()
             })?;
