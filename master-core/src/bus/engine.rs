@@ -101,12 +101,15 @@ impl<L: Link> Engine<L> {
         }
     }
 
-    /// Records whether the thread got real-time scheduling.
-    pub fn set_realtime(&self, realtime: bool) {
-        self.shared
-            .stats
+    /// Records whether the thread got real-time scheduling, and its time slice.
+    pub fn set_scheduling(&self, realtime: bool, time_slice_ns: u64) {
+        let stats = &self.shared.stats;
+        stats
             .realtime
             .store(realtime, std::sync::atomic::Ordering::Relaxed);
+        stats
+            .time_slice_ns
+            .store(time_slice_ns, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// Runs until shutdown, then fails whatever is left and hands the link back.

@@ -164,7 +164,7 @@ impl Bus {
             .spawn(move || {
                 let sleeps = config.wait_mode == WaitMode::Poll;
                 let realtime = sched::apply(config.priority, sleeps);
-                engine.set_realtime(realtime);
+                engine.set_scheduling(realtime, sched::own_time_slice_ns());
                 engine.run()
             })?;
         Ok((BusHandle::new(shared), thread))

@@ -33,6 +33,8 @@ pub(crate) struct BusStats {
     pub acyclic_held: Counter,
     /// The bus thread runs under `SCHED_FIFO`.
     pub realtime: AtomicBool,
+    /// The bus thread's time slice as the kernel reports it, in ns.
+    pub time_slice_ns: AtomicU64,
 }
 
 /// One monotonic event counter.
@@ -100,6 +102,12 @@ pub struct BusStatsSnapshot {
     /// Whether the bus thread got the real-time scheduling it was configured to ask for
     /// ([`ThreadPriority::Realtime`](super::ThreadPriority::Realtime)).
     pub realtime: bool,
+    /// The bus thread's time slice under the fair scheduler, in ns, as the kernel reports
+    /// it (`sched_getattr(2)`): 100,000 when the thread sleeps between frames
+    /// ([`WaitMode::Poll`](super::WaitMode::Poll)) and the kernel grants custom slices
+    /// (Linux 6.12 and later), the kernel's default slice otherwise; 0 until the thread has
+    /// started, on kernels that report none, and under `SCHED_FIFO`.
+    pub time_slice_ns: u64,
 }
 
 impl BusStatsSnapshot {
@@ -136,6 +144,7 @@ impl BusStats {
             cycle_start_delay: self.cycle_start_delay.snapshot(),
             acyclic_held: self.acyclic_held.get(),
             realtime: self.realtime.load(Ordering::Relaxed),
+            time_slice_ns: self.time_slice_ns.load(Ordering::Relaxed),
         }
     }
 }
