@@ -127,6 +127,21 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
         .gauge(&[("kind", "expected")], f64::from(cycle.expected_wkc))
         .done(),
         Family::new(
+            "ecat_bus_thread_realtime",
+            "1 when the bus thread runs under SCHED_FIFO ([bus] rt_priority, granted), else 0.",
+            MetricType::GAUGE,
+        )
+        .gauge(&[], if s.realtime { 1.0 } else { 0.0 })
+        .done(),
+        Family::new(
+            "ecat_bus_thread_time_slice_seconds",
+            "The bus thread's time slice under the fair scheduler, as the kernel reports it \
+             (0: none reported, or SCHED_FIFO).",
+            MetricType::GAUGE,
+        )
+        .gauge(&[], s.time_slice_ns as f64 * 1e-9)
+        .done(),
+        Family::new(
             "ecat_process_data_image_bytes",
             "Size of the process image.",
             MetricType::GAUGE,
