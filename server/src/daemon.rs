@@ -22,6 +22,7 @@ use crate::{grpc, http, segment};
 pub async fn run(config: Config) -> Result<(), String> {
     config.check()?;
     config.eoe.check()?;
+    crate::scheduling::warn_if_started_realtime();
     // Installed first: a signal at any point of the start-up leads to a clean shutdown.
     let mut signals = Signals::install()?;
     let segment_config = config
@@ -169,6 +170,11 @@ pub async fn run(config: Config) -> Result<(), String> {
             {
                 tracing::error!(%err, "mailbox gateway not started");
             }
+            // The scan ran its frames through the bus thread: it has applied its scheduling.
+            crate::scheduling::warn_if_not_granted(
+                config.bus.rt_priority,
+                core.master().bus().stats().realtime,
+            );
             core.set_ready(true);
             tracing::info!("ready");
             crate::systemd::notify("READY=1");

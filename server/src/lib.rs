@@ -15,6 +15,7 @@ pub mod http;
 pub mod logging;
 pub mod metrics;
 pub mod roles;
+pub mod scheduling;
 pub mod security;
 pub mod segment;
 pub mod service;

@@ -37,7 +37,8 @@
 //! `PERF_VETH_ROWS` (phases to run, comma-separated from `latency,clients,delay,bringup`;
 //! default all), `PERF_VETH_SOAK` (gateway requests of the memory soak, default 1,000,000;
 //! 0 skips it), `PERF_VETH_RT` (`SCHED_FIFO` priority of ecatd's bus thread, default 0: ordinary
-//! scheduling; `deploy/systemd/ecatd.service` gives 50), `PERF_VETH_SIM_SPIN_US`
+//! scheduling; 50 is ecatd as deployed: `deploy/ecatd.toml.example` under
+//! `deploy/systemd/ecatd.service`), `PERF_VETH_SIM_SPIN_US`
 //! (ecat-sim's `--spin-us` in the latency, client and delay phases, default 0),
 //! `PERF_VETH_CONFIG` (TOML given to ecatd, for A/B runs of its settings: say
 //! `$'[gateway]\nworkers = 1'`; the `[bus]` table is the bench's when `PERF_VETH_RT` is set),

@@ -11,8 +11,16 @@
 //! The floor under ecatd's rows of `perf_veth`: an API's p50 there is at least this plus
 //! the direct API's (`docs/performance.md`). `TRANSPORT_FLOOR_COUNT` (default 5000) sets the
 //! timed requests per row. Not part of CI.
+//!
+//! Beside each row, the CPU one request costs each side: the scheduler's run time
+//! (`/proc/self/task/*/schedstat`, exact, not sampled) of the client's thread and of the
+//! server's threads (named `floor-server` and `floor-echo`), system calls and the loopback
+//! stack run in their context included, divided by the requests made (warm-up included).
+//! Under `taskset -c 0` both ends share one CPU, so no wake-up crosses CPUs: the
+//! difference to an unpinned run is what the cross-CPU wake-ups cost.
 
 #[path = "support/latency.rs"]
+#[allow(dead_code)]
 mod latency;
 
 #[path = "support/api_clients.rs"]
@@ -27,10 +35,57 @@ use tonic_health::pb::health_client::HealthClient;
 
 const WIDTH: usize = 58;
 
+/// The name of the servers' runtime threads; the UDP echo's thread is `ECHO_THREAD`.
+const SERVER_THREAD: &str = "floor-server";
+const ECHO_THREAD: &str = "floor-echo";
+
+/// CPU time (ns) run so far by this process's threads: (the clients' side, the servers').
+/// The servers' threads are the ones named `SERVER_THREAD` or `ECHO_THREAD`; every other
+/// thread is the client's (the clients run on this thread; tonic's runtime is
+/// current-thread).
+fn cpu_ns_by_side() -> (u64, u64) {
+    let mut sides = (0, 0);
+    let tasks = std::fs::read_dir("/proc/self/task").expect("/proc/self/task");
+    for task in tasks.flatten() {
+        let comm = std::fs::read_to_string(task.path().join("comm")).unwrap_or_default();
+        let Some(ns) = std::fs::read_to_string(task.path().join("schedstat"))
+            .ok()
+            .and_then(|stat| stat.split_whitespace().next()?.parse::<u64>().ok())
+        else {
+            continue;
+        };
+        match comm.trim() {
+            SERVER_THREAD | ECHO_THREAD => sides.1 += ns,
+            _ => sides.0 += ns,
+        }
+    }
+    sides
+}
+
+/// Times `count` requests made by `op` (`latency::sequential`) and prints the row with
+/// the CPU each request cost the client's side and the server's.
+fn measure(name: &str, count: usize, op: impl FnMut()) {
+    let before = cpu_ns_by_side();
+    let r = latency::sequential(count, op);
+    let after = cpu_ns_by_side();
+    // `sequential` makes a tenth more requests as its warm-up.
+    let requests = (count + count / 10) as f64;
+    let per = |a: u64, b: u64| b.saturating_sub(a) as f64 / requests / 1000.0;
+    println!(
+        "{name:<WIDTH$} {:>10.1} {:>10.1} {:>12.0} {:>10.1} {:>10.1}",
+        r.p50,
+        r.p99,
+        r.per_second,
+        per(before.0, after.0),
+        per(before.1, after.1)
+    );
+}
+
 /// A multi-thread runtime (as ecatd's) serving a bare tonic health service and a bare axum
 /// `/healthz`; returns their addresses. The runtime lives as long as the process.
 fn servers() -> (std::net::SocketAddr, std::net::SocketAddr) {
     let runtime = tokio::runtime::Builder::new_multi_thread()
+        .thread_name(SERVER_THREAD)
         .enable_all()
         .build()
         .expect("runtime");
@@ -66,14 +121,17 @@ fn servers() -> (std::net::SocketAddr, std::net::SocketAddr) {
 fn udp_echo() -> std::net::SocketAddr {
     let socket = UdpSocket::bind("127.0.0.1:0").expect("bind");
     let addr = socket.local_addr().expect("addr");
-    std::thread::spawn(move || {
-        let mut buf = [0u8; 1500];
-        while let Ok((len, from)) = socket.recv_from(&mut buf) {
-            if socket.send_to(&buf[..len], from).is_err() {
-                break;
+    std::thread::Builder::new()
+        .name(ECHO_THREAD.to_owned())
+        .spawn(move || {
+            let mut buf = [0u8; 1500];
+            while let Ok((len, from)) = socket.recv_from(&mut buf) {
+                if socket.send_to(&buf[..len], from).is_err() {
+                    break;
+                }
             }
-        }
-    });
+        })
+        .expect("echo thread");
     addr
 }
 
@@ -85,10 +143,11 @@ fn main() {
     let (grpc, http) = servers();
     let echo = udp_echo();
     println!("one request at a time on loopback, nothing behind the server, {count} per row");
+    println!("CPU: µs of CPU per request on each side (the scheduler's run time of its threads)");
     println!();
     println!(
-        "{:<WIDTH$} {:>10} {:>10} {:>12}",
-        "transport", "p50 µs", "p99 µs", "per second"
+        "{:<WIDTH$} {:>10} {:>10} {:>12} {:>10} {:>10}",
+        "transport", "p50 µs", "p99 µs", "per second", "client CPU", "server CPU"
     );
 
     let client = UdpSocket::bind("127.0.0.1:0").expect("bind");
@@ -97,29 +156,31 @@ fn main() {
         .expect("timeout");
     let request = [0u8; 32];
     let mut reply = [0u8; 1500];
-    let r = latency::sequential(count, || {
+    measure("UDP datagram echo (the gateway's transport)", count, || {
         client.send_to(&request, echo).expect("send");
         assert_eq!(client.recv(&mut reply).expect("echo"), request.len());
     });
-    latency::print("UDP datagram echo (the gateway's transport)", WIDTH, &r);
 
     let agent = ureq::Agent::new_with_defaults();
     let url = format!("http://{http}/healthz");
-    let r = latency::sequential(count, || {
-        let body = agent
-            .get(&url)
-            .call()
-            .expect("GET")
-            .body_mut()
-            .read_to_string()
-            .expect("body");
-        assert_eq!(body, "ok\n");
-    });
-    latency::print("axum GET /healthz, HTTP/1.1 keep-alive, ureq", WIDTH, &r);
+    measure(
+        "axum GET /healthz, HTTP/1.1 keep-alive, ureq",
+        count,
+        || {
+            let body = agent
+                .get(&url)
+                .call()
+                .expect("GET")
+                .body_mut()
+                .read_to_string()
+                .expect("body");
+            assert_eq!(body, "ok\n");
+        },
+    );
 
     let (runtime, channel) = api_clients::grpc_channel(&grpc.to_string());
     let mut health = HealthClient::new(channel);
-    let r = latency::sequential(count, || {
+    measure("tonic grpc.health.v1 Check, HTTP/2, tonic", count, || {
         let status = runtime
             .block_on(health.check(HealthCheckRequest::default()))
             .expect("Check")
@@ -127,5 +188,4 @@ fn main() {
             .status;
         assert_eq!(status, 1, "SERVING");
     });
-    latency::print("tonic grpc.health.v1 Check, HTTP/2, tonic", WIDTH, &r);
 }

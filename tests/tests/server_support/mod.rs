@@ -115,6 +115,28 @@ impl Ecatd {
     /// [`Ecatd::start_with`] that returns as soon as ecatd listens, before its start-up
     /// scan ends (to stop it during the scan).
     pub fn start_listening(segment: &[&str], extra: &[&str]) -> Ecatd {
+        Ecatd::spawn(segment, extra, None)
+    }
+
+    /// [`Ecatd::start_with`] with `setup` run in ecatd's process between fork and exec:
+    /// what a service manager sets before it starts a service (resource limits,
+    /// capabilities, scheduling). `setup` must only make system calls (no allocation, no
+    /// locks: the child of a threaded process).
+    pub fn start_prepared(
+        segment: &[&str],
+        extra: &[&str],
+        setup: Box<dyn FnMut() -> std::io::Result<()> + Send + Sync>,
+    ) -> Ecatd {
+        let mut ecatd = Ecatd::spawn(segment, extra, Some(setup));
+        ecatd.wait_ready(Instant::now() + DEADLINE);
+        ecatd
+    }
+
+    fn spawn(
+        segment: &[&str],
+        extra: &[&str],
+        setup: Option<Box<dyn FnMut() -> std::io::Result<()> + Send + Sync>>,
+    ) -> Ecatd {
         let veth = (on_veth() && segment.first() == Some(&"--simulate")).then(|| {
             let rig = ecat_tests::rig::HostRig::new();
             // `--simulate [TOPOLOGY] [ECAT-SIM OPTIONS]`: options such as `--loss` or
@@ -149,7 +171,14 @@ impl Ecatd {
             } else {
                 &["--gateway-listen", "127.0.0.1:0"]
             };
-        let mut child = Command::new(bin_dir().join("ecatd"))
+        let mut command = Command::new(bin_dir().join("ecatd"));
+        if let Some(setup) = setup {
+            use std::os::unix::process::CommandExt;
+            // SAFETY: the caller's `setup` only makes system calls (its contract above),
+            // which is what may run between fork and exec.
+            unsafe { command.pre_exec(setup) };
+        }
+        let mut child = command
             .args(segment)
             .args(gateway)
             .args([
@@ -336,6 +365,32 @@ impl Ecatd {
     /// Everything ecatd logged so far.
     pub fn log(&self) -> String {
         self.log.lock().unwrap().join("\n")
+    }
+
+    /// The JSON log lines ecatd wrote up to and including the first whose message is
+    /// `message`, once the log reader has seen it (panics at the deadline). Lines are kept
+    /// in the order ecatd wrote them, so what is not among them was not logged before it.
+    pub fn log_until(&self, message: &str) -> Vec<serde_json::Value> {
+        let deadline = Instant::now() + DEADLINE;
+        loop {
+            let lines: Vec<serde_json::Value> = self
+                .log
+                .lock()
+                .unwrap()
+                .iter()
+                .filter_map(|line| serde_json::from_str(line).ok())
+                .collect();
+            if let Some(at) = lines.iter().position(|v| v["fields"]["message"] == message) {
+                return lines[..=at].to_vec();
+            }
+            assert!(
+                Instant::now() < deadline,
+                "ecatd did not log {message:?}:\n{}",
+                self.log()
+            );
+            // Poll interval of the log check; the loop ends on the condition or the deadline.
+            std::thread::sleep(Duration::from_millis(20));
+        }
     }
 
     /// Sends SIGTERM and waits for the exit; returns whether it exited with success.
