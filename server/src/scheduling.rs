@@ -12,30 +12,10 @@
 //! `deploy/systemd/ecatd.service`). Neither finding is changed here, only reported: the
 //! operator chose the scheduling.
 
-/// The real-time policy (`"SCHED_FIFO"` or `"SCHED_RR"`) and priority the calling thread
-/// runs under; `None` under an ordinary policy.
-pub fn realtime_policy() -> Option<(&'static str, i32)> {
-    // SAFETY: sched_getscheduler and sched_getparam on pid 0 (the calling thread) only read
-    // its scheduling; `param` is a local, initialised struct the call fills.
-    let (policy, param) = unsafe {
-        let mut param = libc::sched_param { sched_priority: 0 };
-        let policy = libc::sched_getscheduler(0);
-        if libc::sched_getparam(0, &mut param) != 0 {
-            return None;
-        }
-        (policy, param)
-    };
-    match policy {
-        libc::SCHED_FIFO => Some(("SCHED_FIFO", param.sched_priority)),
-        libc::SCHED_RR => Some(("SCHED_RR", param.sched_priority)),
-        _ => None,
-    }
-}
-
 /// Warns when the calling thread (ecatd's main thread, which every other thread of ecatd
 /// inherits its scheduling from) runs under a real-time policy.
 pub fn warn_if_started_realtime() {
-    if let Some((policy, priority)) = realtime_policy() {
+    if let Some((policy, priority)) = master_core::bus::calling_thread_realtime() {
         tracing::warn!(
             policy,
             priority,
@@ -55,8 +35,8 @@ pub fn warn_if_not_granted(asked: Option<u8>, granted: bool) {
     {
         tracing::warn!(
             asked,
-            "[bus] rt_priority not granted: the bus thread runs under ordinary scheduling; \
-             ecatd needs CAP_SYS_NICE or an RLIMIT_RTPRIO of at least the priority \
+            "[bus] rt_priority not granted: the bus thread keeps the scheduling it inherited \
+             (ordinary, unless ecatd was started real-time); ecatd needs CAP_SYS_NICE or an RLIMIT_RTPRIO of at least the priority \
              (systemd: LimitRTPRIO=)"
         );
     }

@@ -50,6 +50,9 @@
 
 #![allow(missing_docs)]
 
+#[path = "support/thread_cpu.rs"]
+mod thread_cpu;
+
 #[path = "support/latency.rs"]
 #[allow(dead_code)]
 mod latency;
@@ -534,14 +537,11 @@ fn gateway_clients_async(gateway: std::net::SocketAddr, each: usize) -> Row {
     })
 }
 
-/// CPU time (ns) of every live thread of process `pid` (`/proc/PID/task/*/schedstat`).
+/// CPU time (ns) of every live thread of process `pid`.
 fn cpu_ns_of(pid: u32) -> u64 {
-    let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
-        return 0;
-    };
-    tasks
-        .filter_map(|task| std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok())
-        .filter_map(|stat| stat.split_whitespace().next()?.parse::<u64>().ok())
+    thread_cpu::threads(&pid.to_string())
+        .iter()
+        .map(|(_, ns)| ns)
         .sum()
 }
 

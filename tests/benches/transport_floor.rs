@@ -19,6 +19,9 @@
 //! Under `taskset -c 0` both ends share one CPU, so no wake-up crosses CPUs: the
 //! difference to an unpinned run is what the cross-CPU wake-ups cost.
 
+#[path = "support/thread_cpu.rs"]
+mod thread_cpu;
+
 #[path = "support/latency.rs"]
 #[allow(dead_code)]
 mod latency;
@@ -44,22 +47,12 @@ const ECHO_THREAD: &str = "floor-echo";
 /// thread is the client's (the clients run on this thread; tonic's runtime is
 /// current-thread).
 fn cpu_ns_by_side() -> (u64, u64) {
-    let mut sides = (0, 0);
-    let tasks = std::fs::read_dir("/proc/self/task").expect("/proc/self/task");
-    for task in tasks.flatten() {
-        let comm = std::fs::read_to_string(task.path().join("comm")).unwrap_or_default();
-        let Some(ns) = std::fs::read_to_string(task.path().join("schedstat"))
-            .ok()
-            .and_then(|stat| stat.split_whitespace().next()?.parse::<u64>().ok())
-        else {
-            continue;
-        };
-        match comm.trim() {
-            SERVER_THREAD | ECHO_THREAD => sides.1 += ns,
-            _ => sides.0 += ns,
-        }
-    }
-    sides
+    thread_cpu::threads("self")
+        .into_iter()
+        .fold((0, 0), |(client, server), (name, ns)| match name.as_str() {
+            SERVER_THREAD | ECHO_THREAD => (client, server + ns),
+            _ => (client + ns, server),
+        })
 }
 
 /// Times `count` requests made by `op` (`latency::sequential`) and prints the row with

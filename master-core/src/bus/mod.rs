@@ -124,8 +124,8 @@ pub use handle::BusHandle;
 pub(crate) use histogram::Histogram;
 pub use histogram::HistogramSnapshot;
 pub use request::{DatagramRequest, DatagramResponse, WkcCheck};
-pub use sched::ThreadPriority;
 pub(crate) use sched::set_min_timer_slack;
+pub use sched::{ThreadPriority, calling_thread_realtime};
 pub use stats::BusStatsSnapshot;
 
 /// What the handles and the bus thread share.

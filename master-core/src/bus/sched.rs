@@ -118,6 +118,25 @@ pub(crate) fn own_time_slice_ns() -> u64 {
     0
 }
 
+/// The real-time policy (`"SCHED_FIFO"` or `"SCHED_RR"`) and priority the calling thread
+/// runs under; `None` under an ordinary policy (or where the kernel does not say). ecatd
+/// asks it of its main thread, whose scheduling every thread it starts inherits.
+#[cfg(target_os = "linux")]
+pub fn calling_thread_realtime() -> Option<(&'static str, u32)> {
+    let attr = own_attr()?;
+    match attr.policy as i32 {
+        libc::SCHED_FIFO => Some(("SCHED_FIFO", attr.priority)),
+        libc::SCHED_RR => Some(("SCHED_RR", attr.priority)),
+        _ => None,
+    }
+}
+
+/// The real-time policy of the calling thread: none known off Linux.
+#[cfg(not(target_os = "linux"))]
+pub fn calling_thread_realtime() -> Option<(&'static str, u32)> {
+    None
+}
+
 /// The calling thread's scheduling attributes (`sched_getattr(2)`).
 #[cfg(target_os = "linux")]
 fn own_attr() -> Option<SchedAttr> {
@@ -173,8 +192,11 @@ mod tests {
             let before = policy();
             assert!(!apply(ThreadPriority::Inherit, false));
             assert_eq!(policy(), before);
+            assert_eq!(calling_thread_realtime(), None, "an ordinary thread");
             let granted = apply(ThreadPriority::Realtime(10), false);
             assert_eq!(granted, policy() == libc::SCHED_FIFO);
+            let expected = granted.then_some(("SCHED_FIFO", 10));
+            assert_eq!(calling_thread_realtime(), expected);
         });
         spawned.join().unwrap();
     }

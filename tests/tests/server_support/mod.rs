@@ -271,24 +271,14 @@ impl Ecatd {
     /// The address the mailbox gateway serves on, from ecatd's log (it starts before
     /// ecatd reports ready; the log reader may lag a little behind).
     pub fn gateway_addr(&self) -> std::net::SocketAddr {
-        let deadline = Instant::now() + DEADLINE;
-        loop {
-            let found = self.log.lock().unwrap().iter().find_map(|line| {
-                let v: serde_json::Value = serde_json::from_str(line).ok()?;
-                (v["fields"]["message"] == "mailbox gateway serving")
-                    .then(|| v["fields"]["gateway"].as_str()?.parse().ok())?
-            });
-            if let Some(addr) = found {
-                return addr;
-            }
-            assert!(
-                Instant::now() < deadline,
-                "ecatd did not report its gateway:\n{}",
-                self.log()
-            );
-            // Poll interval of the log check; the loop ends on the condition or the deadline.
-            std::thread::sleep(Duration::from_millis(20));
-        }
+        let lines = self.log_until("mailbox gateway serving");
+        let line = lines
+            .last()
+            .expect("log_until returns the line it waited for");
+        line["fields"]["gateway"]
+            .as_str()
+            .and_then(|addr| addr.parse().ok())
+            .unwrap_or_else(|| panic!("no gateway address in {line}"))
     }
 
     /// Raises a CoE emergency on the simulated slave at `position`: through the
