@@ -32,6 +32,7 @@ pub async fn run(config: Config) -> Result<(), String> {
     // Bind first so a taken port fails fast, before the segment is touched.
     let grpc_listener = bind(config.grpc_listen, "gRPC").await?;
     let http_listener = bind(config.http_listen, "HTTP").await?;
+    let app_listener = bind_app(&config)?;
     let tls = config
         .tls
         .as_ref()
@@ -165,6 +166,8 @@ pub async fn run(config: Config) -> Result<(), String> {
             core.master().start_watch(Duration::from_millis(100));
             let eoe = start_eoe(&core, &config, &segment_config);
             let background = (crate::metrics::start(&core, &metrics, &config.watch), eoe);
+            let app =
+                app_listener.and_then(|(listener, safe)| start_app(&core, &config, listener, safe));
             if let Some(settings) = &config.gateway
                 && let Err(err) = start_gateway(&core, settings).await
             {
@@ -178,7 +181,7 @@ pub async fn run(config: Config) -> Result<(), String> {
             core.set_ready(true);
             tracing::info!("ready");
             crate::systemd::notify("READY=1");
-            Some(background)
+            Some((background, app))
         }
     };
     let signal = match signal {
@@ -215,6 +218,14 @@ pub async fn run(config: Config) -> Result<(), String> {
     if let Some(mut gateway) = core.take_gateway() {
         // Stopping joins the gateway's thread: off the async workers.
         let _ = tokio::task::spawn_blocking(move || gateway.stop()).await;
+    }
+    let (background, app) = match background {
+        Some((background, app)) => (Some(background), app),
+        None => (None, None),
+    };
+    if let Some(app) = app {
+        // The owner's outputs go to their safe values before the slaves leave OP.
+        app.stop().await;
     }
     drop(background);
     findings.abort();
@@ -315,6 +326,71 @@ fn start_eoe(
         Ok(manager) => Some(manager),
         Err(err) => {
             tracing::error!(%err, "EoE interfaces not started");
+            None
+        }
+    }
+}
+
+/// Binds the application interface's socket (before the segment is touched, so a taken
+/// socket fails fast) and resolves the configured safe outputs' slaves.
+fn bind_app(
+    config: &Config,
+) -> Result<Option<(crate::app::AppListener, Vec<crate::app::SafeValue>)>, String> {
+    if !config.app.enabled {
+        return Ok(None);
+    }
+    let mut safe = Vec::new();
+    for value in &config.app.safe_output {
+        let address = crate::service::address::parse_slave(&value.slave).map_err(|err| {
+            format!(
+                "[[app.safe_output]] slave {:?}: {}",
+                value.slave, err.message
+            )
+        })?;
+        safe.push(crate::app::SafeValue {
+            address,
+            index: value.index,
+            subindex: value.subindex,
+            value: value.value,
+        });
+    }
+    let path = config.app.socket_path(
+        // SAFETY: getuid has no preconditions.
+        unsafe { libc::getuid() },
+        std::env::var_os("RUNTIME_DIRECTORY"),
+        std::env::var_os("XDG_RUNTIME_DIR"),
+    );
+    Ok(Some((crate::app::bind(&config.app, &path)?, safe)))
+}
+
+/// Starts the application interface over the scanned segment; its events join the event
+/// stream. A failure is logged and ecatd runs on without it.
+fn start_app(
+    core: &Core,
+    config: &Config,
+    listener: crate::app::AppListener,
+    safe: Vec<crate::app::SafeValue>,
+) -> Option<crate::app::AppServer> {
+    match crate::app::AppServer::start(listener, Arc::clone(core.master()), &config.app, safe) {
+        Ok(app) => {
+            core.set_app(app.handle());
+            let mut events = app.events();
+            let core = core.clone();
+            tokio::spawn(async move {
+                loop {
+                    match events.recv().await {
+                        Ok(event) => {
+                            core.publish_event(crate::service::view::EventView::app(&event))
+                        }
+                        Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => continue,
+                        Err(tokio::sync::broadcast::error::RecvError::Closed) => return,
+                    }
+                }
+            });
+            Some(app)
+        }
+        Err(err) => {
+            tracing::error!(%err, "application interface not started");
             None
         }
     }

@@ -3,6 +3,7 @@
 //!
 //! Binaries: `ecatd` (the daemon, `src/main.rs`) and `ecat` (the command-line client).
 
+pub mod app;
 pub mod audit;
 pub mod config;
 pub mod daemon;

@@ -1,5 +1,6 @@
 //! What ecatd `--simulate` can do to its own simulated slaves beyond EtherCAT: raise a CoE
-//! emergency on demand (for end-to-end tests of the event stream and for demonstrations).
+//! emergency on demand (for end-to-end tests of the event stream and for demonstrations),
+//! and read a digital output terminal's physical outputs (what reached the wire's far end).
 //! Only ever built from the in-process simulator; a real segment has none. Without the
 //! `simulate` feature there is no simulator and [`SimHooks`] has no value at all.
 
@@ -11,6 +12,7 @@ pub use none::SimHooks;
 #[cfg(feature = "simulate")]
 mod hooks {
     use sim::device::coe::EmergencyTrigger;
+    use sim::device::dio::OutputProbe;
     use sim::topology::SlaveHandles;
 
     use crate::service::ApiError;
@@ -19,6 +21,7 @@ mod hooks {
     #[derive(Debug, Clone, Default)]
     pub struct SimHooks {
         emergencies: Vec<Option<EmergencyTrigger>>,
+        outputs: Vec<Option<OutputProbe>>,
     }
 
     impl SimHooks {
@@ -26,7 +29,22 @@ mod hooks {
         pub fn new(slaves: &[SlaveHandles]) -> SimHooks {
             SimHooks {
                 emergencies: slaves.iter().map(|h| h.emergencies.clone()).collect(),
+                outputs: slaves.iter().map(|h| h.outputs.clone()).collect(),
             }
+        }
+
+        /// The physical outputs of the simulated digital output terminal at `position`,
+        /// as the last frame left them (what a probe on its terminals would measure).
+        pub fn outputs(&self, position: u16) -> Result<Vec<u8>, ApiError> {
+            self.outputs
+                .get(usize::from(position))
+                .and_then(Option::as_ref)
+                .map(OutputProbe::image)
+                .ok_or_else(|| {
+                    ApiError::invalid(format!(
+                        "simulated slave {position} is not a digital output terminal"
+                    ))
+                })
         }
 
         /// Queues a CoE emergency on the simulated slave at `position`; the master reads it at
@@ -75,6 +93,11 @@ mod none {
             _error_register: u8,
             _data: [u8; 5],
         ) -> Result<(), ApiError> {
+            match *self {}
+        }
+
+        /// Never called: there is no value to call it on.
+        pub fn outputs(&self, _position: u16) -> Result<Vec<u8>, ApiError> {
             match *self {}
         }
     }

@@ -14,7 +14,9 @@ fn default_file_equals_the_built_in() {
     if std::env::var_os("ECATD_BLESS").is_some() {
         let header = "# The built-in simulated segment (sim::topology::Topology::default_segment).\n\
                       # Regenerate: ECATD_BLESS=1 cargo test -p sim --test topology_default\n\
-                      # vendor_id 3758096385 = 0xE0000001, a simulation-only ID (see SIM_VENDOR_ID).\n\n";
+                      # vendor_id 3758096385 = 0xE0000001, a simulation-only ID (see SIM_VENDOR_ID).\n\
+                      # The DI8's inputs are wired to the DO8's outputs (wired_to = 1, a ring\n\
+                      # position); remove the line for free inputs (src/topology/model.rs).\n\n";
         std::fs::write(&path, format!("{header}{}", built_in.to_toml().unwrap())).unwrap();
     }
     let text = std::fs::read_to_string(&path).unwrap();

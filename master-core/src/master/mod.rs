@@ -75,6 +75,7 @@ pub use info::{Identity, ProcessDataInfo, SlaveInfo};
 pub use process_data::coe_layout::CoeLayout;
 pub use process_data::cycle_stats::{CycleStats, CycleTiming};
 pub use process_data::groups::{GroupStats, SlaveGroup};
+pub use process_data::hook::{CompletedCycle, CycleHook, OutgoingImage};
 pub use process_data::layout::{
     LayoutFuture, LayoutSource, PdSyncManager, PdoEntryInfo, PdoInfo, ProcessDataLayout, SiiLayout,
 };

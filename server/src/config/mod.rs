@@ -5,6 +5,7 @@
 //! (`slaves`), `[[group]]` (`groups`), durations (`duration`), and the ENI import that
 //! becomes the same `[bus] cycle` and `[[slave]]` entries (`eni`).
 
+pub mod app;
 pub mod bus;
 pub mod capture;
 pub mod duration;
@@ -106,6 +107,9 @@ pub struct Args {
     /// cycle time and slaves, instead of `[[slave]]` entries.
     #[arg(long, env = "ECATD_ENI", value_name = "FILE")]
     pub eni: Option<PathBuf>,
+    /// The Unix socket control programs attach to (`[app] socket`; docs/application.md).
+    #[arg(long, env = "ECATD_APP_SOCKET", value_name = "PATH")]
+    pub app_socket: Option<PathBuf>,
     /// Print the effective configuration as TOML and exit.
     #[arg(long)]
     pub print_config: bool,
@@ -444,6 +448,8 @@ pub struct Config {
     pub eoe: crate::eoe::config::EoeSettings,
     /// The rolling capture (`[capture]`).
     pub capture: capture::CaptureSettings,
+    /// The application interface (`[app]`, docs/application.md).
+    pub app: app::AppSettings,
     /// The configuration file this came from (SIGHUP reloads its tokens).
     #[serde(skip)]
     pub file: Option<PathBuf>,
@@ -477,6 +483,7 @@ impl Default for Config {
             group: Vec::new(),
             eoe: Default::default(),
             capture: capture::CaptureSettings::default(),
+            app: app::AppSettings::default(),
             file: None,
             eni_unused: Vec::new(),
         }
@@ -558,6 +565,9 @@ impl Config {
         if let Some(eni) = &args.eni {
             config.eni = Some(eni.clone());
         }
+        if let Some(socket) = &args.app_socket {
+            config.app.socket = Some(socket.clone());
+        }
         config.import_eni()?;
         if !(1..=MAX_API_THREADS).contains(&config.api_threads) {
             return Err(format!(
@@ -608,6 +618,7 @@ impl Config {
     pub fn segment_setup(&self) -> Result<SegmentSetup, String> {
         self.bus.check()?;
         self.capture.check()?;
+        self.app.check()?;
         let mut slave_configs = Vec::new();
         let mut pdos = Vec::new();
         let mut addresses = Vec::new();

@@ -1,10 +1,12 @@
 //! The simulator's debug route, registered only when ecatd runs `--simulate`:
 //! `POST /api/v1/slaves/{slave}/sim/emergency` raises a CoE emergency on a simulated slave,
-//! which then arrives on the event streams like one from real hardware. Not part of the
+//! which then arrives on the event streams like one from real hardware;
+//! `GET /api/v1/slaves/{slave}/sim/outputs` reads a simulated digital output terminal's
+//! physical outputs (`{"outputs": "hex"}`), what a probe on its terminals would show. Not part of the
 //! OpenAPI document: it does not exist on a real segment.
 
 use axum::extract::{Path, State};
-use axum::routing::post;
+use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde::Deserialize;
 
@@ -38,6 +40,7 @@ pub fn routes<S: Clone + Send + Sync + 'static>(core: Core, hooks: Option<SimHoo
     };
     Router::new()
         .route("/slaves/{slave}/sim/emergency", post(raise_emergency))
+        .route("/slaves/{slave}/sim/outputs", get(outputs))
         .with_state(SimState { core, hooks })
 }
 
@@ -53,4 +56,21 @@ async fn raise_emergency(
     let position = core.get_slave(&slave)?.position;
     hooks.raise_emergency(position, body.error_code, body.error_register, data)?;
     Ok(Json(Done { ok: true }))
+}
+
+/// A simulated terminal's physical outputs.
+#[derive(Debug, serde::Serialize)]
+pub struct OutputsBody {
+    /// The output bytes, hex.
+    pub outputs: String,
+}
+
+async fn outputs(
+    State(SimState { core, hooks }): State<SimState>,
+    Path(slave): Path<String>,
+) -> Result<Json<OutputsBody>, ApiError> {
+    let position = core.get_slave(&slave)?.position;
+    Ok(Json(OutputsBody {
+        outputs: hex::encode(hooks.outputs(position)?),
+    }))
 }

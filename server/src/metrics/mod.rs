@@ -7,8 +7,9 @@
 //! ESC error counters, read in the background), `events` (events by kind, counted in the
 //! background), `state` (ready and link up), `process` (the process' CPU, memory, files),
 //! `config` (what the segment's configuration found: mismatches and failed start-up commands),
-//! `eoe` (the EoE interfaces).
+//! `eoe` (the EoE interfaces), `app` (the application interface).
 
+mod app;
 mod bus;
 pub mod calls;
 mod capture;
@@ -47,6 +48,7 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     families.extend(store.config.collect());
     families.extend(gateway::collect(core));
     families.extend(capture::collect(core));
+    families.extend(app::collect(core));
     families.extend(process::collect());
     families.into_iter().flatten().collect()
 }

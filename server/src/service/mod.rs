@@ -74,6 +74,8 @@ pub struct Core {
     effective_config: Arc<std::sync::OnceLock<(String, String)>>,
     /// The EoE interfaces ecatd made (empty until their manager runs).
     eoe: crate::eoe::EoeInterfaces,
+    /// The application interface, once it serves.
+    app: Arc<std::sync::OnceLock<crate::app::AppHandle>>,
 }
 
 /// What the gRPC and REST layers give the core for each request: the slave name and the
@@ -96,7 +98,18 @@ impl Core {
             stopping: Arc::new(tokio::sync::watch::Sender::new(false)),
             effective_config: Arc::default(),
             eoe: crate::eoe::EoeInterfaces::default(),
+            app: Arc::default(),
         }
+    }
+
+    /// Hands the core the running application interface, once.
+    pub fn set_app(&self, app: crate::app::AppHandle) {
+        let _ = self.app.set(app);
+    }
+
+    /// The application interface now; `None` when it does not serve.
+    pub fn app_status(&self) -> Option<crate::app::AppStatus> {
+        self.app.get().map(crate::app::AppHandle::status)
     }
 
     /// Records the effective configuration (TOML) and its ENI file, once, at start.
@@ -254,6 +267,16 @@ impl Core {
         self.events
             .get_or_init(|| events::EventHub::start(&self.master))
             .subscribe()
+    }
+
+    /// Publishes `event` on the event stream (events of ecatd's own parts beside the
+    /// master's). Call from within the tokio runtime.
+    pub fn publish_event(&self, event: EventView) {
+        let hub = self
+            .events
+            .get_or_init(|| events::EventHub::start(&self.master));
+        // Nobody listening is fine: the stream is "from now on".
+        let _ = hub.sender().send(event);
     }
 
     /// Reads `len` bytes of ESC registers from `address` for `caller` (the API's

@@ -190,6 +190,16 @@ impl EventView {
         }
     }
 
+    /// An event of the application interface (`app_claimed`, `app_released`,
+    /// `app_watchdog`, `app_layout_changed`).
+    pub fn app(event: &crate::app::AppEvent) -> EventView {
+        EventView {
+            kind: event.kind().into(),
+            text: event.text(),
+            ..EventView::lagged(0)
+        }
+    }
+
     /// The event for a subscriber that fell behind and missed `missed` events.
     pub fn lagged(missed: u64) -> EventView {
         EventView {

@@ -4,6 +4,11 @@
 //! The state lives behind a shared handle ([`OutputProbe`], [`InputDriver`]) because the
 //! device itself is owned by the emulated ESC while a test runs: the test keeps the handle
 //! to look at the "physical" outputs or to drive the inputs.
+//!
+//! An input terminal can also be wired to an output terminal ([`DigitalInputs::wired`]), as
+//! a test bench has its outputs wired back to its inputs: it then reads the output
+//! terminal's shared state itself, so its inputs show what the outputs were last written
+//! at the moment a frame reads them.
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -98,50 +103,124 @@ impl Device for DigitalOutputs {
     }
 }
 
-/// A digital input terminal: reports the input state a test sets.
+/// A digital input terminal: reports the input state a test sets and, when wired to a
+/// [`DigitalOutputs`] terminal (as on a test bench whose outputs are wired back to its
+/// inputs), that terminal's outputs.
+///
+/// On a wired terminal the wire and the [`InputDriver`] act in parallel, like a 24 V input
+/// fed both by an output and by a switch: input *n* is on when output *n* or the driver
+/// says so. The driver therefore still turns inputs on, but cannot turn off an input whose
+/// output is on. This keeps every test that drives inputs working on a wired segment, as
+/// long as it leaves the wired outputs off.
 #[derive(Debug)]
 pub struct DigitalInputs {
-    channels: u16,
-    state: Arc<Mutex<Vec<u8>>>,
+    inputs: InputState,
 }
 
 /// Drives the inputs of a [`DigitalInputs`] from outside the segment.
 #[derive(Debug, Clone)]
 pub struct InputDriver {
+    inputs: InputState,
+}
+
+/// What a [`DigitalInputs`] and its [`InputDriver`]s share.
+#[derive(Debug, Clone)]
+struct InputState {
     channels: u16,
-    state: Arc<Mutex<Vec<u8>>>,
+    /// The inputs set through the driver.
+    driven: Arc<Mutex<Vec<u8>>>,
+    /// The output state of the terminal wired to these inputs: the very `Arc` the
+    /// [`DigitalOutputs`] writes, so the inputs follow its outputs without any copy step
+    /// that could lag a frame behind.
+    wire: Option<Arc<Mutex<Vec<u8>>>>,
+}
+
+impl InputState {
+    /// The bits of image byte `index` that are channels of this terminal (a wider output
+    /// terminal's extra outputs go nowhere).
+    fn mask(&self, index: usize) -> u8 {
+        match usize::from(self.channels).saturating_sub(index * 8) {
+            0 => 0,
+            n if n >= 8 => 0xFF,
+            n => (1u8 << n) - 1,
+        }
+    }
+
+    /// Writes the input image into `out` (as much of it as fits): the driven bits or'ed
+    /// with the wired ones. Runs as every frame passes, so it neither allocates nor holds
+    /// two locks at once.
+    fn fill(&self, out: &mut [u8]) {
+        let n = {
+            let driven = lock(&self.driven);
+            let n = driven.len().min(out.len());
+            out[..n].copy_from_slice(&driven[..n]);
+            n
+        };
+        if let Some(wire) = &self.wire {
+            let wire = lock(wire);
+            for (index, (out, wired)) in out[..n].iter_mut().zip(wire.iter()).enumerate() {
+                *out |= wired & self.mask(index);
+            }
+        }
+    }
+
+    fn input(&self, channel: u16) -> bool {
+        if channel >= self.channels {
+            return false;
+        }
+        let driven = bit(&lock(&self.driven), channel);
+        driven || self.wire.as_ref().is_some_and(|w| bit(&lock(w), channel))
+    }
 }
 
 impl DigitalInputs {
     /// A terminal with `channels` inputs, all off.
     pub fn new(channels: u16) -> Self {
         DigitalInputs {
-            channels,
-            state: Arc::new(Mutex::new(vec![0; usize::from(image_len(channels))])),
+            inputs: InputState {
+                channels,
+                driven: Arc::new(Mutex::new(vec![0; usize::from(image_len(channels))])),
+                wire: None,
+            },
         }
+    }
+
+    /// A terminal with `channels` inputs wired to the outputs `outputs` reads: input *n*
+    /// follows output *n* (see the type's documentation for the driver on top). Channels
+    /// beyond the output terminal's have no wire and stay with the driver.
+    pub fn wired(channels: u16, outputs: &OutputProbe) -> Self {
+        let mut terminal = DigitalInputs::new(channels);
+        terminal.inputs.wire = Some(Arc::clone(&outputs.state));
+        terminal
     }
 
     /// Number of channels.
     pub fn channels(&self) -> u16 {
-        self.channels
+        self.inputs.channels
+    }
+
+    /// Whether the inputs are wired to an output terminal.
+    pub fn is_wired(&self) -> bool {
+        self.inputs.wire.is_some()
     }
 
     /// A handle that sets the inputs while the terminal sits in a segment.
     pub fn driver(&self) -> InputDriver {
         InputDriver {
-            channels: self.channels,
-            state: Arc::clone(&self.state),
+            inputs: self.inputs.clone(),
         }
     }
 }
 
 impl InputDriver {
-    /// Sets input `channel`; a channel the terminal does not have is ignored.
+    /// Sets input `channel` as a switch would; a channel the terminal does not have is
+    /// ignored. On a wired terminal the switch sits in parallel with the wire: switching
+    /// it off leaves the input on while its output is on.
     pub fn set_input(&self, channel: u16, on: bool) {
-        if channel >= self.channels {
+        if channel >= self.inputs.channels {
             return;
         }
-        let mut state = lock(&self.state);
+        let mut state = lock(&self.inputs.driven);
         if let Some(byte) = state.get_mut(usize::from(channel / 8)) {
             let mask = 1u8 << (channel % 8);
             if on {
@@ -152,9 +231,15 @@ impl InputDriver {
         }
     }
 
-    /// Whether input `channel` is on.
+    /// Whether input `channel` is on, as the terminal reports it: driven on, or (on a
+    /// wired terminal) its output on.
     pub fn input(&self, channel: u16) -> bool {
-        channel < self.channels && bit(&lock(&self.state), channel)
+        self.inputs.input(channel)
+    }
+
+    /// Whether the terminal's inputs are wired to an output terminal.
+    pub fn is_wired(&self) -> bool {
+        self.inputs.wire.is_some()
     }
 }
 
@@ -162,14 +247,12 @@ impl Device for DigitalInputs {
     fn process_data_sizes(&self) -> ProcessDataSizes {
         ProcessDataSizes {
             outputs: 0,
-            inputs: image_len(self.channels),
+            inputs: image_len(self.inputs.channels),
         }
     }
 
     fn read_inputs(&mut self, inputs: &mut [u8]) {
-        let state = lock(&self.state);
-        let n = state.len().min(inputs.len());
-        inputs[..n].copy_from_slice(&state[..n]);
+        self.inputs.fill(inputs);
     }
 }
 
@@ -207,5 +290,41 @@ mod tests {
         terminal.read_inputs(&mut image);
         assert_eq!(image, [0]);
         assert!(!driver.input(3));
+        assert!(!terminal.is_wired() && !driver.is_wired());
+    }
+
+    #[test]
+    fn wired_inputs_follow_the_outputs_with_the_driver_in_parallel() {
+        let mut outputs = DigitalOutputs::new(8);
+        let mut inputs = DigitalInputs::wired(8, &outputs.probe());
+        let driver = inputs.driver();
+        assert!(inputs.is_wired() && driver.is_wired());
+        let mut image = [0u8; 1];
+        outputs.outputs_written(&[0b1010_0101]);
+        inputs.read_inputs(&mut image);
+        assert_eq!(image, [0b1010_0101], "the wire, as soon as written");
+        assert!(driver.input(0) && !driver.input(1));
+        // The driver adds inputs; it cannot take away one whose output is on.
+        driver.set_input(1, true);
+        driver.set_input(0, false);
+        inputs.read_inputs(&mut image);
+        assert_eq!(image, [0b1010_0111]);
+        assert!(driver.input(0) && driver.input(1));
+        outputs.outputs_written(&[0]);
+        inputs.read_inputs(&mut image);
+        assert_eq!(image, [0b0000_0010], "the driven input only");
+        assert!(!driver.input(0));
+    }
+
+    #[test]
+    fn a_narrower_input_terminal_takes_only_its_channels_from_the_wire() {
+        let mut outputs = DigitalOutputs::new(16);
+        let mut inputs = DigitalInputs::wired(4, &outputs.probe());
+        assert_eq!(inputs.process_data_sizes().inputs, 1);
+        outputs.outputs_written(&[0xFF, 0xFF]);
+        let mut image = [0u8; 1];
+        inputs.read_inputs(&mut image);
+        assert_eq!(image, [0x0F]);
+        assert!(!inputs.driver().input(4));
     }
 }

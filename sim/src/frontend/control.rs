@@ -5,7 +5,9 @@
 //! - stdout: `ecat-sim: outputs <position> <hex>` each time a digital output terminal's
 //!   physical outputs change (and once for each at start), as the in-process
 //!   `OutputProbe` would show them;
-//! - stdin, one command a line: `input <position> <channel> <0|1>` sets a digital input,
+//! - stdin, one command a line: `input <position> <channel> <0|1>` sets a digital input
+//!   (on a terminal wired to outputs, `wired_to`, in parallel with the wire: 0 leaves an
+//!   input on while its output is on),
 //!   `emergency <position> <code hex> [<error register hex> <5 data bytes hex>]` raises a
 //!   CoE emergency on a slave (without the last two: error register 0, zero bytes),
 //!   `power-cycle <position>` power-cycles a slave before the next frame. Each command is answered `ecat-sim: ok <command>` or

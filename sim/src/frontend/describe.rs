@@ -3,10 +3,10 @@
 use std::fmt::Write as _;
 
 use sim::segment::Segment;
-use sim::topology::{Protocol, Topology};
+use sim::topology::{Application, Protocol, Topology};
 
-/// One line per slave: position, name, identity, mailbox sizes, protocols and the process
-/// data the device exchanges with its current assignment.
+/// One line per slave: position, name, identity, mailbox sizes, protocols, the process
+/// data the device exchanges with its current assignment and where its inputs are wired.
 pub fn slave_lines(topology: &Topology, segment: &Segment) -> Vec<String> {
     topology
         .slaves
@@ -32,6 +32,12 @@ pub fn slave_lines(topology: &Topology, segment: &Segment) -> Vec<String> {
                     ", process data {} bytes out / {} bytes in",
                     sizes.outputs, sizes.inputs
                 );
+            }
+            if let Application::DigitalInputs {
+                wired_to: Some(to), ..
+            } = spec.application
+            {
+                let _ = write!(line, ", inputs wired to slave {to}'s outputs");
             }
             line
         })
@@ -68,5 +74,6 @@ mod tests {
         assert!(lines[0].ends_with("process data 6 bytes out / 6 bytes in"));
         assert!(lines[1].contains("no mailbox"));
         assert!(lines[1].ends_with("1 bytes out / 0 bytes in"));
+        assert!(lines[2].ends_with("0 bytes out / 1 bytes in, inputs wired to slave 1's outputs"));
     }
 }

@@ -69,7 +69,8 @@ pub struct SlaveHandles {
     pub dictionary: Option<SharedDictionary>,
     /// The physical outputs of a digital output terminal.
     pub outputs: Option<OutputProbe>,
-    /// The physical inputs of a digital input terminal.
+    /// The physical inputs of a digital input terminal. On a terminal wired to outputs
+    /// (`wired_to`) it drives the inputs in parallel with the wire.
     pub inputs: Option<InputDriver>,
     /// The FoE file store.
     pub files: Option<FileStore>,
@@ -100,8 +101,14 @@ pub fn build_with_handles(topology: &Topology) -> Result<Built, BuildError> {
     let time = ManualTime::new(0);
     let mut segment = Segment::new(Box::new(time.clone()));
     let mut slaves = Vec::new();
+    let mut outputs = output_terminals(topology);
+    let wires = wires(topology, &outputs)?;
     for (position, spec) in topology.slaves.iter().enumerate() {
-        let (esc, device, handles) = build_slave(position, spec)?;
+        let terminals = Terminals {
+            outputs: outputs[position].take(),
+            wire: wires[position].clone(),
+        };
+        let (esc, device, handles) = build_slave(position, spec, terminals)?;
         segment.push(esc, Box::new(device));
         slaves.push(handles);
     }
@@ -115,7 +122,79 @@ pub fn build_with_handles(topology: &Topology) -> Result<Built, BuildError> {
 /// The built parts of one slave.
 type SlaveParts = (Esc, SlaveDevice, SlaveHandles);
 
-fn build_slave(position: usize, spec: &SlaveSpec) -> Result<SlaveParts, BuildError> {
+/// The digital output terminal of every slave that has one, by position. They are made
+/// before any slave is built because an input terminal wired to one needs its output
+/// state, wherever it sits in the line.
+fn output_terminals(topology: &Topology) -> Vec<Option<DigitalOutputs>> {
+    topology
+        .slaves
+        .iter()
+        .map(|spec| match spec.application {
+            Application::DigitalOutputs { channels } => Some(DigitalOutputs::new(channels)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// For every slave by position, the outputs its digital inputs are wired to (`wired_to`),
+/// after checking that they name an output terminal with enough channels.
+fn wires(
+    topology: &Topology,
+    outputs: &[Option<DigitalOutputs>],
+) -> Result<Vec<Option<OutputProbe>>, BuildError> {
+    topology
+        .slaves
+        .iter()
+        .enumerate()
+        .map(|(position, spec)| {
+            let Application::DigitalInputs {
+                channels,
+                wired_to: Some(to),
+            } = spec.application
+            else {
+                return Ok(None);
+            };
+            let invalid = |reason: String| BuildError::Invalid {
+                position,
+                name: spec.name.clone(),
+                reason: format!("wired_to = {to}: {reason}"),
+            };
+            let target = usize::from(to);
+            let Some(other) = topology.slaves.get(target) else {
+                return Err(invalid(format!(
+                    "no slave at position {to} (the topology has {})",
+                    topology.slaves.len()
+                )));
+            };
+            match &outputs[target] {
+                None => Err(invalid(format!(
+                    "slave {to} ({}) has no digital outputs",
+                    other.name
+                ))),
+                Some(terminal) if terminal.channels() < channels => Err(invalid(format!(
+                    "slave {to} ({}) has {} digital outputs, {channels} inputs need as many",
+                    other.name,
+                    terminal.channels()
+                ))),
+                Some(terminal) => Ok(Some(terminal.probe())),
+            }
+        })
+        .collect()
+}
+
+/// The digital I/O parts made ahead of one slave (see [`output_terminals`] and [`wires`]).
+struct Terminals {
+    /// Its output terminal, if it is a digital output slave.
+    outputs: Option<DigitalOutputs>,
+    /// The outputs its inputs are wired to, if it is a wired digital input slave.
+    wire: Option<OutputProbe>,
+}
+
+fn build_slave(
+    position: usize,
+    spec: &SlaveSpec,
+    terminals: Terminals,
+) -> Result<SlaveParts, BuildError> {
     let invalid = |reason: String| BuildError::Invalid {
         position,
         name: spec.name.clone(),
@@ -202,12 +281,17 @@ fn build_slave(position: usize, spec: &SlaveSpec) -> Result<SlaveParts, BuildErr
             device = device.with_process(Drive::new(dict));
         }
         Application::DigitalOutputs { channels } => {
-            let dio = DigitalOutputs::new(channels);
+            let dio = terminals
+                .outputs
+                .unwrap_or_else(|| DigitalOutputs::new(channels));
             handles.outputs = Some(dio.probe());
             device = device.with_process(dio);
         }
-        Application::DigitalInputs { channels } => {
-            let dio = DigitalInputs::new(channels);
+        Application::DigitalInputs { channels, .. } => {
+            let dio = match &terminals.wire {
+                Some(outputs) => DigitalInputs::wired(channels, outputs),
+                None => DigitalInputs::new(channels),
+            };
             handles.inputs = Some(dio.driver());
             device = device.with_process(dio);
         }

@@ -4,9 +4,21 @@
 //! |---|---|---|---|---|
 //! | 0 | ECATD-SIM Drive | 128/128 | CoE SoE FoE VoE EoE | drive: 0x1600 (0x6040, 0x607A) / 0x1A00 (0x6041, 0x6064); SoE: default IDNs, S-0-0032 with 4 bytes, P-0-0100; FoE `firmware.bin` (1024 bytes); VoE for vendor 0x00001164 |
 //! | 1 | ECATD-SIM DO8 | none | – | 8 digital outputs |
-//! | 2 | ECATD-SIM DI8 | none | – | 8 digital inputs |
+//! | 2 | ECATD-SIM DI8 | none | – | 8 digital inputs, wired to slave 1's outputs (`wired_to = 1`) |
 //! | 3 | ECATD-SIM CoE Store | 128/128 | CoE | none; 0x2000 OCTET_STRING of 4096 bytes |
 //! | 4 | ECATD-SIM EoE Port | 128/128 | EoE | none |
+//!
+//! The DI8's inputs are wired to the DO8's outputs, as on a test bench: input *n* is on
+//! while output *n* is, from the same frame on (the DO8 comes first in the line), and its
+//! [`InputDriver`](crate::device::dio::InputDriver) turns inputs on in parallel with the
+//! wire. A test that needs the DI8 free of the DO8 takes the wire off:
+//!
+//! ```
+//! use sim::topology::{Application, Topology};
+//!
+//! let mut topology = Topology::default_segment();
+//! topology.slaves[2].application = Application::DigitalInputs { channels: 8, wired_to: None };
+//! ```
 
 use std::net::Ipv4Addr;
 
@@ -202,7 +214,12 @@ fn digital_outputs() -> SlaveSpec {
 fn digital_inputs() -> SlaveSpec {
     SlaveSpec {
         serial: 3,
-        application: Application::DigitalInputs { channels: 8 },
+        // Outputs wired back to inputs, as on a test bench: a master (or a test) sees its
+        // own outputs come back without a physical side to drive.
+        application: Application::DigitalInputs {
+            channels: 8,
+            wired_to: Some(1),
+        },
         pdos: vec![PdoSpec {
             index: 0x1A00,
             sm: 0,
@@ -266,7 +283,8 @@ impl Topology {
     /// A segment of `count` slaves for scale tests and benchmarks: the built-in segment's
     /// slaves repeated in order (so every fifth slave is a drive with a mailbox), each with
     /// its own serial number (its position + 1). The EoE devices get no IP address, so that
-    /// no two endpoints answer for the same one.
+    /// no two endpoints answer for the same one. Each repetition's DI8 is wired to the DO8
+    /// of the same repetition.
     pub fn repeated(count: usize) -> Topology {
         let pattern = Topology::default_segment().slaves;
         let slaves = (0..count)
@@ -275,6 +293,12 @@ impl Topology {
                 slave.serial = u32::try_from(position + 1).unwrap_or(u32::MAX);
                 if let Some(eoe) = slave.eoe.as_mut() {
                     eoe.ip = None;
+                }
+                if let Application::DigitalInputs { wired_to, .. } = &mut slave.application {
+                    // The pattern's position, moved to this repetition (a segment too long
+                    // for 16-bit positions goes without the wire rather than failing).
+                    let first = position - position % pattern.len();
+                    *wired_to = wired_to.and_then(|to| u16::try_from(first + usize::from(to)).ok());
                 }
                 slave
             })

@@ -239,6 +239,26 @@ pub enum Application {
     DigitalInputs {
         /// Number of channels.
         channels: u16,
+        /// The ring position of a [`Application::DigitalOutputs`] slave whose outputs are
+        /// wired back to these inputs, as on a test bench: input channel *n* is on whenever
+        /// that slave's output channel *n* is on. Absent: the inputs are free, set only
+        /// through the slave's [`InputDriver`](crate::device::dio::InputDriver).
+        ///
+        /// ```toml
+        /// application = { kind = "digital_inputs", channels = 8, wired_to = 1 }
+        /// ```
+        ///
+        /// The output slave must be in the same topology and have at least `channels`
+        /// outputs; building the topology refuses anything else, naming the input slave and
+        /// `wired_to`. The [`InputDriver`](crate::device::dio::InputDriver) still works on a
+        /// wired slave, in parallel with the wire (an input is on when its output or the
+        /// driver says so; see [`DigitalInputs`](crate::device::dio::DigitalInputs)).
+        ///
+        /// The wire is read as a frame passes the input slave: with the output slave
+        /// before it in the line (a smaller position), an LRW's outputs show in its own
+        /// inputs; with the output slave behind it, one frame later.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        wired_to: Option<u16>,
     },
 }
 

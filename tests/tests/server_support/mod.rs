@@ -316,6 +316,56 @@ impl Ecatd {
         }
     }
 
+    /// Waits until the simulated digital output terminal at `position` shows `expected` on
+    /// its physical outputs: through the `--simulate`-only REST route, or on veth through
+    /// `ecat-sim --control`'s output reports. Panics at the deadline with what it showed.
+    pub fn wait_sim_outputs(&mut self, position: u16, expected: &[u8], patience: Duration) {
+        let want = expected
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect::<String>();
+        if let Some(veth) = &mut self.veth {
+            // The reports come on every change: the newest one about the terminal is its
+            // state now, older ones (kept back by earlier waits) are history.
+            let prefix = format!("ecat-sim: outputs {position} ");
+            let mut now = None;
+            while let Some(line) = veth
+                .sim
+                .wait_line(Duration::ZERO, |l| l.starts_with(&prefix))
+            {
+                now = Some(line);
+            }
+            let deadline = Instant::now() + patience;
+            while now.as_deref().and_then(|l| l.strip_prefix(&prefix)) != Some(want.as_str()) {
+                let left = deadline.saturating_duration_since(Instant::now());
+                now = Some(
+                    veth.sim
+                        .wait_line(left, |l| l.starts_with(&prefix))
+                        .unwrap_or_else(|| {
+                            panic!("slave {position}'s outputs are {now:?}, not {want}")
+                        }),
+                );
+            }
+            return;
+        }
+        let deadline = Instant::now() + patience;
+        let url = format!("{}/api/v1/slaves/{position}/sim/outputs", self.http);
+        loop {
+            let (status, body) = curl(&["-s", &url]);
+            assert_eq!(status, 200, "{body}");
+            let shown: serde_json::Value = serde_json::from_str(&body).expect("JSON");
+            if shown["outputs"] == want.as_str() {
+                return;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "slave {position}'s outputs are {shown}, not {want}"
+            );
+            // Poll interval of the outputs check; the loop ends on the value or the deadline.
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
     /// On veth ([`on_veth`]): takes the simulator's end of the veth pair down (`up` false)
     /// or up again, as a cut cable would, with `ip link set` in the simulator's namespace.
     pub fn set_sim_link(&self, up: bool) {

@@ -6,7 +6,7 @@ use std::sync::{Arc, PoisonError};
 use std::time::Duration;
 
 use crate::master::{
-    CycleStats, CycleTiming, GroupStats, ImageSnapshot, Master, MasterError, PdEntry,
+    CycleHook, CycleStats, CycleTiming, GroupStats, ImageSnapshot, Master, MasterError, PdEntry,
     PdoAssignment, ProcessDataLayout, SlaveAddress, SlaveGroup,
 };
 
@@ -248,6 +248,25 @@ impl Master {
         let mut snapshot = ImageSnapshot::default();
         self.ctx.image.snapshot_into(&mut snapshot);
         snapshot
+    }
+
+    /// Installs `hook` to run on the bus thread around every cycle (`None` removes it): a
+    /// control program's cycle in this process, or ecatd's shared image for programs in
+    /// others. One hook at a time; a new one replaces the last from the next cycle on.
+    pub fn set_cycle_hook(&self, hook: Option<Arc<dyn CycleHook>>) {
+        self.ctx.image.set_hook(hook);
+    }
+
+    /// Counts the image's layouts: it changes whenever a scan lays the image out again
+    /// (see [`OutgoingImage::layout`](crate::master::OutgoingImage::layout)).
+    pub fn layout_count(&self) -> u64 {
+        self.ctx.image.layout()
+    }
+
+    /// Whether a scan (or the watch's repair of a slave) is under way: the layout may be
+    /// between two states until it ends.
+    pub fn topology_busy(&self) -> bool {
+        self.ctx.topology.try_lock().is_err()
     }
 
     /// [`Master::snapshot`] into an existing snapshot, reusing its buffers (no allocation

@@ -31,6 +31,7 @@ use crate::wire::register::dc::read_time;
 
 use super::bits::copy_bits;
 use super::cycle_stats::{CycleCounters, CycleStats};
+use super::hook::{CompletedCycle, CycleHook, OutgoingImage};
 use super::pd_entry::{ImageSnapshot, PdEntry};
 use super::wkc_blame::blame;
 
@@ -100,7 +101,7 @@ impl GroupSlot {
     }
 }
 
-#[derive(Debug, Default)]
+#[derive(Default)]
 struct Buffers {
     /// What is sent: the outputs (input ranges are sent as whatever they hold).
     outputs: Vec<u8>,
@@ -132,6 +133,22 @@ struct Buffers {
     groups: Vec<GroupSlot>,
     /// The groups asked for (applied at the next scan).
     definitions: Vec<super::groups::SlaveGroup>,
+    /// Layouts made so far (see [`OutgoingImage::layout`]).
+    layout: u64,
+    /// Runs at every cycle beside the image (a control program's).
+    hook: Option<Arc<dyn CycleHook>>,
+}
+
+impl std::fmt::Debug for Buffers {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Buffers")
+            .field("image_len", &self.outputs.len())
+            .field("cycle", &self.cycle)
+            .field("layout", &self.layout)
+            .field("groups", &self.groups)
+            .field("hook", &self.hook.is_some())
+            .finish_non_exhaustive()
+    }
 }
 
 impl Buffers {
@@ -165,6 +182,17 @@ impl Image {
             .fold(0u16, |sum, g| sum.saturating_add(g.expected_wkc));
         b.last_wkc = 0;
         b.groups = groups;
+        b.layout += 1;
+    }
+
+    /// Installs (or, with `None`, removes) the hook run at every cycle.
+    pub fn set_hook(&self, hook: Option<Arc<dyn CycleHook>>) {
+        self.lock().hook = hook;
+    }
+
+    /// Layouts made so far.
+    pub fn layout(&self) -> u64 {
+        self.lock().layout
     }
 
     /// The groups' shares as laid out at the last scan.
@@ -419,6 +447,13 @@ impl CyclicTask for ProcessCycle {
         // A failure leaves the datagram out: the image size was checked against the frame
         // when the layout was made.
         let b = &mut *b;
+        if let Some(hook) = &b.hook {
+            hook.before_send(&mut OutgoingImage {
+                layout: b.layout,
+                cycle: b.cycle,
+                outputs: &mut b.outputs,
+            });
+        }
         for (index, group) in b.groups.iter_mut().enumerate() {
             if group.len == 0 || !tick.is_multiple_of(group.every(self.period)) {
                 continue;
@@ -529,6 +564,18 @@ impl CyclicTask for ProcessCycle {
             }
             blame(cycle_shares, status_stations, deficit, wkc_errors);
             b.cycle += 1;
+            if let Some(hook) = &b.hook
+                && !self.pd_at.is_empty()
+            {
+                hook.after_receive(&CompletedCycle {
+                    layout: b.layout,
+                    cycle: b.cycle,
+                    inputs: &b.inputs,
+                    outputs: &b.outputs,
+                    wkc: b.last_wkc,
+                    expected_wkc: b.expected_wkc,
+                });
+            }
         }
         let counters = &self.image.counters;
         counters.round_trip.record(reply.round_trip());
