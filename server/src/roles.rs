@@ -58,6 +58,7 @@ pub const REST: &[(&str, &str, Access)] = &[
     ("POST", "/api/v1/rescan", Write),
     ("GET", "/api/v1/events", Read),
     ("GET", "/api/v1/bus", Read),
+    ("GET", "/api/v1/process-data/layout", Read),
     ("GET", "/api/v1/session", Read),
     // Read, but a read over a mailbox SyncManager area needs a write token (service layer).
     ("GET", "/api/v1/slaves/{slave}/registers/{address}", Read),

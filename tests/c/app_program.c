@@ -16,7 +16,11 @@
  * - `monitor N`: read-only, reports the cycle numbers of N waits;
  * - `soak SECONDS`: claims and commits every cycle for that long, counting the cycles it
  *   missed and the commits the frames did not carry;
- * - `layout`: waits until the layout changes.
+ * - `layout`: waits until the layout changes;
+ * - `bench SECONDS`: the loop of the `app_cycle` benchmark (see the Rust program): every
+ *   cycle reads the DI8, writes the DO8 (low nibble: the commit's tag, high nibble: the
+ *   DI8's high nibble plus one) and commits; reports the wake-up latency, the turnaround
+ *   of each commit in cycles, the commits no frame carried and the missed cycles.
  *
  * On an error it prints {"error": "<message>"} (worded as the Rust client's Display of that
  * error) and exits 1.
@@ -410,6 +414,121 @@ out:
     return result;
 }
 
+static uint64_t monotonic_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
+}
+
+static int compare_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The sample at quantile `q` of the sorted `samples` (0 when there are none). */
+static uint64_t quantile(const uint64_t *samples, size_t n, double q)
+{
+    return n == 0 ? 0 : samples[(size_t)((double)(n - 1) * q)];
+}
+
+/* Commits not yet seen on the wire, oldest first: at most this many. */
+#define PENDING 8
+
+static int bench(const char *path, uint64_t seconds)
+{
+    const ecat_app_entry *outputs[8], *inputs[8];
+    char err[1024];
+    uint64_t period_ns, first, last, cycle, missed = 0, commits = 0, replaced = 0;
+    uint64_t unstamped = 0, turnaround[4] = {0, 0, 0, 0};
+    uint64_t pending_commit[PENDING], pending_cycle[PENDING];
+    uint64_t *wakes = NULL;
+    size_t capacity, count = 0, pending = 0, i;
+    double end;
+    int bit, result = -1;
+    ecat_app *app = attach(path, 0);
+    if (app == NULL)
+        return -1;
+    for (bit = 0; bit < 8; bit++)
+        FIND(outputs[bit], app, 1, 0x7000, (uint8_t)(bit + 1));
+    for (bit = 0; bit < 8; bit++)
+        FIND(inputs[bit], app, 2, 0x6000, (uint8_t)(bit + 1));
+    TRY(app, ecat_app_claim(app, err, sizeof err));
+    period_ns = ecat_app_period_ns(app);
+    if (period_ns == 0)
+        period_ns = 1;
+    capacity = (size_t)(seconds * 1000000000u / period_ns) + 4096;
+    wakes = malloc(capacity * sizeof *wakes);
+    if (wakes == NULL) {
+        fail("out of memory");
+        goto out;
+    }
+    WAIT_INTO(app, first, WAIT_MS);
+    last = first;
+    end = now_s() + (double)seconds;
+    while (now_s() < end) {
+        uint64_t now, published;
+        uint8_t seen = 0, value;
+        WAIT_INTO(app, cycle, WAIT_MS);
+        now = monotonic_ns();
+        published = ecat_app_published_ns(app);
+        if (published == 0)
+            unstamped++;
+        else if (count < capacity)
+            wakes[count++] = now > published ? now - published : 0;
+        missed += cycle - last - 1;
+        last = cycle;
+        for (bit = 0; bit < 8; bit++)
+            seen |= (uint8_t)(((uint8_t)ecat_app_read(app, inputs[bit]) & 1u) << bit);
+        /* The commit this cycle's frame carried: its tag is on the DI8's low nibble. */
+        for (i = 0; i < pending; i++) {
+            if ((pending_commit[i] & 0xFu) == (uint64_t)(seen & 0xFu)) {
+                uint64_t cycles = cycle - pending_cycle[i];
+                size_t rest = pending - i - 1;
+                replaced += i;
+                turnaround[cycles < 1 ? 0 : cycles > 4 ? 3 : cycles - 1]++;
+                memmove(pending_commit, pending_commit + i + 1, rest * sizeof *pending_commit);
+                memmove(pending_cycle, pending_cycle + i + 1, rest * sizeof *pending_cycle);
+                pending = rest;
+                break;
+            }
+        }
+        commits++;
+        value = (uint8_t)((((seen >> 4) + 1u) & 0xFu) << 4 | (commits & 0xFu));
+        for (bit = 0; bit < 8; bit++)
+            TRY(app, ecat_app_write(app, outputs[bit], (value >> bit) & 1));
+        TRY(app, ecat_app_commit(app));
+        if (pending == PENDING) {
+            /* Eight commits without one on the wire: the oldest will never be told apart. */
+            memmove(pending_commit, pending_commit + 1, (PENDING - 1) * sizeof *pending_commit);
+            memmove(pending_cycle, pending_cycle + 1, (PENDING - 1) * sizeof *pending_cycle);
+            pending--;
+            replaced++;
+        }
+        pending_commit[pending] = commits;
+        pending_cycle[pending] = cycle;
+        pending++;
+    }
+    qsort(wakes, count, sizeof *wakes, compare_u64);
+    printf("{\"client\": \"c\", \"period_ns\": %" PRIu64 ", \"seconds\": %" PRIu64
+           ", \"cycles\": %" PRIu64 ", \"waits\": %" PRIu64 ", \"missed\": %" PRIu64
+           ", \"commits\": %" PRIu64 ", \"turnaround\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64
+           ", %" PRIu64 "], \"replaced\": %" PRIu64 ", \"unseen\": %zu, \"unstamped\": %" PRIu64
+           ", \"wake_p50_ns\": %" PRIu64 ", \"wake_p99_ns\": %" PRIu64
+           ", \"wake_max_ns\": %" PRIu64 "}",
+           period_ns, seconds, last - first, (uint64_t)count + unstamped, missed, commits,
+           turnaround[0], turnaround[1], turnaround[2], turnaround[3], replaced, pending,
+           unstamped, quantile(wakes, count, 0.50), quantile(wakes, count, 0.99),
+           count > 0 ? wakes[count - 1] : 0);
+    end_line();
+    result = 0;
+out:
+    free(wakes);
+    ecat_app_close(app);
+    return result;
+}
+
 /* --- main ----------------------------------------------------------------------------- */
 
 /* As Rust's str::parse::<u64>().ok(): an optional '+' then ASCII digits, at most
@@ -459,6 +578,8 @@ int main(int argc, char **argv)
         rc = soak(path, has_arg ? arg : 60);
     } else if (strcmp(scenario, "layout") == 0) {
         rc = layout(path);
+    } else if (strcmp(scenario, "bench") == 0) {
+        rc = bench(path, has_arg ? arg : 10);
     } else {
         fprintf(stderr, "unknown scenario %s\n", scenario);
         return 2;

@@ -13,13 +13,18 @@ lines on stdout), so one test body in tests/tests/app.rs checks all three librar
 - ``monitor N``: read-only, reports the cycle numbers of N waits;
 - ``soak SECONDS``: claims and commits every cycle for that long, counting the cycles it
   missed and the commits the frames did not carry;
-- ``layout``: waits until the layout changes.
+- ``layout``: waits until the layout changes;
+- ``bench SECONDS``: the loop of the ``app_cycle`` benchmark (see the Rust program):
+  every cycle reads the DI8, writes the DO8 (low nibble: the commit's tag, high nibble:
+  the DI8's high nibble plus one) and commits; reports the wake-up latency, the
+  turnaround of each commit in cycles, the commits no frame carried and the missed cycles.
 
 On an error it prints ``{"error": "<message>"}`` (the message worded as the Rust client's
 Display of that error) and exits 1. Standard library only; run with
 PYTHONPATH=clients/python.
 """
 
+import collections
 import json
 import re
 import signal
@@ -90,6 +95,7 @@ def main(argv):
         "monitor": lambda: monitor(socket_path, 100 if arg is None else arg),
         "soak": lambda: soak(socket_path, 60 if arg is None else arg),
         "layout": lambda: layout(socket_path),
+        "bench": lambda: bench(socket_path, 10 if arg is None else arg),
     }
     run = scenarios.get(scenario)
     if run is None:
@@ -243,6 +249,79 @@ def layout(socket_path):
         except ecat_app.LayoutChanged as changed:
             emit({"layout_changed": changed.generation, "was": generation})
             return
+
+
+def quantile(samples, q):
+    """The sample at quantile ``q`` of the sorted ``samples`` (0 when there are none)."""
+    if not samples:
+        return 0
+    return samples[int((len(samples) - 1) * q)]
+
+
+def bench(socket_path, seconds):
+    app = ecat_app.connect(socket_path, read_only=False)
+    outputs = [app.entry(1, 0x7000, ch) for ch in range(1, 9)]
+    inputs = [app.entry(2, 0x6000, ch) for ch in range(1, 9)]
+    app.claim()
+    period_ns = max(1, round(app.period * 1e9))
+    clock = time.clock_gettime_ns
+    monotonic = time.CLOCK_MONOTONIC
+    wakes = []
+    pending = collections.deque()  # (commit number, cycle it was computed in)
+    turnaround = [0, 0, 0, 0]
+    replaced = missed = commits = unstamped = 0
+    first = app.wait(WAIT)
+    last = first
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        cycle = app.wait(WAIT)
+        now = clock(monotonic)
+        published = app.published_ns
+        if published:
+            wakes.append(now - published)
+        else:
+            unstamped += 1
+        missed += cycle - last - 1
+        last = cycle
+        seen = 0
+        for bit, input_ in enumerate(inputs):
+            seen |= (read(app, input_) & 1) << bit
+        # The commit this cycle's frame carried: its tag is on the DI8's low nibble.
+        tag = seen & 0xF
+        for at, (number, made) in enumerate(pending):
+            if number & 0xF == tag:
+                replaced += at
+                turnaround[min(max(cycle - made, 1), 4) - 1] += 1
+                for _ in range(at + 1):
+                    pending.popleft()
+                break
+        commits += 1
+        value = ((((seen >> 4) + 1) & 0xF) << 4) | (commits & 0xF)
+        for bit, output in enumerate(outputs):
+            write(app, output, (value >> bit) & 1)
+        app.commit()
+        pending.append((commits, cycle))
+        if len(pending) > 8:
+            # Eight commits without one on the wire: the oldest will never be told apart.
+            pending.popleft()
+            replaced += 1
+    wakes.sort()
+    emit({
+        "client": "python",
+        "period_ns": period_ns,
+        "seconds": seconds,
+        "cycles": last - first,
+        "waits": len(wakes) + unstamped,
+        "missed": missed,
+        "commits": commits,
+        "turnaround": turnaround,
+        "replaced": replaced,
+        "unseen": len(pending),
+        "unstamped": unstamped,
+        "wake_p50_ns": quantile(wakes, 0.50),
+        "wake_p99_ns": quantile(wakes, 0.99),
+        "wake_max_ns": wakes[-1] if wakes else 0,
+    })
 
 
 if __name__ == "__main__":

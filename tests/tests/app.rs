@@ -189,11 +189,21 @@ fn socket_path(name: &str) -> PathBuf {
     dir.join("app.sock")
 }
 
-/// ecatd with the application interface on `socket` and `extra` flags.
-fn ecatd(socket: &Path, extra: &[&str]) -> Ecatd {
-    let mut args = vec!["--app-socket", socket.to_str().expect("UTF-8 path")];
-    args.extend_from_slice(extra);
-    Ecatd::start(&args)
+/// The watchdog of the tests that do not test it: a second, so that a control program
+/// starved of CPU by the tests running beside it keeps its outputs.
+const PATIENT: &str = "watchdog = 1000";
+
+/// ecatd with the application interface on `socket`, `[app]` keys `app`, and the rest of
+/// its configuration `rest` (TOML).
+fn ecatd(socket: &Path, app: &str, rest: &str) -> Ecatd {
+    let config = socket.with_file_name("ecatd.toml");
+    std::fs::write(&config, format!("[app]\n{app}\n{rest}")).expect("config");
+    Ecatd::start(&[
+        "--app-socket",
+        socket.to_str().expect("UTF-8 path"),
+        "--config",
+        config.to_str().expect("UTF-8 path"),
+    ])
 }
 
 /// ecatd's log lines with message `message`.
@@ -209,7 +219,7 @@ fn events_since(ecatd: &Ecatd, kind: &str) -> Vec<Value> {
 #[test]
 fn every_client_enables_the_drive_and_reads_its_position_back() {
     let socket = socket_path("drive");
-    let _ecatd = ecatd(&socket, &[]);
+    let _ecatd = ecatd(&socket, PATIENT, "");
     for client in CLIENTS {
         let result = run(client, &socket, "drive", None);
         assert_eq!(result.len(), 1, "{result:?}");
@@ -225,7 +235,7 @@ fn every_client_enables_the_drive_and_reads_its_position_back() {
 #[test]
 fn every_client_reads_its_do8_outputs_back_on_di8_within_two_cycles() {
     let socket = socket_path("mirror");
-    let _ecatd = ecatd(&socket, &[]);
+    let _ecatd = ecatd(&socket, PATIENT, "");
     for client in CLIENTS {
         let result = run(client, &socket, "mirror", None);
         assert_eq!(result[0]["patterns"], 8, "{client:?}");
@@ -237,7 +247,7 @@ fn every_client_reads_its_do8_outputs_back_on_di8_within_two_cycles() {
 #[test]
 fn a_second_claim_is_refused_naming_the_owner_and_monitors_see_the_same_cycles() {
     let socket = socket_path("claim");
-    let mut ecatd = ecatd(&socket, &[]);
+    let mut ecatd = ecatd(&socket, PATIENT, "");
     let owner = Running::start(Client::Rust, &socket, "hold", None);
     assert_eq!(owner.next()["claimed"], true);
     ecatd.wait_sim_outputs(1, &[0x01], PATIENCE);
@@ -282,14 +292,12 @@ fn a_second_claim_is_refused_naming_the_owner_and_monitors_see_the_same_cycles()
 #[test]
 fn killing_the_owner_puts_the_safe_outputs_on_the_wire_and_says_so() {
     let socket = socket_path("kill");
-    let config = socket.with_file_name("ecatd.toml");
     // Channel 2 of the DO8 is safe on; everything else safe off.
-    std::fs::write(
-        &config,
+    let mut ecatd = ecatd(
+        &socket,
+        PATIENT,
         "[[app.safe_output]]\nslave = \"pos:1\"\nindex = 0x7000\nsubindex = 2\nvalue = 1\n",
-    )
-    .expect("config");
-    let mut ecatd = ecatd(&socket, &["--config", config.to_str().unwrap()]);
+    );
     for client in CLIENTS {
         let owner = Running::start(client, &socket, "hold", None);
         assert_eq!(owner.next()["claimed"], true, "{client:?}");
@@ -318,7 +326,9 @@ fn killing_the_owner_puts_the_safe_outputs_on_the_wire_and_says_so() {
 #[test]
 fn an_owner_that_stops_committing_is_tripped_by_the_watchdog() {
     let socket = socket_path("watchdog");
-    let mut ecatd = ecatd(&socket, &[]);
+    // Long enough that a program slowed by the tests beside it is not tripped before the
+    // test stops it (the exact count is checked in server/src/app/cycle.rs).
+    let mut ecatd = ecatd(&socket, "watchdog = 50", "");
     let owner = Running::start(Client::Rust, &socket, "hold", None);
     assert_eq!(owner.next()["claimed"], true);
     ecatd.wait_sim_outputs(1, &[0x01], PATIENCE);
@@ -326,7 +336,7 @@ fn an_owner_that_stops_committing_is_tripped_by_the_watchdog() {
     owner.signal(libc::SIGSTOP);
     ecatd.wait_sim_outputs(1, &[0x00], PATIENCE);
     let trip = ecatd.log_until("application watchdog: no commit; safe outputs");
-    assert_eq!(trip.last().unwrap()["fields"]["cycles"], 10);
+    assert_eq!(trip.last().unwrap()["fields"]["cycles"], 50);
     owner.signal(libc::SIGCONT);
     // Its next wait fails: it no longer owns the outputs.
     let told = owner.next();
@@ -361,10 +371,51 @@ fn rest(ecatd: &Ecatd, method: &str, path: &str, body: &str) {
     assert_eq!(status, 200, "{method} {path}: {answer}");
 }
 
+/// `GET`s a REST path of `ecatd` as JSON; the answer must be 200.
+fn get(ecatd: &Ecatd, path: &str) -> Value {
+    let (status, body) = curl(&["-s", &format!("{}/api/v1{path}", ecatd.http)]);
+    assert_eq!(status, 200, "GET {path}: {body}");
+    serde_json::from_str(&body).expect("JSON")
+}
+
+#[test]
+fn the_layout_over_rest_is_the_one_programs_attach_to() {
+    let socket = socket_path("rest-layout");
+    let ecatd = ecatd(&socket, PATIENT, "");
+    let layout = get(&ecatd, "/process-data/layout");
+    assert_eq!(layout["generation"], 1);
+    assert_eq!(layout["period_ns"], 1_000_000);
+    let entries = layout["entries"].as_array().expect("entries");
+    let find = |slave: u64, index: u64, subindex: u64| {
+        entries
+            .iter()
+            .find(|e| e["slave"] == slave && e["index"] == index && e["subindex"] == subindex)
+            .unwrap_or_else(|| panic!("no {slave} {index:#x}:{subindex} in {layout}"))
+    };
+    let control = find(0, 0x6040, 0);
+    assert_eq!(control["direction"], "out");
+    assert_eq!(control["type"], "UNSIGNED16");
+    assert_eq!(control["bit_length"], 16);
+    assert_eq!(control["name"], "Controlword");
+    assert_eq!(find(0, 0x6064, 0)["type"], "INTEGER32");
+    assert_eq!(find(0, 0x6064, 0)["direction"], "in");
+    // The DO8's channels are eight consecutive bits; the drive's statusword, as the
+    // program reads it, is where the layout says (the drive scenario found it there).
+    let first = find(1, 0x7000, 1)["bit_offset"].as_u64().unwrap();
+    for channel in 1..=8u64 {
+        let e = find(1, 0x7000, channel);
+        assert_eq!(e["bit_offset"].as_u64(), Some(first + channel - 1));
+        assert_eq!(e["bit_length"], 1);
+        assert_eq!(e["station"], 1002);
+    }
+    let drive = run(Client::Rust, &socket, "drive", None);
+    assert_eq!(drive[0]["actual"], 123_456);
+}
+
 #[test]
 fn a_rescan_keeps_the_owner_when_the_layout_stays_and_a_new_layout_is_reported() {
     let socket = socket_path("layout");
-    let mut ecatd = ecatd(&socket, &[]);
+    let mut ecatd = ecatd(&socket, PATIENT, "");
     let owner = Running::start(Client::Rust, &socket, "hold", None);
     assert_eq!(owner.next()["claimed"], true);
     let watcher = Running::start(Client::Rust, &socket, "layout", None);
@@ -401,6 +452,16 @@ fn a_rescan_keeps_the_owner_when_the_layout_stays_and_a_new_layout_is_reported()
         "{told}"
     );
     ecatd.wait_sim_outputs(1, &[0x00], PATIENCE);
+    let layout = get(&ecatd, "/process-data/layout");
+    assert_eq!(layout["generation"], 2);
+    assert!(
+        !layout["entries"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|e| e["index"] == 0x6041),
+        "{layout}"
+    );
     // A program attaching now gets the new layout: the drive maps no inputs any more.
     let again = run_failing(Client::Rust, &socket, "drive", None);
     assert!(
@@ -415,9 +476,8 @@ fn a_rescan_keeps_the_owner_when_the_layout_stays_and_a_new_layout_is_reported()
 fn the_rust_client_owns_a_1khz_cycle_for_a_minute_and_every_commit_reaches_a_frame() {
     // As deployed (docs/deployment.md): the bus thread real-time; the control program too.
     let socket = socket_path("soak");
-    let config = socket.with_file_name("ecatd.toml");
-    std::fs::write(&config, "[bus]\ncycle = \"1ms\"\nrt_priority = 50\n").expect("config");
-    let _ecatd = ecatd(&socket, &["--config", config.to_str().unwrap()]);
+    // The default watchdog (10 cycles): the program keeps it for the whole run.
+    let _ecatd = ecatd(&socket, "", "[bus]\ncycle = \"1ms\"\nrt_priority = 50\n");
     let seconds = if server_support::on_veth() { 60 } else { 10 };
     let mut command = program(Client::Rust, &socket, "soak", Some(seconds));
     {
@@ -455,7 +515,7 @@ fn the_rust_client_owns_a_1khz_cycle_for_a_minute_and_every_commit_reaches_a_fra
 #[test]
 fn ecatd_restarting_ends_the_wait_and_a_program_attaches_again() {
     let socket = socket_path("restart");
-    let mut first = ecatd(&socket, &[]);
+    let mut first = ecatd(&socket, PATIENT, "");
     let owner = Running::start(Client::Rust, &socket, "hold", None);
     assert_eq!(owner.next()["claimed"], true);
     assert!(first.stop(), "ecatd stops cleanly");
@@ -465,7 +525,7 @@ fn ecatd_restarting_ends_the_wait_and_a_program_attaches_again() {
         "{told}"
     );
     assert!(!socket.exists(), "the socket file is removed at shutdown");
-    let _second = ecatd(&socket, &[]);
+    let _second = ecatd(&socket, PATIENT, "");
     let again = run(Client::Rust, &socket, "mirror", None);
     assert_eq!(again[0]["patterns"], 8);
 }
@@ -495,9 +555,7 @@ fn converse(socket: &Path, send: &[u8], lines: usize) -> Vec<String> {
 #[test]
 fn malformed_and_hostile_requests_get_a_clear_error_and_change_nothing() {
     let socket = socket_path("hostile");
-    let config = socket.with_file_name("ecatd.toml");
-    std::fs::write(&config, "[app]\nmax_clients = 3\n").expect("config");
-    let mut ecatd = ecatd(&socket, &["--config", config.to_str().unwrap()]);
+    let mut ecatd = ecatd(&socket, "watchdog = 1000\nmax_clients = 3", "");
     let owner = Running::start(Client::Rust, &socket, "hold", None);
     assert_eq!(owner.next()["claimed"], true);
     let cases: [(&[u8], &str); 6] = [
@@ -544,7 +602,7 @@ fn malformed_and_hostile_requests_get_a_clear_error_and_change_nothing() {
 #[test]
 fn a_user_the_socket_mode_leaves_out_cannot_attach() {
     let socket = socket_path("mode");
-    let _ecatd = ecatd(&socket, &[]);
+    let _ecatd = ecatd(&socket, PATIENT, "");
     use std::os::unix::fs::PermissionsExt;
     let mode = std::fs::metadata(&socket)
         .expect("socket")

@@ -32,6 +32,7 @@ use tokio::task::JoinHandle;
 use crate::config::app::{AppSettings, OnWatchdog};
 
 pub use layout::SafeValue;
+pub use layout::entries as layout_entries;
 
 /// How often the layout is looked at besides the bus thread's notices (a scan in progress
 /// postpones the look).

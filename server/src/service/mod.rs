@@ -18,6 +18,7 @@ pub mod gateway;
 pub mod ip;
 pub mod log_filter;
 pub mod master_view;
+pub mod process_data;
 pub mod read_effects;
 pub mod rolling;
 mod sii_checksum;

@@ -15,8 +15,19 @@
 //! - `soak SECONDS`: claims and commits every cycle for that long, counting the cycles it
 //!   missed and the commits the next frame did not carry, and reports the last commit the
 //!   frames carried;
-//! - `layout`: waits until the layout changes.
+//! - `layout`: waits until the layout changes;
+//! - `bench SECONDS`: the loop of the `app_cycle` benchmark (tests/benches/app_cycle.rs):
+//!   claims, and every cycle reads the DI8, writes the DO8 and commits, for that long. The
+//!   DO8's low nibble tags the commit (its number mod 16), its high nibble is the DI8's
+//!   high nibble plus one (an output computed from the input just read). The DI8 reads the
+//!   DO8 from the same frame on (the simulator's wire), so the DI8's low nibble in cycle
+//!   `c` names the commit frame `c` carried. Reports the wake-up latency (the program's
+//!   `CLOCK_MONOTONIC` after the wait minus the cycle's publication time) as p50, p99 and
+//!   max, how many cycles after the one it was computed in each commit was carried (1, 2,
+//!   3, 4 or more), the commits no frame carried (replaced by the next before a frame took
+//!   them) and the cycles the program missed.
 
+use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -39,6 +50,7 @@ fn main() {
         "monitor" => monitor(&socket, arg.unwrap_or(100)),
         "soak" => soak(&socket, arg.unwrap_or(60)),
         "layout" => layout(&socket),
+        "bench" => bench(&socket, arg.unwrap_or(10)),
         other => {
             eprintln!("unknown scenario {other}");
             std::process::exit(2);
@@ -209,4 +221,93 @@ fn layout(socket: &std::path::Path) -> Result<(), Error> {
             Err(err) => return Err(err),
         }
     }
+}
+
+/// `CLOCK_MONOTONIC` in nanoseconds: the clock ecatd stamps each cycle's publication with.
+fn monotonic_ns() -> u64 {
+    let mut now = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: a valid clock id and a live timespec to fill.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut now) };
+    now.tv_sec as u64 * 1_000_000_000 + now.tv_nsec as u64
+}
+
+/// The sample at quantile `q` of the sorted `samples` (0 when there are none).
+fn quantile(samples: &[u64], q: f64) -> u64 {
+    samples
+        .get(((samples.len().max(1) - 1) as f64 * q) as usize)
+        .copied()
+        .unwrap_or(0)
+}
+
+fn bench(socket: &std::path::Path, seconds: u64) -> Result<(), Error> {
+    let mut app = App::connect(Some(socket), false)?;
+    let outputs: Vec<_> = (1..=8)
+        .map(|ch| app.entry(1, 0x7000, ch))
+        .collect::<Result<_, _>>()?;
+    let inputs: Vec<_> = (1..=8)
+        .map(|ch| app.entry(2, 0x6000, ch))
+        .collect::<Result<_, _>>()?;
+    app.claim()?;
+    let period_ns = app.period().as_nanos().max(1) as u64;
+    let mut wakes = Vec::with_capacity((seconds * 1_000_000_000 / period_ns) as usize + 4096);
+    // Commits not yet seen on the wire: (commit number, cycle it was computed in).
+    let mut pending: VecDeque<(u64, u64)> = VecDeque::with_capacity(16);
+    let mut turnaround = [0u64; 4];
+    let (mut replaced, mut missed, mut commits, mut unstamped) = (0u64, 0u64, 0u64, 0u64);
+    let first = app.wait(WAIT)?;
+    let mut last = first;
+    let end = Instant::now() + Duration::from_secs(seconds);
+    while Instant::now() < end {
+        let cycle = app.wait(WAIT)?;
+        let now = monotonic_ns();
+        match app.published_ns() {
+            0 => unstamped += 1,
+            published => wakes.push(now.saturating_sub(published)),
+        }
+        missed += cycle - last - 1;
+        last = cycle;
+        let seen = inputs.iter().enumerate().fold(0u8, |acc, (bit, input)| {
+            acc | ((app.read(input) as u8 & 1) << bit)
+        });
+        // The commit this cycle's frame carried: its tag is on the DI8's low nibble.
+        if let Some(at) = pending
+            .iter()
+            .position(|&(n, _)| n & 0xF == u64::from(seen & 0xF))
+        {
+            let made = pending[at].1;
+            replaced += at as u64;
+            turnaround[((cycle - made).clamp(1, 4) - 1) as usize] += 1;
+            pending.drain(..=at);
+        }
+        commits += 1;
+        let value = ((seen >> 4).wrapping_add(1) << 4) | (commits & 0xF) as u8;
+        for (bit, output) in outputs.iter().enumerate() {
+            app.write(output, i64::from((value >> bit) & 1))?;
+        }
+        app.commit()?;
+        pending.push_back((commits, cycle));
+        if pending.len() > 8 {
+            // Eight commits without one on the wire: the oldest will never be told apart.
+            pending.pop_front();
+            replaced += 1;
+        }
+    }
+    wakes.sort_unstable();
+    println!(
+        r#"{{"client": "rust", "period_ns": {period_ns}, "seconds": {seconds}, "cycles": {}, "waits": {}, "missed": {missed}, "commits": {commits}, "turnaround": [{}, {}, {}, {}], "replaced": {replaced}, "unseen": {}, "unstamped": {unstamped}, "wake_p50_ns": {}, "wake_p99_ns": {}, "wake_max_ns": {}}}"#,
+        last - first,
+        wakes.len() as u64 + unstamped,
+        turnaround[0],
+        turnaround[1],
+        turnaround[2],
+        turnaround[3],
+        pending.len(),
+        quantile(&wakes, 0.50),
+        quantile(&wakes, 0.99),
+        wakes.last().copied().unwrap_or(0),
+    );
+    Ok(())
 }

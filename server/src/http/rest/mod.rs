@@ -1,6 +1,6 @@
 //! REST handlers under `/api/v1`: the same operations as gRPC, one core call each, one file
 //! per resource as in `grpc/` (`slaves`, `bus` (counters and the caller's role), `config`,
-//! `registers`, `sii`, `coe`, `soe`, `foe`, `voe`, `eoe`, `capture`, `domains`,
+//! `registers`, `sii`, `coe`, `soe`, `foe`, `voe`, `eoe`, `capture`, `domains`, `process_data`,
 //! `log_filter`). Binary values are hex strings;
 //! numbers in paths are decimal or `0x` hex; slave
 //! names use the common syntax (`3`, `%231004` for `#1004`, `@0x777`).
@@ -17,6 +17,7 @@ pub mod domains;
 pub mod eoe;
 pub mod foe;
 pub mod log_filter;
+pub mod process_data;
 pub mod registers;
 pub mod sii;
 pub mod slaves;
@@ -76,6 +77,7 @@ pub fn routes() -> OpenApiRouter<Core> {
         .merge(eoe::routes())
         .merge(config::routes())
         .merge(domains::routes())
+        .merge(process_data::routes())
         .merge(log_filter::routes())
 }
 
