@@ -3,11 +3,12 @@
 
 use std::path::PathBuf;
 
-const FILES: [&str; 4] = [
+const FILES: [&str; 5] = [
     "ecat/v1/common.proto",
     "ecat/v1/bus.proto",
     "ecat/v1/mailbox.proto",
     "ecat/v1/gateway.proto",
+    "ecat/v1/process_data.proto",
 ];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

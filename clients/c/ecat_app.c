@@ -52,6 +52,7 @@
 #define LAYOUT_VERSION 1u
 #define SLOTS 3u
 #define SLOT_HEADER 64u
+#define SLOT_PUBLISHED_NS 16u /* u64 in an input slot: CLOCK_MONOTONIC ns of its publication */
 #define ENTRY_SIZE 64u
 #define ENTRIES_OFFSET 0x100u
 #define PAGE 4096u
@@ -114,6 +115,7 @@ struct ecat_app {
     size_t entry_count;
     ecat_app_entry *entries;
     uint64_t cycle;             /* the cycle the buffers hold */
+    uint64_t published_ns;      /* when ecatd published it (CLOCK_MONOTONIC, 0: not known) */
     uint8_t *inputs, *sent;     /* its inputs as received, outputs as sent */
     uint8_t *next_inputs, *next_sent; /* copies under way (swapped in when whole) */
     uint8_t *outputs;           /* what this program will commit */
@@ -761,11 +763,13 @@ static int copy_newest(ecat_app *app)
     uint64_t cycle = load_u64(app->image, app->image_map_len, I_CYCLE);
     size_t slot;
     uint8_t *swap;
+    uint64_t published;
     if (cycle == 0)
         return 0;
     slot = app->slots + (size_t)(cycle % SLOTS) * app->stride;
     if (load_u64(app->image, app->image_map_len, slot) != cycle)
         return 0;
+    published = load_u64(app->image, app->image_map_len, slot + SLOT_PUBLISHED_NS);
     copy_from_shared(app->next_inputs, app->image + slot + SLOT_HEADER, app->image_len);
     copy_from_shared(app->next_sent, app->image + slot + SLOT_HEADER + round64(app->image_len),
                      app->image_len);
@@ -779,6 +783,7 @@ static int copy_newest(ecat_app *app)
     app->sent = app->next_sent;
     app->next_sent = swap;
     app->cycle = cycle;
+    app->published_ns = published;
     return 1;
 }
 
@@ -852,6 +857,11 @@ int64_t ecat_app_wait(ecat_app *app, int timeout_ms)
 uint64_t ecat_app_cycle(const ecat_app *app)
 {
     return app != NULL ? app->cycle : 0;
+}
+
+uint64_t ecat_app_published_ns(const ecat_app *app)
+{
+    return app != NULL ? app->published_ns : 0;
 }
 
 uint32_t ecat_app_generation(const ecat_app *app)

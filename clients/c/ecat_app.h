@@ -138,6 +138,13 @@ int64_t ecat_app_wait(ecat_app *app, int timeout_ms);
 /* The last cycle ecat_app_wait returned or ecat_app_connect copied (0: none yet). */
 uint64_t ecat_app_cycle(const ecat_app *app);
 
+/* When ecatd published the last cycle ecat_app_wait returned (or ecat_app_connect copied):
+ * CLOCK_MONOTONIC in nanoseconds, the clock every process on this machine shares, so
+ * clock_gettime(CLOCK_MONOTONIC) right after the wait minus this is the wake-up latency.
+ * Copied with the cycle (one consistent slot). 0 before the first cycle, or from an ecatd
+ * that does not write it. */
+uint64_t ecat_app_published_ns(const ecat_app *app);
+
 /* The layout generation this attachment reads. */
 uint32_t ecat_app_generation(const ecat_app *app);
 

@@ -16,6 +16,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 static int failures;
@@ -57,6 +58,13 @@ static void ask(const char *cmd, char *reply, size_t len)
         snprintf(reply, len, "%s", line);
 }
 
+static uint64_t monotonic_ns(void)
+{
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return (uint64_t)now.tv_sec * 1000000000u + (uint64_t)now.tv_nsec;
+}
+
 static void tell(const char *cmd)
 {
     ask(cmd, NULL, 0);
@@ -94,6 +102,7 @@ int main(int argc, char **argv)
     char err[256], want[128];
     float celsius;
     uint32_t bits;
+    uint64_t before;
 
     if (argc != 2) {
         fprintf(stderr, "usage: test_client SOCKET\n");
@@ -132,11 +141,15 @@ int main(int argc, char **argv)
     CHECK_EQ(out1->bit_offset, 69);
     CHECK_EQ(out1->bit_length, 1);
 
-    /* No cycle yet: a timeout. Then one. */
+    /* No cycle yet: a timeout. Then one, with the time it was published. */
     CHECK_EQ(ecat_app_wait(app, 30), ECAT_APP_E_TIMEOUT);
+    CHECK_EQ(ecat_app_published_ns(app), 0);
+    before = monotonic_ns();
     tell("publish");
     CHECK_EQ(ecat_app_wait(app, 2000), 1);
     CHECK_EQ(ecat_app_cycle(app), 1);
+    CHECK(ecat_app_published_ns(app) >= before);
+    CHECK(ecat_app_published_ns(app) <= monotonic_ns());
     CHECK_EQ(ecat_app_read(app, analog), -2);
     CHECK_EQ(ecat_app_read(app, counter), 0xDEADBEEFLL);
     bits = (uint32_t)ecat_app_read(app, temperature);

@@ -59,6 +59,7 @@ COMMIT_MAGIC = b"ECATOUT\0"
 LAYOUT_VERSION = 1
 SLOTS = 3                 # slots in each ring
 SLOT_HEADER = 64          # bytes of a slot's stamp and counters before its data
+SLOT_PUBLISHED_NS = 16    # u64 in a slot: CLOCK_MONOTONIC ns when ecatd published it
 ENTRY_SIZE = 64
 ENTRIES_OFFSET = 0x100    # where ecatd puts the entry table
 PAGE = 4096
@@ -512,6 +513,7 @@ class App:
         self._inputs_at = inputs_at
         self._outputs_at = outputs_at
         self._cycle = 0
+        self._published_ns = 0
         self._inputs = bytes(image_len)
         self._sent = bytes(image_len)
         self._outputs = bytearray(image_len)  # what this program will commit
@@ -525,6 +527,15 @@ class App:
     def cycle(self):
         """The last cycle :meth:`wait` returned (or connect copied; 0: none yet)."""
         return self._cycle
+
+    @property
+    def published_ns(self):
+        """When ecatd published the last cycle :meth:`wait` returned: CLOCK_MONOTONIC in
+        nanoseconds, the clock every process on this machine shares, so
+        ``time.clock_gettime_ns(time.CLOCK_MONOTONIC)`` right after the wait minus this is
+        the wake-up latency. Copied with the cycle (one consistent slot). 0 before the
+        first cycle, or from an ecatd that does not write it."""
+        return self._published_ns
 
     @property
     def period(self):
@@ -718,6 +729,7 @@ class App:
         slot = self._slots + (cycle % SLOTS) * self._stride
         if _load_u64(image, slot) != cycle:
             return False
+        published = _load_u64(image, slot + SLOT_PUBLISHED_NS)
         at = slot + self._inputs_at
         inputs = image[at:at + self._image_len]
         at = slot + self._outputs_at
@@ -725,6 +737,7 @@ class App:
         if _load_u64(image, slot) != cycle:
             return False  # ecatd reused the slot while we copied: more than two cycles slow
         self._inputs, self._sent, self._cycle = inputs, sent, cycle
+        self._published_ns = published
         return True
 
     def _drop_commit(self):

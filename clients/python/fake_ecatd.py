@@ -222,6 +222,7 @@ class FakeEcatd:
             m = self.image
             struct.pack_into("<Q", m, slot, 0)
             struct.pack_into("<HH", m, slot + 8, 3, 3)
+            struct.pack_into("<Q", m, slot + 16, time.clock_gettime_ns(time.CLOCK_MONOTONIC))
             m[slot + 64:slot + 64 + self.image_len] = self.inputs
             at = slot + 64 + _r64(self.image_len)
             m[at:at + self.image_len] = self.outputs

@@ -125,6 +125,19 @@ class CycleTest(Attached):
         self.assertEqual(app.read(1, 0x7000, 1), 1)              # outputs as sent
         self.assertEqual(app.read(1, 0x7010, 2), -5)
 
+    def test_wait_gives_the_time_the_cycle_was_published(self):
+        app = self.attach()
+        self.assertEqual(app.published_ns, 0)
+        before = time.clock_gettime_ns(time.CLOCK_MONOTONIC)
+        self.publish()
+        self.assertEqual(app.wait(timeout=2.0), 1)
+        published = app.published_ns
+        self.assertGreaterEqual(published, before)
+        self.assertLessEqual(published, time.clock_gettime_ns(time.CLOCK_MONOTONIC))
+        self.publish()
+        self.assertEqual(app.wait(timeout=2.0), 2)
+        self.assertGreaterEqual(app.published_ns, published)
+
     def test_wait_returns_at_once_when_a_cycle_is_already_there(self):
         app = self.attach()
         self.publish()

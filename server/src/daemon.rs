@@ -2,7 +2,13 @@
 //! SIGTERM (also during the start-up scan) end the event streams, stop serving, bring every
 //! slave to the safe state (INIT, or SAFEOP as configured) within the shutdown deadline and
 //! close the link. A second signal exits at once.
+//!
+//! [`run`] is the daemon: the process's signals and the segment the configuration names.
+//! Everything after the segment is open (the listeners, the core, the servers, the scan,
+//! readiness, the shutdown) is one code path, `Listeners::bind` then `serve`, which
+//! [`embed`](crate::embed) also runs over a master that a control program owns.
 
+use std::future::Future;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -11,11 +17,14 @@ use tokio::sync::watch;
 use tokio::time::Instant;
 
 use master_core::gateway::MailboxGateway;
+use master_core::link::CaptureHub;
+use master_core::master::Master;
 
-use crate::config::{Config, GatewaySettings};
+use crate::config::{Config, GatewaySettings, Segment};
 use crate::security::Tokens;
 use crate::service::Core;
 use crate::signals::Signals;
+use crate::sim_hooks::SimHooks;
 use crate::{grpc, http, segment};
 
 /// Runs ecatd with `config` until a signal; errors are start-up failures.
@@ -30,14 +39,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         .clone()
         .ok_or("no segment: pass --simulate [TOPOLOGY] or --iface NAME")?;
     // Bind first so a taken port fails fast, before the segment is touched.
-    let grpc_listener = bind(config.grpc_listen, "gRPC").await?;
-    let http_listener = bind(config.http_listen, "HTTP").await?;
-    let app_listener = bind_app(&config)?;
-    let tls = config
-        .tls
-        .as_ref()
-        .map(crate::tls::TlsFiles::load)
-        .transpose()?;
+    let listeners = Listeners::bind(&config).await?;
     let setup = config.segment_setup()?;
     if !config.eni_unused.is_empty() {
         tracing::info!(
@@ -47,17 +49,109 @@ pub async fn run(config: Config) -> Result<(), String> {
         );
     }
     let running = segment::open(&segment_config, &setup)?;
+    let served = Served {
+        master: Arc::clone(&running.master),
+        sim: running.sim.clone(),
+        capture: Some(Arc::clone(&running.capture)),
+        scan: true,
+    };
+    let shutdown = async move {
+        let signal = signals.next().await;
+        // A second signal exits at once (the slaves' SyncManager watchdogs then take the
+        // outputs to their safe state).
+        signals.exit_on_next();
+        signal
+    };
+    let result = serve(&config, listeners, served, Host::Daemon, shutdown).await;
+    // The bus stops with the master: no cycle drives outputs after this.
+    running.stop();
+    if result.is_ok() {
+        tracing::info!("stopped");
+    }
+    result
+}
+
+/// The sockets ecatd serves on and the TLS files, taken before the segment is touched so
+/// that a taken port, socket or unreadable certificate fails the start at once.
+pub(crate) struct Listeners {
+    grpc: TcpListener,
+    http: TcpListener,
+    app: Option<(crate::app::AppListener, Vec<crate::app::SafeValue>)>,
+    tls: Option<crate::tls::TlsFiles>,
+}
+
+impl Listeners {
+    /// Binds gRPC, HTTP and the application interface's socket of `config` and loads its
+    /// TLS files.
+    pub(crate) async fn bind(config: &Config) -> Result<Listeners, String> {
+        let grpc = bind(config.grpc_listen, "gRPC").await?;
+        let http = bind(config.http_listen, "HTTP").await?;
+        let app = bind_app(config)?;
+        let tls = config
+            .tls
+            .as_ref()
+            .map(crate::tls::TlsFiles::load)
+            .transpose()?;
+        Ok(Listeners {
+            grpc,
+            http,
+            app,
+            tls,
+        })
+    }
+}
+
+/// The segment [`serve`] runs over: its master and what came with it.
+pub(crate) struct Served {
+    /// The master; whoever opened the segment keeps its own handle (and stops the bus).
+    pub(crate) master: Arc<Master>,
+    /// The in-process simulator's hooks, for its debug routes.
+    pub(crate) sim: Option<SimHooks>,
+    /// The bus's frames, for `ecat pcap` and the rolling capture; `None`: no capture.
+    pub(crate) capture: Option<Arc<CaptureHub>>,
+    /// Whether to scan at start (false: the master is scanned already).
+    pub(crate) scan: bool,
+}
+
+/// Whose process [`serve`] runs in: the daemon also does what belongs to the process
+/// (SIGHUP, systemd's notifications, the bus thread's scheduling from `[bus]`); a program
+/// that embeds the servers owns its process and its bus, and decides those itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Host {
+    /// `ecatd`.
+    Daemon,
+    /// A control program ([`crate::embed`]).
+    Program,
+}
+
+/// Serves everything over `served` until `shutdown` completes (its output names the cause
+/// in the log), then brings the slaves to the safe state and returns; stopping the bus is
+/// the caller's. Errors are start-up failures.
+pub(crate) async fn serve(
+    config: &Config,
+    listeners: Listeners,
+    served: Served,
+    host: Host,
+    shutdown: impl Future<Output = &'static str>,
+) -> Result<(), String> {
+    let Listeners {
+        grpc: grpc_listener,
+        http: http_listener,
+        app: app_listener,
+        tls,
+    } = listeners;
+    // Polled in the scan's race and again afterwards, to its end only once.
+    tokio::pin!(shutdown);
     // What the metrics record lives beside the core; the core only records its requests.
     let metrics = Arc::new(crate::metrics::Store {
-        link: match &segment_config {
-            crate::config::Segment::Simulate { .. } => crate::metrics::state::Link::Simulated,
-            crate::config::Segment::Iface { name } => {
-                crate::metrics::state::Link::Iface(name.clone())
-            }
+        link: match &config.segment {
+            Some(Segment::Simulate { .. }) => crate::metrics::state::Link::Simulated,
+            Some(Segment::Iface { name }) => crate::metrics::state::Link::Iface(name.clone()),
+            None => crate::metrics::state::Link::Unknown,
         },
         ..Default::default()
     });
-    let core = Core::new(running.master.clone(), Arc::clone(&metrics.calls));
+    let core = Core::new(served.master, Arc::clone(&metrics.calls));
     core.set_effective_config(
         config.to_toml(),
         config
@@ -68,7 +162,9 @@ pub async fn run(config: Config) -> Result<(), String> {
     );
     // Before the scan: its findings against the configuration are counted too.
     let findings = metrics.config.follow(core.master());
-    core.set_capture(Arc::clone(&running.capture));
+    if let Some(capture) = served.capture {
+        core.set_capture(capture);
+    }
     if config.capture.rolling {
         core.start_rolling(&config.capture)
             .map_err(|err| format!("rolling capture: {}", err.message))?;
@@ -79,12 +175,15 @@ pub async fn run(config: Config) -> Result<(), String> {
             "rolling capture running"
         );
     }
-    core.set_link(match &segment_config {
-        crate::config::Segment::Simulate { .. } => "simulate",
-        crate::config::Segment::Iface { name } => name,
-    });
+    match &config.segment {
+        Some(Segment::Simulate { .. }) => core.set_link("simulate"),
+        Some(Segment::Iface { name }) => core.set_link(name),
+        None => {}
+    }
     let tokens = Tokens::new(config.tokens.clone());
-    reload_on_sighup(&config, &tokens, tls.clone())?;
+    if host == Host::Daemon {
+        reload_on_sighup(config, &tokens, tls.clone())?;
+    }
     tracing::info!(
         grpc = %config.grpc_listen_of(&grpc_listener),
         http = %config.http_listen_of(&http_listener),
@@ -113,7 +212,7 @@ pub async fn run(config: Config) -> Result<(), String> {
         core.clone(),
         tokens,
         Arc::clone(&metrics),
-        running.sim.clone(),
+        served.sim,
         config.metrics_token,
     )
     .layer(axum::middleware::from_fn_with_state(
@@ -129,66 +228,75 @@ pub async fn run(config: Config) -> Result<(), String> {
         None => tokio::spawn(http::serve(app, http_listener, stopped(stop_rx))),
     };
 
-    // A signal during the start-up scan stops the scan where it is and shuts down.
-    let signal = tokio::select! {
-        report = core.master().scan_cancellable() => {
-            match report {
-                Ok(report) => {
-                    for failure in &report.failures {
-                        tracing::warn!(%failure, "slave did not reach its target state");
+    // A shutdown during the start-up scan stops the scan where it is.
+    let signal = if !served.scan {
+        None
+    } else {
+        tokio::select! {
+            report = core.master().scan_cancellable() => {
+                match report {
+                    Ok(report) => {
+                        for failure in &report.failures {
+                            tracing::warn!(%failure, "slave did not reach its target state");
+                        }
+                        tracing::info!(slaves = report.slaves.len(), "segment scanned");
                     }
-                    tracing::info!(slaves = report.slaves.len(), "segment scanned");
+                    // The configuration does not fit the segment: found before any slave
+                    // left INIT, so nothing of it was applied; ecatd does not start.
+                    Err(err @ master_core::master::MasterError::Configuration { .. }) => {
+                        tracing::error!(%err, "the configuration does not fit the segment");
+                        core.stop_streams();
+                        let _ = stop_tx.send(true);
+                        let _ = grpc_task.await;
+                        let _ = http_task.await;
+                        findings.abort();
+                        return Err(format!("the configuration does not fit the segment: {err}"));
+                    }
+                    Err(err) => {
+                        tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan")
+                    }
                 }
-                // The configuration does not fit the segment: found before any slave
-                // left INIT, so nothing of it was applied; ecatd does not start.
-                Err(err @ master_core::master::MasterError::Configuration { .. }) => {
-                    tracing::error!(%err, "the configuration does not fit the segment");
-                    core.stop_streams();
-                    let _ = stop_tx.send(true);
-                    let _ = grpc_task.await;
-                    let _ = http_task.await;
-                    findings.abort();
-                    drop(core);
-                    running.stop();
-                    return Err(format!("the configuration does not fit the segment: {err}"));
-                }
-                Err(err) => {
-                    tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan")
-                }
+                None
             }
-            None
+            signal = &mut shutdown => Some(signal),
         }
-        signal = signals.next() => Some(signal),
     };
     let background = match signal {
         Some(_) => None,
         None => {
             core.master().start_watch(Duration::from_millis(100));
-            let eoe = start_eoe(&core, &config, &segment_config);
+            let eoe = start_eoe(&core, config);
             let background = (crate::metrics::start(&core, &metrics, &config.watch), eoe);
             let app =
-                app_listener.and_then(|(listener, safe)| start_app(&core, &config, listener, safe));
+                app_listener.and_then(|(listener, safe)| start_app(&core, config, listener, safe));
             if let Some(settings) = &config.gateway
                 && let Err(err) = start_gateway(&core, settings).await
             {
                 tracing::error!(%err, "mailbox gateway not started");
             }
-            // The scan ran its frames through the bus thread: it has applied its scheduling.
-            crate::scheduling::warn_if_not_granted(
-                config.bus.rt_priority,
-                core.master().bus().stats().realtime,
-            );
+            if host == Host::Daemon {
+                // The scan ran its frames through the bus thread: it has applied its
+                // scheduling. (A program started its bus itself, not from `[bus]`.)
+                crate::scheduling::warn_if_not_granted(
+                    config.bus.rt_priority,
+                    core.master().bus().stats().realtime,
+                );
+            }
             core.set_ready(true);
             tracing::info!("ready");
-            crate::systemd::notify("READY=1");
+            if host == Host::Daemon {
+                crate::systemd::notify("READY=1");
+            }
             Some((background, app))
         }
     };
     let signal = match signal {
         Some(signal) => signal,
-        None => signals.next().await,
+        None => shutdown.await,
     };
-    crate::systemd::notify("STOPPING=1");
+    if host == Host::Daemon {
+        crate::systemd::notify("STOPPING=1");
+    }
     let deadline = Instant::now() + Duration::from_millis(config.shutdown_timeout_ms);
     tracing::info!(
         signal,
@@ -196,9 +304,6 @@ pub async fn run(config: Config) -> Result<(), String> {
         timeout_ms = config.shutdown_timeout_ms,
         "shutting down"
     );
-    // A second signal exits at once (the slaves' SyncManager watchdogs then take the
-    // outputs to their safe state).
-    signals.exit_on_next();
     core.stop_streams();
     let _ = stop_tx.send(true);
     // The servers finish the requests in flight, within a third of the budget; the rest is
@@ -242,10 +347,6 @@ pub async fn run(config: Config) -> Result<(), String> {
         ),
         Err(err) => tracing::warn!(%err, "cannot bring the slaves to the safe state"),
     }
-    drop(core);
-    // The bus stops with the master: no cycle drives outputs after this.
-    running.stop();
-    tracing::info!("stopped");
     Ok(())
 }
 
@@ -304,17 +405,15 @@ fn reload_on_sighup(
 }
 
 /// Starts the EoE interface manager (none when `[eoe] enabled = false`).
-fn start_eoe(
-    core: &Core,
-    config: &Config,
-    segment: &crate::config::Segment,
-) -> Option<crate::eoe::EoeManager> {
+fn start_eoe(core: &Core, config: &Config) -> Option<crate::eoe::EoeManager> {
     if !config.eoe.enabled {
         return None;
     }
-    let nic = match segment {
-        crate::config::Segment::Iface { name } => crate::eoe::tap::mac_of(name),
-        crate::config::Segment::Simulate { .. } => None,
+    // The interfaces' MAC addresses are made from the NIC's; without one (simulator, or a
+    // program that did not say), from the bus's source address.
+    let nic = match &config.segment {
+        Some(Segment::Iface { name }) => crate::eoe::tap::mac_of(name),
+        Some(Segment::Simulate { .. }) | None => None,
     }
     .unwrap_or(master_core::bus::BusConfig::default().source_mac);
     match crate::eoe::start(
@@ -360,7 +459,17 @@ fn bind_app(
         std::env::var_os("RUNTIME_DIRECTORY"),
         std::env::var_os("XDG_RUNTIME_DIR"),
     );
-    Ok(Some((crate::app::bind(&config.app, &path)?, safe)))
+    match crate::app::bind(&config.app, &path) {
+        Ok(listener) => Ok(Some((listener, safe))),
+        // The default socket taken (another ecatd on this machine) or not reachable (not
+        // root): ecatd runs without the interface rather than not at all. A socket the
+        // configuration names must work.
+        Err(err) if config.app.socket.is_none() => {
+            tracing::warn!(%err, "application interface not started: its default socket is not available; set [app] socket or --app-socket");
+            Ok(None)
+        }
+        Err(err) => Err(err),
+    }
 }
 
 /// Starts the application interface over the scanned segment; its events join the event

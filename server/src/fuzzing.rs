@@ -63,6 +63,7 @@ pub fn inputs(data: &[u8]) {
         index: field(3).map(Number::Text),
         subindex: field(4).map(Number::Text),
         idn: field(1).filter(|s| s.starts_with(['S', 'P', 's', 'p'])),
+        pdo: field(5).filter(|s| s.contains(':')),
         drive: data.first().copied().unwrap_or(0) & 7,
         period_ms: 1000,
         value_type: field(2),
@@ -187,5 +188,57 @@ fn watch(spec: WatchSpec) {
             ..spec
         };
         assert_eq!(again.target(), Ok(Target::Sdo { index, subindex }));
+    }
+}
+
+/// The application interface's socket lines and entry records, driven by arbitrary bytes,
+/// for the fuzz target `app_socket` (what a program sends ecatd, what ecatd sends a
+/// program, a region's entry table). Panics if a parser panics or an accepted line or
+/// record does not come back the same through its text or byte form.
+#[doc(hidden)]
+pub fn app_socket(data: &[u8]) {
+    use ecat_app::entry::Entry;
+    use ecat_app::protocol::{Line, Request};
+    let text = String::from_utf8_lossy(data);
+    for line in std::iter::once(text.as_ref()).chain(text.lines()) {
+        if let Ok(request) = Request::parse(line) {
+            assert_eq!(
+                Request::parse(&request.to_string()),
+                Ok(request),
+                "{line:?}"
+            );
+        }
+        if let Ok(answer) = Line::parse(line) {
+            assert_eq!(
+                Line::parse(&answer.to_string()).as_ref(),
+                Ok(&answer),
+                "{line:?}"
+            );
+        }
+    }
+    for record in data.chunks_exact(ecat_app::shm::ENTRY_SIZE) {
+        let record: &[u8; ecat_app::shm::ENTRY_SIZE] = record.try_into().unwrap_or(&[0; 64]);
+        if let Some(entry) = Entry::decode(record) {
+            let again = Entry::decode(&entry.encode());
+            assert_eq!(again.as_ref(), Some(&entry));
+            // Reading and writing any entry within any image never panics.
+            let mut image = data.to_vec();
+            let value = entry.get_i64(&image);
+            entry.set(&mut image, value as u64);
+            let _ = entry.accepts(value);
+        }
+    }
+}
+
+/// The body of a process-data force (`PUT /api/v1/slaves/{slave}/process-data/...`), driven
+/// by arbitrary bytes, for the fuzz target `process_data_body`: the JSON body and its value.
+#[doc(hidden)]
+pub fn process_data_body(data: &[u8]) {
+    use crate::http::rest::process_data::{ForceBody, input};
+    if let Ok(body) = serde_json::from_slice::<ForceBody>(data) {
+        let _ = input(&body.value);
+    }
+    if let Ok(value) = serde_json::from_slice::<serde_json::Value>(data) {
+        let _ = input(&value);
     }
 }

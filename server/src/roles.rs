@@ -59,6 +59,20 @@ pub const REST: &[(&str, &str, Access)] = &[
     ("GET", "/api/v1/events", Read),
     ("GET", "/api/v1/bus", Read),
     ("GET", "/api/v1/process-data/layout", Read),
+    ("GET", "/api/v1/process-data", Read),
+    ("GET", "/api/v1/process-data/forced", Read),
+    ("GET", "/api/v1/process-data/stream", Read),
+    ("GET", "/api/v1/slaves/{slave}/process-data", Read),
+    (
+        "PUT",
+        "/api/v1/slaves/{slave}/process-data/{index}/{subindex}",
+        Write,
+    ),
+    (
+        "DELETE",
+        "/api/v1/slaves/{slave}/process-data/{index}/{subindex}",
+        Write,
+    ),
     ("GET", "/api/v1/session", Read),
     // Read, but a read over a mailbox SyncManager area needs a write token (service layer).
     ("GET", "/api/v1/slaves/{slave}/registers/{address}", Read),
@@ -160,6 +174,13 @@ pub const GRPC: &[(&str, Access)] = &[
     ("/ecat.v1.GatewayService/GetGateway", Read),
     ("/ecat.v1.GatewayService/StartGateway", Write),
     ("/ecat.v1.GatewayService/StopGateway", Write),
+    ("/ecat.v1.ProcessDataService/GetLayout", Read),
+    ("/ecat.v1.ProcessDataService/Read", Read),
+    ("/ecat.v1.ProcessDataService/Watch", Read),
+    ("/ecat.v1.ProcessDataService/ListForced", Read),
+    // Forcing writes outputs over whatever the control program commits (audited).
+    ("/ecat.v1.ProcessDataService/Force", Write),
+    ("/ecat.v1.ProcessDataService/ReleaseForce", Write),
 ];
 
 /// The access of HTTP `method` on the route `path` (as declared, e.g. from axum's

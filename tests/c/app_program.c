@@ -19,8 +19,9 @@
  * - `layout`: waits until the layout changes;
  * - `bench SECONDS`: the loop of the `app_cycle` benchmark (see the Rust program): every
  *   cycle reads the DI8, writes the DO8 (low nibble: the commit's tag, high nibble: the
- *   DI8's high nibble plus one) and commits; reports the wake-up latency, the turnaround
- *   of each commit in cycles, the commits no frame carried and the missed cycles.
+ *   DI8's high nibble plus one) and commits; reports the wake-up latency, the commits the
+ *   next frame carried, those a later one carried, those no frame carried, those whose
+ *   next cycle the program missed, and the missed cycles.
  *
  * On an error it prints {"error": "<message>"} (worded as the Rust client's Display of that
  * error) and exits 1.
@@ -441,7 +442,7 @@ static int bench(const char *path, uint64_t seconds)
     const ecat_app_entry *outputs[8], *inputs[8];
     char err[1024];
     uint64_t period_ns, first, last, cycle, missed = 0, commits = 0, replaced = 0;
-    uint64_t unstamped = 0, turnaround[4] = {0, 0, 0, 0};
+    uint64_t unstamped = 0, next_frame = 0, later = 0, after_miss = 0;
     uint64_t pending_commit[PENDING], pending_cycle[PENDING];
     uint64_t *wakes = NULL;
     size_t capacity, count = 0, pending = 0, i;
@@ -478,22 +479,27 @@ static int bench(const char *path, uint64_t seconds)
         else if (count < capacity)
             wakes[count++] = now > published ? now - published : 0;
         missed += cycle - last - 1;
-        last = cycle;
         for (bit = 0; bit < 8; bit++)
             seen |= (uint8_t)(((uint8_t)ecat_app_read(app, inputs[bit]) & 1u) << bit);
-        /* The commit this cycle's frame carried: its tag is on the DI8's low nibble. */
+        /* The commit this cycle's frame carried: its tag is on the DI8's low nibble (as in
+         * the Rust program). */
         for (i = 0; i < pending; i++) {
             if ((pending_commit[i] & 0xFu) == (uint64_t)(seen & 0xFu)) {
-                uint64_t cycles = cycle - pending_cycle[i];
                 size_t rest = pending - i - 1;
                 replaced += i;
-                turnaround[cycles < 1 ? 0 : cycles > 4 ? 3 : cycles - 1]++;
+                if (last != pending_cycle[i])
+                    later++;
+                else if (cycle == pending_cycle[i] + 1)
+                    next_frame++;
+                else
+                    after_miss++;
                 memmove(pending_commit, pending_commit + i + 1, rest * sizeof *pending_commit);
                 memmove(pending_cycle, pending_cycle + i + 1, rest * sizeof *pending_cycle);
                 pending = rest;
                 break;
             }
         }
+        last = cycle;
         commits++;
         value = (uint8_t)((((seen >> 4) + 1u) & 0xFu) << 4 | (commits & 0xFu));
         for (bit = 0; bit < 8; bit++)
@@ -513,12 +519,13 @@ static int bench(const char *path, uint64_t seconds)
     qsort(wakes, count, sizeof *wakes, compare_u64);
     printf("{\"client\": \"c\", \"period_ns\": %" PRIu64 ", \"seconds\": %" PRIu64
            ", \"cycles\": %" PRIu64 ", \"waits\": %" PRIu64 ", \"missed\": %" PRIu64
-           ", \"commits\": %" PRIu64 ", \"turnaround\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64
-           ", %" PRIu64 "], \"replaced\": %" PRIu64 ", \"unseen\": %zu, \"unstamped\": %" PRIu64
+           ", \"commits\": %" PRIu64 ", \"next_frame\": %" PRIu64 ", \"later\": %" PRIu64
+           ", \"replaced\": %" PRIu64 ", \"after_miss\": %" PRIu64 ", \"unseen\": %zu"
+           ", \"unstamped\": %" PRIu64
            ", \"wake_p50_ns\": %" PRIu64 ", \"wake_p99_ns\": %" PRIu64
            ", \"wake_max_ns\": %" PRIu64 "}",
            period_ns, seconds, last - first, (uint64_t)count + unstamped, missed, commits,
-           turnaround[0], turnaround[1], turnaround[2], turnaround[3], replaced, pending,
+           next_frame, later, replaced, after_miss, pending,
            unstamped, quantile(wakes, count, 0.50), quantile(wakes, count, 0.99),
            count > 0 ? wakes[count - 1] : 0);
     end_line();

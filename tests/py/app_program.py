@@ -16,8 +16,9 @@ lines on stdout), so one test body in tests/tests/app.rs checks all three librar
 - ``layout``: waits until the layout changes;
 - ``bench SECONDS``: the loop of the ``app_cycle`` benchmark (see the Rust program):
   every cycle reads the DI8, writes the DO8 (low nibble: the commit's tag, high nibble:
-  the DI8's high nibble plus one) and commits; reports the wake-up latency, the
-  turnaround of each commit in cycles, the commits no frame carried and the missed cycles.
+  the DI8's high nibble plus one) and commits; reports the wake-up latency, the commits
+  the next frame carried, those a later one carried, those no frame carried, those whose
+  next cycle the program missed, and the missed cycles.
 
 On an error it prints ``{"error": "<message>"}`` (the message worded as the Rust client's
 Display of that error) and exits 1. Standard library only; run with
@@ -268,8 +269,8 @@ def bench(socket_path, seconds):
     monotonic = time.CLOCK_MONOTONIC
     wakes = []
     pending = collections.deque()  # (commit number, cycle it was computed in)
-    turnaround = [0, 0, 0, 0]
-    replaced = missed = commits = unstamped = 0
+    next_frame = later = after_miss = replaced = 0
+    missed = commits = unstamped = 0
     first = app.wait(WAIT)
     last = first
     end = time.monotonic() + seconds
@@ -282,19 +283,25 @@ def bench(socket_path, seconds):
         else:
             unstamped += 1
         missed += cycle - last - 1
-        last = cycle
         seen = 0
         for bit, input_ in enumerate(inputs):
             seen |= (read(app, input_) & 1) << bit
-        # The commit this cycle's frame carried: its tag is on the DI8's low nibble.
+        # The commit this cycle's frame carried: its tag is on the DI8's low nibble (as in
+        # the Rust program).
         tag = seen & 0xF
         for at, (number, made) in enumerate(pending):
             if number & 0xF == tag:
                 replaced += at
-                turnaround[min(max(cycle - made, 1), 4) - 1] += 1
+                if last != made:
+                    later += 1
+                elif cycle == made + 1:
+                    next_frame += 1
+                else:
+                    after_miss += 1
                 for _ in range(at + 1):
                     pending.popleft()
                 break
+        last = cycle
         commits += 1
         value = ((((seen >> 4) + 1) & 0xF) << 4) | (commits & 0xF)
         for bit, output in enumerate(outputs):
@@ -314,8 +321,10 @@ def bench(socket_path, seconds):
         "waits": len(wakes) + unstamped,
         "missed": missed,
         "commits": commits,
-        "turnaround": turnaround,
+        "next_frame": next_frame,
+        "later": later,
         "replaced": replaced,
+        "after_miss": after_miss,
         "unseen": len(pending),
         "unstamped": unstamped,
         "wake_p50_ns": quantile(wakes, 0.50),

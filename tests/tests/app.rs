@@ -627,3 +627,299 @@ fn a_user_the_socket_mode_leaves_out_cannot_attach() {
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert!(stdout.contains("Permission denied"), "{stdout}");
 }
+
+/// `curl` with a JSON body; the status and the parsed answer.
+fn send_json(ecatd: &Ecatd, method: &str, path: &str, body: &str) -> (u16, Value) {
+    let (status, answer) = curl(&[
+        "-s",
+        "-X",
+        method,
+        "-H",
+        "content-type: application/json",
+        "-d",
+        body,
+        &format!("{}/api/v1{path}", ecatd.http),
+    ]);
+    (
+        status,
+        serde_json::from_str(&answer).unwrap_or(Value::String(answer)),
+    )
+}
+
+/// The value of `index:subindex` of `slave` in the last cycle, over REST.
+fn pd_value(ecatd: &Ecatd, slave: u16, index: u16, subindex: u8) -> Value {
+    let view = get(ecatd, &format!("/slaves/{slave}/process-data"));
+    view["entries"]
+        .as_array()
+        .expect("entries")
+        .iter()
+        .find(|e| e["index"] == index && e["subindex"] == subindex)
+        .unwrap_or_else(|| panic!("no {index:#x}:{subindex} in {view}"))
+        .clone()
+}
+
+/// Polls `index:subindex` of `slave` until `wanted` holds for its value.
+fn wait_pd(
+    ecatd: &Ecatd,
+    slave: u16,
+    index: u16,
+    subindex: u8,
+    wanted: impl Fn(&Value) -> bool,
+) -> Value {
+    let deadline = Instant::now() + PATIENCE;
+    loop {
+        let entry = pd_value(ecatd, slave, index, subindex);
+        if wanted(&entry["value"]) {
+            return entry;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "{index:#x}:{subindex} of slave {slave} stays {entry}"
+        );
+        // Poll interval of the value check; the loop ends on the value or the deadline.
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+#[test]
+fn rest_forces_the_drive_into_operation_and_the_do8_onto_the_di8() {
+    let socket = socket_path("rest-force");
+    let mut ecatd = ecatd(&socket, PATIENT, "");
+    let before = get(&ecatd, "/process-data");
+    assert!(before["cycle"].as_u64() > Some(0), "{before}");
+    let status = pd_value(&ecatd, 0, 0x6041, 0);
+    assert_eq!(status["name"], "Statusword");
+    assert_eq!(status["type"], "UNSIGNED16");
+    assert_eq!(status["direction"], "in");
+    for (command, state) in [(6, 0x21), (7, 0x23), (15, 0x27)] {
+        let (code, answer) = send_json(
+            &ecatd,
+            "PUT",
+            "/slaves/0/process-data/0x6040/0",
+            &format!(r#"{{"value": {command}}}"#),
+        );
+        assert_eq!(code, 200, "{answer}");
+        assert_eq!(answer["value"], command);
+        assert_eq!(answer["forced_by"], "anonymous");
+        wait_pd(&ecatd, 0, 0x6041, 0, |v| {
+            v.as_u64().is_some_and(|s| s & 0x6F == state)
+        });
+    }
+    // A bit of the DO8, read back on the DI8 the simulator wires it to, and on the wire.
+    let (code, answer) = send_json(
+        &ecatd,
+        "PUT",
+        "/slaves/1/process-data/0x7000/1",
+        r#"{"value": true}"#,
+    );
+    assert_eq!(code, 200, "{answer}");
+    wait_pd(&ecatd, 2, 0x6000, 1, |v| *v == true);
+    ecatd.wait_sim_outputs(1, &[0x01], PATIENCE);
+    let forced = get(&ecatd, "/process-data/forced");
+    assert_eq!(forced.as_array().map(Vec::len), Some(2), "{forced}");
+    let shown = pd_value(&ecatd, 1, 0x7000, 1);
+    assert_eq!(shown["forced_by"], "anonymous");
+    assert_eq!(shown["value"], true);
+    let raw = get(&ecatd, "/slaves/1/process-data?raw=true");
+    assert_eq!(raw["entries"][0]["raw"], "01", "{raw}");
+    let (_, metrics) = curl(&["-s", &format!("{}/metrics", ecatd.http)]);
+    assert!(
+        metrics
+            .lines()
+            .any(|l| l == "ecat_process_data_forced_entries 2"),
+        "{metrics}"
+    );
+    let (code, _) = send_json(&ecatd, "DELETE", "/slaves/1/process-data/0x7000/1", "");
+    assert_eq!(code, 200);
+    let (code, answer) = send_json(&ecatd, "DELETE", "/slaves/1/process-data/0x7000/1", "");
+    assert_eq!(code, 404, "released twice: {answer}");
+    assert_eq!(
+        get(&ecatd, "/process-data/forced").as_array().map(Vec::len),
+        Some(1)
+    );
+    // The audit trail names each force.
+    let audit = ecatd.log();
+    assert!(
+        audit.contains("force_output") && audit.contains("release_output"),
+        "{audit}"
+    );
+}
+
+#[test]
+fn a_force_is_refused_while_an_application_owns_the_outputs_unless_it_says_override() {
+    let socket = socket_path("rest-owned");
+    let mut ecatd = ecatd(&socket, PATIENT, "");
+    let owner = Running::start(Client::Rust, &socket, "hold", None);
+    assert_eq!(owner.next()["claimed"], true);
+    ecatd.wait_sim_outputs(1, &[0x01], PATIENCE);
+    let (code, answer) = send_json(
+        &ecatd,
+        "PUT",
+        "/slaves/1/process-data/0x7000/2",
+        r#"{"value": 1}"#,
+    );
+    assert_eq!(code, 409, "{answer}");
+    assert_eq!(answer["reason"], "OUTPUTS_OWNED", "{answer}");
+    assert!(
+        answer["detail"]
+            .as_str()
+            .is_some_and(|d| d.contains(&format!("pid {}", owner.child.id()))),
+        "{answer}"
+    );
+    assert_eq!(get(&ecatd, "/process-data/forced"), serde_json::json!([]));
+    ecatd.wait_sim_outputs(1, &[0x01], PATIENCE);
+    let (code, answer) = send_json(
+        &ecatd,
+        "PUT",
+        "/slaves/1/process-data/0x7000/2",
+        r#"{"value": 1, "override": true}"#,
+    );
+    assert_eq!(code, 200, "{answer}");
+    assert_eq!(answer["override"], true);
+    // The owner's channel 1 and the forced channel 2, in the same frames.
+    ecatd.wait_sim_outputs(1, &[0x03], PATIENCE);
+    let log = ecatd.log();
+    assert!(log.contains("force_output_over_owner"), "{log}");
+}
+
+#[test]
+fn bad_process_data_requests_name_the_field_and_change_nothing() {
+    let socket = socket_path("rest-bad");
+    let ecatd = ecatd(&socket, PATIENT, "");
+    let cases: [(&str, &str, &str, u16, &str); 6] = [
+        (
+            "PUT",
+            "/slaves/1/process-data/0x7000/9",
+            r#"{"value": 1}"#,
+            404,
+            "UNKNOWN_ENTRY",
+        ),
+        (
+            "PUT",
+            "/slaves/2/process-data/0x6000/1",
+            r#"{"value": 1}"#,
+            400,
+            "index",
+        ),
+        (
+            "PUT",
+            "/slaves/0/process-data/0x6040/0",
+            r#"{"value": 70000}"#,
+            400,
+            "value",
+        ),
+        (
+            "PUT",
+            "/slaves/0/process-data/0x6040/0",
+            r#"{"value": "six"}"#,
+            400,
+            "value",
+        ),
+        (
+            "PUT",
+            "/slaves/9/process-data/0x6040/0",
+            r#"{"value": 1}"#,
+            404,
+            "UNKNOWN_SLAVE",
+        ),
+        (
+            "GET",
+            "/process-data/stream?interval=100us",
+            "",
+            400,
+            "interval",
+        ),
+    ];
+    for (method, path, body, status, names) in cases {
+        let (code, answer) = if method == "GET" {
+            let (code, text) = curl(&["-s", &format!("{}/api/v1{path}", ecatd.http)]);
+            (
+                code,
+                serde_json::from_str(&text).unwrap_or(Value::String(text)),
+            )
+        } else {
+            send_json(&ecatd, method, path, body)
+        };
+        assert_eq!(code, status, "{method} {path} {body}: {answer}");
+        assert!(
+            answer.to_string().contains(names),
+            "{method} {path}: {answer}"
+        );
+    }
+    assert_eq!(get(&ecatd, "/process-data/forced"), serde_json::json!([]));
+}
+
+#[test]
+fn the_stream_sends_every_entry_then_the_changes() {
+    let socket = socket_path("rest-stream");
+    let ecatd = ecatd(&socket, PATIENT, "");
+    let url = format!(
+        "{}/api/v1/process-data/stream?interval=50ms&slave=2",
+        ecatd.http
+    );
+    let sse =
+        server_support::streaming::Streaming::start(Command::new("curl").args(["-s", "-N", &url]));
+    // The first event: every entry of the DI8, all off.
+    sse.wait_for("the first event", |text| {
+        text.contains("\"Input 8\"").then_some(())
+    });
+    let (code, _) = send_json(
+        &ecatd,
+        "PUT",
+        "/slaves/1/process-data/0x7000/3",
+        r#"{"value": 1}"#,
+    );
+    assert_eq!(code, 200);
+    // A later event with only the change: input 3 on.
+    let change = sse.wait_for("input 3 on", |text| {
+        text.lines()
+            .filter_map(|l| l.strip_prefix("data: "))
+            .filter_map(|d| serde_json::from_str::<Value>(d).ok())
+            .find(|v| {
+                v["entries"].as_array().is_some_and(|e| {
+                    e.len() == 1
+                        && e[0]["index"] == 0x6000
+                        && e[0]["subindex"] == 3
+                        && e[0]["value"] == true
+                })
+            })
+    });
+    assert!(change["cycle"].as_u64() > Some(0), "{change}");
+    assert!(sse.text().contains("event: values\nid: "), "{}", sse.text());
+}
+
+#[test]
+fn with_on_watchdog_safeop_a_tripped_owner_takes_the_slaves_with_outputs_to_safeop() {
+    let socket = socket_path("safeop");
+    let mut ecatd = ecatd(&socket, "watchdog = 50\non_watchdog = \"safeop\"", "");
+    let owner = Running::start(Client::Rust, &socket, "hold", None);
+    assert_eq!(owner.next()["claimed"], true);
+    ecatd.wait_sim_outputs(1, &[0x01], PATIENCE);
+    owner.signal(libc::SIGSTOP);
+    ecatd.log_until("application watchdog: no commit; safe outputs");
+    let deadline = Instant::now() + PATIENCE;
+    loop {
+        let slaves = get(&ecatd, "/slaves");
+        let states: Vec<(u64, String)> = slaves
+            .as_array()
+            .expect("slaves")
+            .iter()
+            .map(|s| {
+                (
+                    s["position"].as_u64().unwrap(),
+                    s["state"].as_str().unwrap().to_string(),
+                )
+            })
+            .collect();
+        // The drive (0) and the DO8 (1) have outputs; the DI8 (2) has none and stays in OP.
+        let state = |p: u64| states.iter().find(|s| s.0 == p).map(|s| s.1.as_str());
+        if state(0) == Some("SAFEOP") && state(1) == Some("SAFEOP") {
+            assert_eq!(state(2), Some("OP"), "{states:?}");
+            break;
+        }
+        assert!(Instant::now() < deadline, "{states:?}");
+        // Poll interval of the state check; the loop ends on the states or the deadline.
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    owner.signal(libc::SIGCONT);
+}

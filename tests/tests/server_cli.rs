@@ -4,8 +4,10 @@
 mod server_support;
 
 use std::process::Command;
+use std::time::{Duration, Instant};
 
 use serde_json::Value;
+use server_support::streaming::Streaming;
 use server_support::{Ecatd, bin_dir};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
@@ -755,4 +757,173 @@ fn debug_shows_and_replaces_the_log_filter_and_reg_rdwr_swaps_registers() {
         ecat.json(&["reg_read", "-p", "1", "0x0f10", "2"])["data"],
         "efbe"
     );
+}
+
+/// ecatd with the application interface (a force needs it) on a socket of the test's own,
+/// so that tests running side by side do not share the default one.
+fn ecatd_with_app(name: &str) -> Ecatd {
+    let dir = std::env::temp_dir().join(format!("ecatd-cli-pd-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("the test's directory");
+    let socket = dir.join("app.sock");
+    Ecatd::start(&["--app-socket", socket.to_str().expect("UTF-8 path")])
+}
+
+/// The entry `index:subindex` of `ecat --json pd`'s output.
+fn pd_entry(values: &Value, index: u64, subindex: u64) -> Value {
+    values["entries"]
+        .as_array()
+        .expect("entries")
+        .iter()
+        .find(|e| e["index"] == index && e["subindex"] == subindex)
+        .unwrap_or_else(|| panic!("no {index:#x}:{subindex} in {values}"))
+        .clone()
+}
+
+#[test]
+fn pd_shows_forces_and_releases_named_entries_and_pdos_lists_every_slave_as_igh_does() {
+    let ecatd = ecatd_with_app("pd");
+    let ecat = Ecat { ecatd: &ecatd };
+
+    // The drive's entries, named, typed, with their values.
+    let table = ecat.ok(&["pd", "-p", "0"]);
+    let lines: Vec<&str> = table.lines().collect();
+    assert!(
+        lines[0].starts_with("Slave  Entry") && lines[0].contains("Forced by"),
+        "{table}"
+    );
+    let line = |name: &str| {
+        lines
+            .iter()
+            .find(|l| l.contains(name))
+            .unwrap_or_else(|| panic!("no {name} in:\n{table}"))
+            .to_string()
+    };
+    let control = line("Controlword");
+    assert!(
+        control.starts_with("0      0x6040:00  Controlword")
+            && control.contains("UNSIGNED16  out  0x0000 0"),
+        "{control}"
+    );
+    let status = line("Statusword");
+    assert!(
+        status.contains("0x6041:00") && status.contains("UNSIGNED16  in   0x00"),
+        "{status}"
+    );
+
+    // A DO8 output forced on, read back on the DI8 input the simulator wires it to.
+    assert_eq!(
+        ecat.ok(&["pd", "--force", "-p", "1", "0x7000", "1", "1"]),
+        ""
+    );
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let values = ecat.json(&["pd", "-p", "2"]);
+        let input = pd_entry(&values, 0x6000, 1);
+        if input["value"] == true {
+            assert_eq!(input["name"], "Input 1");
+            assert_eq!(input["direction"], "in");
+            break;
+        }
+        assert!(Instant::now() < deadline, "0x6000:01 stays {input}");
+        // Poll interval of the value check; the loop ends on the value or the deadline.
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let output = pd_entry(&ecat.json(&["pd", "-p", "1"]), 0x7000, 1);
+    assert_eq!(output["forced_by"], "anonymous", "{output}");
+    let forced = ecat.ok(&["pd", "--forced"]);
+    assert!(
+        forced.contains("0x7000:01  Output 1  BOOLEAN  true   anonymous  no"),
+        "{forced}"
+    );
+    // An input cannot be forced; the refusal names it.
+    let (ok, _, stderr) = ecat.run(&["pd", "--force", "-p", "2", "0x6000", "1", "1"]);
+    assert!(
+        !ok && stderr.contains("InvalidArgument") && stderr.contains("is an input"),
+        "{stderr}"
+    );
+    // INDEX SUB only with --force or --release.
+    let (ok, _, stderr) = ecat.run(&["pd", "-p", "1", "0x7000", "1"]);
+    assert!(!ok && stderr.contains("--force or --release"), "{stderr}");
+
+    // --watch: without a terminal, the whole table whenever something changed; with --json
+    // one object of the changed entries per line.
+    let mut watch = Command::new(bin_dir().join("ecat"));
+    watch.args([
+        "--address",
+        &format!("http://{}", ecatd.grpc),
+        "pd",
+        "-p",
+        "2",
+        "--watch",
+        "50ms",
+    ]);
+    let table = Streaming::start(&mut watch);
+    let mut json_watch = Command::new(bin_dir().join("ecat"));
+    json_watch.args([
+        "--address",
+        &format!("http://{}", ecatd.grpc),
+        "--json",
+        "pd",
+        "-p",
+        "2",
+        "--watch",
+    ]);
+    let lines = Streaming::start(&mut json_watch);
+    table.wait_for_line("Input 8");
+    lines.wait_for_line("Input 8");
+    ecat.ok(&["pd", "--force", "-p", "1", "0x7000", "2", "true"]);
+    table.wait_for("a second block with input 2 on", |text| {
+        (text.matches("Cycle ").count() >= 2
+            && text
+                .lines()
+                .any(|l| l.contains("0x6000:02") && l.contains(" true")))
+        .then_some(())
+    });
+    let change = lines.wait_for("the change", |text| {
+        text.lines()
+            .map(|l| serde_json::from_str::<Value>(l).expect("one JSON object per line"))
+            .find(|v| v["entries"].as_array().is_some_and(|e| e.len() == 1))
+    });
+    assert_eq!(change["entries"][0]["index"], 0x6000, "{change}");
+    assert_eq!(change["entries"][0]["subindex"], 2, "{change}");
+    assert_eq!(change["entries"][0]["value"], true, "{change}");
+    drop((table, lines));
+
+    // Release one output, then every forced output of the slave; again, there is none.
+    assert_eq!(ecat.ok(&["pd", "--release", "-p", "1", "0x7000", "1"]), "");
+    let (ok, _, stderr) = ecat.run(&["pd", "--release", "-p", "1", "0x7000", "1"]);
+    assert!(!ok && stderr.contains("NotFound"), "{stderr}");
+    let released = ecat.json(&["pd", "--release", "-p", "1"]);
+    assert_eq!(released["released"][0]["subindex"], 2, "{released}");
+    let released = ecat.json(&["pd", "--release", "-p", "1"]);
+    assert_eq!(released["released"], serde_json::json!([]));
+    assert_eq!(ecat.json(&["pd", "--forced"]), serde_json::json!([]));
+
+    // pdos as IgH prints it: every slave under a header when no slave is selected.
+    let pdos = ecat.ok(&["pdos"]);
+    for expected in [
+        "=== Master 0, Slave 0 ===\nSM0: PhysAddr 0x1000, DefaultSize  128, ControlRegister 0x26, Enable 1\n",
+        "SM2: PhysAddr 0x1100, DefaultSize    6, ControlRegister 0x64, Enable 1\n  RxPDO 0x1600 \"Outputs\"\n    PDO entry 0x6040:00, 16 bit, \"Controlword\"\n    PDO entry 0x607a:00, 32 bit, \"Target position\"\n",
+        "  TxPDO 0x1a00 \"Inputs\"\n    PDO entry 0x6041:00, 16 bit, \"Statusword\"\n",
+        "=== Master 0, Slave 1 ===\nSM0: PhysAddr 0x1000, DefaultSize    1, ControlRegister 0x64, Enable 1\n  RxPDO 0x1600 \"Outputs\"\n    PDO entry 0x7000:01,  1 bit, \"Output 1\"\n",
+        "=== Master 0, Slave 2 ===\n",
+        "    PDO entry 0x6000:08,  1 bit, \"Input 8\"\n",
+    ] {
+        assert!(
+            pdos.contains(expected),
+            "{expected:?} missing from:\n{pdos}"
+        );
+    }
+    let one = ecat.ok(&["pdos", "-p", "2"]);
+    assert!(
+        one.starts_with("SM0: PhysAddr 0x1000") && !one.contains("==="),
+        "one slave, no header:\n{one}"
+    );
+    assert!(!ecat.ok(&["pdos", "-p", "0", "-q"]).contains("PDO entry"));
+    let json = ecat.json(&["pdos", "-p", "1"]);
+    let sm = &json[0]["sync_managers"][0];
+    assert_eq!(sm["pdo_type"], "rx", "{json}");
+    assert_eq!(sm["pdos"][0]["entries"].as_array().map(Vec::len), Some(8));
+    assert_eq!(sm["pdos"][0]["entries"][7]["name"], "Output 8");
 }

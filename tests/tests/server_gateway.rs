@@ -2,19 +2,24 @@
 //! `ecatd --simulate`'s ETG.8200 gateway (messages built and parsed with
 //! `master_core::wire`). Every protocol, the master's dictionary at address 0, position and
 //! broadcast addressing, the error table, strict mode, the allowlist, stop and restart
-//! through the API, and the port of master number 2 with its fallback. Expected values come
+//! through the API, the port of master number 2 with its fallback, and broadcasts beside
+//! another client's transfer (issue 35). Expected values come
 //! from `Topology::default_segment()`.
 
 mod server_support;
 
 use std::collections::BTreeMap;
 use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use master_core::gateway::BROADCAST_ADDRESS;
 use master_core::master_od::MasterIdentity;
 use master_core::wire::Emit;
-use master_core::wire::coe::{AbortCode, CoeRepr, DataType, ObjectCode, SdoRequest, SdoResponse};
+use master_core::wire::coe::{
+    AbortCode, CoeRepr, DataType, ObjectCode, SdoPayload, SdoRequest, SdoResponse,
+    max_initiate_data, max_segment_data,
+};
 use master_core::wire::foe::{self, FoePacket, FoeRepr};
 use master_core::wire::mailbox::{ErrorReply, ErrorReplyRepr, MailboxErrorCode, MailboxType};
 use master_core::wire::soe::{
@@ -33,6 +38,8 @@ use sim::topology::{Protocol, Topology};
 const DRIVE: u16 = 1001;
 const COE_STORE: u16 = 1004;
 const EOE_PORT: u16 = 1005;
+/// The second drive of [`two_drives`], after the default segment.
+const DRIVE_2: u16 = 1006;
 /// The simulated slaves' mailbox size (default segment: 128/128).
 const MAILBOX: usize = 128;
 /// How long a test waits to be sure that no reply comes.
@@ -173,10 +180,24 @@ fn foe_read(client: &mut GatewayClient, address: u16, name: &str, limit: usize) 
         file_name: name.as_bytes(),
     });
     client.send(address, MailboxType::Foe, &request);
+    let first = client.recv();
+    foe_read_on(client, address, &first, limit)
+        .unwrap_or_else(|| panic!("{name} is longer than {limit} bytes"))
+}
+
+/// Goes on with an FoE read whose packet 1 is `first` (a reply from `address`): ACKs each
+/// packet, the short one last, whose ACK gets no answer. The file, or `None` if it is
+/// longer than `limit`.
+fn foe_read_on(
+    client: &mut GatewayClient,
+    address: u16,
+    first: &Reply,
+    limit: usize,
+) -> Option<Vec<u8>> {
     let full = foe::max_data(MAILBOX);
     let mut content = Vec::new();
+    let mut reply = first.clone();
     for expected in 1..=u32::try_from(limit / full + 1).unwrap() {
-        let reply = client.recv();
         let (packet, data) = match foe_of(&reply) {
             FoeRepr::Data { packet, data } => (packet, data.to_vec()),
             other => panic!("packet {expected}: {other:?}"),
@@ -193,10 +214,11 @@ fn foe_read(client: &mut GatewayClient, address: u16, name: &str, limit: usize) 
                 client.recv_within(SILENCE).is_none(),
                 "the last ACK is not answered"
             );
-            return content;
+            return Some(content);
         }
+        reply = client.recv();
     }
-    panic!("{name} is longer than {limit} bytes");
+    None
 }
 
 #[test]
@@ -939,5 +961,233 @@ fn master_number_2_asks_for_34981_and_falls_back_when_it_is_taken() {
     assert_eq!(
         client.sdo_upload(DRIVE, 0x1018, 1),
         Ok(vendor.to_le_bytes().to_vec())
+    );
+}
+
+/// The default segment and a second drive at its end ([`DRIVE_2`]), so that two slaves
+/// serve FoE; written to a file for `--simulate`.
+fn two_drives(name: &str) -> PathBuf {
+    let mut topology = Topology::default_segment();
+    let mut drive = topology.slaves[0].clone();
+    drive.serial = 6;
+    // One EoE endpoint per IP address.
+    if let Some(eoe) = drive.eoe.as_mut() {
+        eoe.ip = None;
+    }
+    topology.slaves.push(drive);
+    let path = std::env::temp_dir().join(format!(
+        "ecatd-gateway-{name}-{}-topology.toml",
+        std::process::id()
+    ));
+    std::fs::write(&path, topology.to_toml().expect("the topology serialises")).unwrap();
+    path
+}
+
+/// ecatd on [`two_drives`] with a `write` client at 127.0.0.1 and a `read` one at
+/// 127.0.0.2 (the broadcasts come from the latter: its role is no protection for anyone).
+fn start_for_broadcasts(name: &str) -> (Ecatd, GatewayClient, GatewayClient) {
+    let topology = two_drives(name);
+    let config =
+        std::env::temp_dir().join(format!("ecatd-gateway-{name}-{}.toml", std::process::id()));
+    // The application interface is not under test, and its default socket is one per host.
+    std::fs::write(
+        &config,
+        "[gateway]\nallow = [\"127.0.0.1/32\", { net = \"127.0.0.2/32\", role = \"read\" }]\n\
+         [app]\nenabled = false\n",
+    )
+    .unwrap();
+    let ecatd = Ecatd::start_with(
+        &["--simulate", topology.to_str().unwrap()],
+        &["--config", config.to_str().unwrap()],
+    );
+    std::fs::remove_file(&topology).unwrap();
+    std::fs::remove_file(&config).unwrap();
+    let writer = GatewayClient::new(ecatd.gateway_addr());
+    let reader = GatewayClient::from_host(Ipv4Addr::new(127, 0, 0, 2), ecatd.gateway_addr());
+    (ecatd, writer, reader)
+}
+
+/// The replies to a broadcast, one per slave serving its protocol, by station address;
+/// no more come.
+fn broadcast_replies(client: &GatewayClient, slaves: usize) -> BTreeMap<u16, Reply> {
+    let mut replies = BTreeMap::new();
+    for _ in 0..slaves {
+        let reply = client.recv();
+        let station = reply.header.address;
+        assert!(
+            replies.insert(station, reply).is_none(),
+            "one reply from {station}"
+        );
+    }
+    assert!(
+        client.recv_within(SILENCE).is_none(),
+        "one reply per slave, no more"
+    );
+    replies
+}
+
+/// Issue 35 item 1: a broadcast no longer breaks another client's transfer. While a
+/// `write` client is in a segmented SDO download to the CoE store, a `read` client's SDO
+/// upload to 0xFFFF is answered by the other CoE slaves and, for the store, with mailbox
+/// error 0x0009 (busy): the store never sees it, and the download goes on to the end
+/// (before, the store answered the upload and the next segment got abort 0x05040001).
+/// Segments are never broadcast: mailbox error 0x0004 at 0xFFFF, from whichever client.
+#[test]
+fn a_broadcast_skips_a_slave_in_another_clients_sdo_download() {
+    let (ecatd, mut writer, mut reader) = start_for_broadcasts("sdo-broadcast");
+    // The second drive is a copy of the first.
+    let vendor = Topology::default_segment().slaves[0].vendor_id;
+    // Not the store's initial value (the fill pattern), so the read-back proves the write.
+    let content: Vec<u8> = (0..4096u32).map(|i| (i * 7 + 3) as u8).rev().collect();
+    assert_ne!(content, pattern(content.len()));
+    let first = max_initiate_data(MAILBOX);
+    let reply = writer.coe(
+        COE_STORE,
+        &CoeRepr::SdoRequest(SdoRequest::InitiateDownload {
+            index: 0x2000,
+            subindex: 0,
+            complete_access: false,
+            payload: SdoPayload::Normal {
+                complete_size: content.len() as u32,
+                data: &content[..first],
+            },
+        }),
+    );
+    assert!(
+        matches!(
+            reply.coe(),
+            CoeRepr::SdoResponse(SdoResponse::InitiateDownload { .. })
+        ),
+        "{reply:?}"
+    );
+
+    // The download is open: the broadcast skips the store, the drives answer.
+    reader.send(
+        BROADCAST_ADDRESS,
+        MailboxType::Coe,
+        &coe_bytes(&upload_request(0x1018, 1)),
+    );
+    let replies = broadcast_replies(&reader, 3);
+    assert_eq!(
+        replies.keys().copied().collect::<Vec<_>>(),
+        [DRIVE, COE_STORE, DRIVE_2]
+    );
+    assert_eq!(
+        mailbox_error_of(&replies[&COE_STORE]),
+        MailboxErrorCode::ServiceInWork
+    );
+    for station in [DRIVE, DRIVE_2] {
+        let CoeRepr::SdoResponse(SdoResponse::InitiateUpload {
+            payload: SdoPayload::Expedited(value),
+            ..
+        }) = replies[&station].coe()
+        else {
+            panic!("{station}: {:?}", replies[&station]);
+        };
+        assert_eq!(value, vendor.to_le_bytes());
+    }
+
+    // A segment to 0xFFFF is refused before any slave sees it: the reader's upload segment,
+    // and the writer's own download segment sent to the wrong address.
+    let refused = [
+        (
+            &mut reader,
+            coe_bytes(&CoeRepr::SdoRequest(SdoRequest::UploadSegment {
+                toggle: false,
+            })),
+        ),
+        (
+            &mut writer,
+            coe_bytes(&CoeRepr::SdoRequest(SdoRequest::DownloadSegment {
+                toggle: false,
+                last: false,
+                data: &[0xEE; 7],
+            })),
+        ),
+    ];
+    for (client, segment) in refused {
+        let reply = client.exchange(BROADCAST_ADDRESS, MailboxType::Coe, &segment);
+        assert_eq!(reply.header.address, BROADCAST_ADDRESS);
+        assert_eq!(
+            mailbox_error_of(&reply),
+            MailboxErrorCode::ServiceNotSupported
+        );
+    }
+
+    // The download goes on where it was and ends.
+    let mut toggle = false;
+    let chunks: Vec<&[u8]> = content[first..].chunks(max_segment_data(MAILBOX)).collect();
+    for (n, chunk) in chunks.iter().enumerate() {
+        let reply = writer.coe(
+            COE_STORE,
+            &CoeRepr::SdoRequest(SdoRequest::DownloadSegment {
+                toggle,
+                last: n + 1 == chunks.len(),
+                data: chunk,
+            }),
+        );
+        assert_eq!(
+            reply.coe(),
+            CoeRepr::SdoResponse(SdoResponse::DownloadSegment { toggle }),
+            "segment {n}"
+        );
+        toggle = !toggle;
+    }
+    assert_eq!(reader.sdo_upload(COE_STORE, 0x2000, 0), Ok(content));
+
+    let stats = gateway_view(&ecatd)["stats"].clone();
+    assert_eq!(stats["failures"]["other"], 2, "the two segments: {stats}");
+    assert_eq!(
+        stats["failures"]["busy"], 0,
+        "the broadcast was answered: {stats}"
+    );
+}
+
+/// The same for FoE: while the `write` client reads firmware.bin from the drive, the
+/// `read` client's FoE read request to 0xFFFF is answered by the second drive and, for the
+/// first, with mailbox error 0x0009; an ACK to 0xFFFF is refused (mailbox error 0x0004).
+/// Both reads then end with the whole file: the broadcast's read of the second drive is
+/// its client's, to go on with at that drive's address.
+#[test]
+fn a_broadcast_skips_a_slave_in_another_clients_foe_read() {
+    let (_ecatd, mut writer, mut reader) = start_for_broadcasts("foe-broadcast");
+    let file = pattern(1024);
+    let request = foe_bytes(&FoeRepr::ReadRequest {
+        password: 0,
+        file_name: b"firmware.bin",
+    });
+    let first = writer.exchange(DRIVE, MailboxType::Foe, &request);
+    assert!(
+        matches!(foe_of(&first), FoeRepr::Data { packet: 1, .. }),
+        "{first:?}"
+    );
+
+    reader.send(BROADCAST_ADDRESS, MailboxType::Foe, &request);
+    let replies = broadcast_replies(&reader, 2);
+    assert_eq!(
+        mailbox_error_of(&replies[&DRIVE]),
+        MailboxErrorCode::ServiceInWork
+    );
+    let second = replies[&DRIVE_2].clone();
+    assert!(
+        matches!(foe_of(&second), FoeRepr::Data { packet: 1, .. }),
+        "{second:?}"
+    );
+
+    let ack = foe_bytes(&FoeRepr::Ack { packet: 1 });
+    let reply = reader.exchange(BROADCAST_ADDRESS, MailboxType::Foe, &ack);
+    assert_eq!(reply.header.address, BROADCAST_ADDRESS);
+    assert_eq!(
+        mailbox_error_of(&reply),
+        MailboxErrorCode::ServiceNotSupported
+    );
+
+    assert_eq!(
+        foe_read_on(&mut writer, DRIVE, &first, file.len()),
+        Some(file.clone())
+    );
+    assert_eq!(
+        foe_read_on(&mut reader, DRIVE_2, &second, file.len()),
+        Some(file)
     );
 }

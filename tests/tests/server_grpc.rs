@@ -3,9 +3,14 @@
 
 mod server_support;
 
+use std::path::PathBuf;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
 use serde_json::Value;
 use server_support::gateway_client::GatewayClient;
-use server_support::{Ecatd, b64, call, call_status, grpcurl};
+use server_support::streaming::Streaming;
+use server_support::{Ecatd, b64, call, call_status, grpcurl, grpcurl_path};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// The simulator's test pattern for sized objects and files (byte i = i mod 251; the
@@ -30,6 +35,7 @@ fn reflection_lists_and_describes_every_service() {
         "ecat.v1.VoeService",
         "ecat.v1.EoeService",
         "ecat.v1.GatewayService",
+        "ecat.v1.ProcessDataService",
         "grpc.health.v1.Health",
         "grpc.reflection.v1alpha.ServerReflection",
     ] {
@@ -536,4 +542,357 @@ fn domains_register_read_write_and_the_log_filter_agree_across_both_apis() {
     assert_eq!(status, 400, "{body}");
     let get = call(g, &[], "ecat.v1.BusService/GetLogFilter", "{}").unwrap();
     assert_eq!(get["filter"], "warn,server=debug", "unchanged");
+}
+
+/// How long a process-data value may take to show what a test waits for.
+const PD_PATIENCE: Duration = Duration::from_secs(30);
+
+/// ecatd with the application interface (a force needs it) on a socket of the test's own,
+/// so that tests running side by side do not share the default one, and the configuration
+/// `config` (TOML). Returns ecatd and the socket.
+fn ecatd_with_app(name: &str, config: &str) -> (Ecatd, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("ecatd-grpc-pd-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("the test's directory");
+    let socket = dir.join("app.sock");
+    let file = dir.join("ecatd.toml");
+    std::fs::write(&file, config).expect("the configuration");
+    let ecatd = Ecatd::start(&[
+        "--app-socket",
+        socket.to_str().expect("UTF-8 path"),
+        "--config",
+        file.to_str().expect("UTF-8 path"),
+    ]);
+    (ecatd, socket)
+}
+
+/// Calls `ProcessDataService/<method>`.
+fn pd_call(ecatd: &Ecatd, method: &str, body: &str) -> Result<Value, Value> {
+    call_status(
+        &ecatd.grpc,
+        &[],
+        &format!("ecat.v1.ProcessDataService/{method}"),
+        body,
+    )
+}
+
+/// A number of grpcurl's JSON: 64-bit integers come as strings, and proto3 leaves out
+/// zeros.
+fn n(v: &Value) -> u64 {
+    v.as_u64()
+        .or_else(|| v.as_str().and_then(|s| s.parse().ok()))
+        .unwrap_or(0)
+}
+
+/// Whether a `PdEntry` is `index:subindex` of `slave`.
+fn is_entry(e: &Value, slave: u64, index: u64, subindex: u64) -> bool {
+    n(&e["slave"]) == slave && n(&e["index"]) == index && n(&e["subindex"]) == subindex
+}
+
+/// The entry and value of `index:subindex` of `slave` in the last cycle, through `Read`.
+fn pd_value(ecatd: &Ecatd, slave: u64, index: u64, subindex: u64) -> Value {
+    let read = pd_call(ecatd, "Read", &format!(r#"{{"slave":"{slave}"}}"#)).expect("Read");
+    read["entries"]
+        .as_array()
+        .expect("entries")
+        .iter()
+        .find(|v| is_entry(&v["entry"], slave, index, subindex))
+        .unwrap_or_else(|| panic!("no {index:#x}:{subindex} of slave {slave} in {read}"))
+        .clone()
+}
+
+/// Polls `index:subindex` of `slave` until `wanted` holds for its value (a `PdValue`).
+fn wait_pd(
+    ecatd: &Ecatd,
+    slave: u64,
+    index: u64,
+    subindex: u64,
+    wanted: impl Fn(&Value) -> bool,
+) -> Value {
+    let deadline = Instant::now() + PD_PATIENCE;
+    loop {
+        let shown = pd_value(ecatd, slave, index, subindex);
+        if wanted(&shown["value"]) {
+            return shown;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "{index:#x}:{subindex} of slave {slave} stays {shown}"
+        );
+        // Poll interval of the value check; the loop ends on the value or the deadline.
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+/// Forces `index:subindex` of `slave` to `value` (a `ForceRequest` value field).
+fn force(ecatd: &Ecatd, slave: u64, index: u64, subindex: u64, value: &str) -> Value {
+    pd_call(
+        ecatd,
+        "Force",
+        &format!(r#"{{"slave":"{slave}","index":{index},"subindex":{subindex},{value}}}"#),
+    )
+    .unwrap_or_else(|status| panic!("force {index:#x}:{subindex} of slave {slave}: {status}"))
+}
+
+/// The messages a streaming grpcurl printed so far (pretty JSON, one value per message).
+fn messages(text: &str) -> Vec<Value> {
+    serde_json::Deserializer::from_str(text)
+        .into_iter::<Value>()
+        .map_while(Result::ok)
+        .collect()
+}
+
+#[test]
+fn process_data_drives_the_drive_mirrors_the_do8_and_streams_the_change_over_grpc() {
+    let (ecatd, _socket) = ecatd_with_app("drive", "[app]\nwatchdog = 1000\n");
+
+    // The layout: the entries a control program attaches to, and each slave's PDOs.
+    let layout = pd_call(&ecatd, "GetLayout", "{}").unwrap();
+    assert_eq!(layout["generation"], 1, "{layout}");
+    assert_eq!(n(&layout["periodNs"]), 1_000_000);
+    let entries = layout["entries"].as_array().unwrap();
+    let control = entries
+        .iter()
+        .find(|e| is_entry(e, 0, 0x6040, 0))
+        .unwrap_or_else(|| panic!("no controlword in {layout}"));
+    assert_eq!(control["name"], "Controlword");
+    assert_eq!(control["dataType"], "UNSIGNED16");
+    assert_eq!(control["bitLength"], 16);
+    assert_eq!(control["direction"], "PD_DIRECTION_OUT");
+    let status = entries.iter().find(|e| is_entry(e, 0, 0x6041, 0)).unwrap();
+    assert_eq!(status["direction"], "PD_DIRECTION_IN");
+    let drive = &layout["slaves"][0];
+    assert_eq!(n(&drive["slave"]), 0);
+    let sm2 = drive["syncManagers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|sm| n(&sm["index"]) == 2)
+        .unwrap_or_else(|| panic!("no SM2 in {drive}"));
+    assert_eq!(n(&sm2["controlRegister"]), 0x64, "{sm2}");
+    assert_eq!(n(&sm2["pdos"][0]["index"]), 0x1600);
+    assert_eq!(sm2["pdos"][0]["name"], "Outputs");
+    assert_eq!(sm2["pdos"][0]["entries"][0]["name"], "Controlword");
+    assert_eq!(n(&sm2["pdos"][0]["entries"][0]["bitLength"]), 16);
+    let di8 = pd_call(&ecatd, "GetLayout", r#"{"slave":"2"}"#).unwrap();
+    assert_eq!(di8["entries"].as_array().unwrap().len(), 8, "{di8}");
+    assert!(
+        di8["entries"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|e| n(&e["slave"]) == 2 && e["direction"] == "PD_DIRECTION_IN"),
+        "{di8}"
+    );
+    assert_eq!(di8["slaves"].as_array().unwrap().len(), 1);
+
+    // The drive through its state machine by the controlword alone (CiA 402: shutdown,
+    // switch on, enable operation), the statusword read back each time.
+    for (command, state) in [(6u64, 0x21u64), (7, 0x23), (15, 0x27)] {
+        let forced = force(&ecatd, 0, 0x6040, 0, &format!(r#""int_value":{command}"#));
+        assert_eq!(
+            n(&forced["force"]["value"]["uintValue"]),
+            command,
+            "{forced}"
+        );
+        assert_eq!(forced["force"]["forcedBy"], "anonymous");
+        wait_pd(&ecatd, 0, 0x6041, 0, |v| n(&v["uintValue"]) & 0x6F == state);
+    }
+    let shown = pd_value(&ecatd, 0, 0x6040, 0);
+    assert_eq!(n(&shown["value"]["uintValue"]), 15, "{shown}");
+    assert_eq!(shown["forcedBy"], "anonymous");
+    assert_eq!(b64::decode(shown["raw"].as_str().unwrap()), [15, 0]);
+
+    // The DO8's first channel, read back on the DI8 the simulator wires it to.
+    let forced = force(&ecatd, 1, 0x7000, 1, r#""bool_value":true"#);
+    assert_eq!(forced["force"]["value"]["boolValue"], true, "{forced}");
+    wait_pd(&ecatd, 2, 0x6000, 1, |v| v["boolValue"] == true);
+    let listed = pd_call(&ecatd, "ListForced", "{}").unwrap();
+    let forced = listed["forced"].as_array().unwrap();
+    assert_eq!(forced.len(), 2, "{listed}");
+    assert!(forced.iter().any(|f| is_entry(&f["entry"], 1, 0x7000, 1)));
+
+    // Watch: every entry of the DI8 first; then, once an output changes, the input it is
+    // wired to, alone, in the next message: the first interval that saw the change.
+    let mut watch = Command::new(grpcurl_path());
+    watch.args([
+        "-plaintext",
+        "-d",
+        r#"{"slave":"2","interval_ms":50}"#,
+        &ecatd.grpc,
+        "ecat.v1.ProcessDataService/Watch",
+    ]);
+    let stream = Streaming::start(&mut watch);
+    let first = stream.wait_for("the first message", |text| messages(text).first().cloned());
+    let all = first["entries"].as_array().unwrap();
+    assert_eq!(all.len(), 8, "every entry first: {first}");
+    assert!(
+        all.iter()
+            .any(|v| is_entry(&v["entry"], 2, 0x6000, 1) && v["value"]["boolValue"] == true)
+    );
+    force(&ecatd, 1, 0x7000, 2, r#""int_value":1"#);
+    let changed = stream.wait_for("the changed input", |text| messages(text).get(1).cloned());
+    let only = changed["entries"].as_array().unwrap();
+    assert_eq!(only.len(), 1, "only the change: {changed}");
+    assert!(is_entry(&only[0]["entry"], 2, 0x6000, 2), "{changed}");
+    assert_eq!(only[0]["value"]["boolValue"], true);
+    assert!(n(&changed["cycle"]) > n(&first["cycle"]));
+    drop(stream);
+
+    // Release: once, then it is not forced any more.
+    pd_call(
+        &ecatd,
+        "ReleaseForce",
+        r#"{"slave":"1","index":28672,"subindex":1}"#,
+    )
+    .unwrap();
+    let again = pd_call(
+        &ecatd,
+        "ReleaseForce",
+        r#"{"slave":"1","index":28672,"subindex":1}"#,
+    )
+    .unwrap_err();
+    assert_eq!(again["code"], 5, "NOT_FOUND: {again}");
+    assert!(
+        again["message"].as_str().unwrap().contains("is not forced"),
+        "{again}"
+    );
+    let listed = pd_call(&ecatd, "ListForced", "{}").unwrap();
+    assert!(
+        !listed["forced"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|f| is_entry(&f["entry"], 1, 0x7000, 1)),
+        "{listed}"
+    );
+    assert_eq!(pd_value(&ecatd, 1, 0x7000, 1)["forcedBy"], Value::Null);
+    let audit = ecatd.log();
+    assert!(
+        audit.contains("force_output") && audit.contains("release_output"),
+        "the audit trail names each force:\n{audit}"
+    );
+}
+
+/// The field a failed call's `google.rpc.BadRequest` names.
+fn bad_field(status: &Value) -> String {
+    status["details"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|d| d["fieldViolations"][0]["field"].as_str())
+        .next()
+        .unwrap_or_default()
+        .to_owned()
+}
+
+#[test]
+fn process_data_refuses_bad_requests_and_forces_over_an_owner_only_with_override_over_grpc() {
+    // A 20 ms cycle, so that an interval above the 10 ms floor can still be below the cycle.
+    let (mut ecatd, socket) = ecatd_with_app(
+        "refused",
+        "[app]\nwatchdog = 1000\n[bus]\ncycle = \"20ms\"\n",
+    );
+    let cases: [(&str, &str, u64, &str, &str); 8] = [
+        (
+            "Force",
+            r#"{"slave":"1","index":28672,"subindex":9,"int_value":1}"#,
+            5,
+            "",
+            "0x7000:09",
+        ),
+        (
+            "Force",
+            r#"{"slave":"2","index":24576,"subindex":1,"int_value":1}"#,
+            3,
+            "index",
+            "is an input",
+        ),
+        (
+            "Force",
+            r#"{"slave":"0","index":24640,"subindex":0,"int_value":70000}"#,
+            3,
+            "value",
+            "does not fit",
+        ),
+        (
+            "Force",
+            r#"{"slave":"1","index":28672,"subindex":1}"#,
+            3,
+            "value",
+            "a value is needed",
+        ),
+        (
+            "Force",
+            r#"{"slave":"1","index":70000,"subindex":1,"int_value":1}"#,
+            3,
+            "index",
+            "out of range",
+        ),
+        ("Read", r#"{"slave":"9"}"#, 5, "", ""),
+        (
+            "Watch",
+            r#"{"interval_ms":15}"#,
+            3,
+            "interval",
+            "interval 15ms is below the cycle (20ms) or 10ms",
+        ),
+        (
+            "Watch",
+            r#"{"interval_ms":5}"#,
+            3,
+            "interval",
+            "below the cycle",
+        ),
+    ];
+    for (method, body, code, field, text) in cases {
+        let status = pd_call(&ecatd, method, body).unwrap_err();
+        assert_eq!(n(&status["code"]), code, "{method} {body}: {status}");
+        assert_eq!(bad_field(&status), field, "{method} {body}: {status}");
+        assert!(
+            status["message"].as_str().unwrap().contains(text),
+            "{method} {body}: {status}"
+        );
+    }
+    assert_eq!(
+        pd_call(&ecatd, "ListForced", "{}").unwrap(),
+        serde_json::json!({}),
+        "nothing was forced"
+    );
+
+    // A control program owns the outputs (the DO8 at 0x01): a force is refused...
+    let mut hold = Command::new(env!("CARGO_BIN_EXE_app_program"));
+    hold.arg(&socket).arg("hold");
+    let owner = Streaming::start(&mut hold);
+    owner.wait_for_line(r#"{"claimed": true}"#);
+    ecatd.wait_sim_outputs(1, &[0x01], PD_PATIENCE);
+    let refused = pd_call(
+        &ecatd,
+        "Force",
+        r#"{"slave":"1","index":28672,"subindex":2,"int_value":1}"#,
+    )
+    .unwrap_err();
+    assert_eq!(refused["code"], 9, "FAILED_PRECONDITION: {refused}");
+    assert_eq!(
+        refused["details"][0]["reason"], "OUTPUTS_OWNED",
+        "{refused}"
+    );
+    assert!(
+        refused["message"]
+            .as_str()
+            .unwrap()
+            .contains("owns the outputs"),
+        "{refused}"
+    );
+    assert_eq!(
+        pd_call(&ecatd, "ListForced", "{}").unwrap(),
+        serde_json::json!({})
+    );
+    // ...unless it says override: the owner's channel 1 and the forced channel 2 together.
+    let forced = force(&ecatd, 1, 0x7000, 2, r#""int_value":1,"override":true"#);
+    assert_eq!(forced["force"]["override"], true, "{forced}");
+    ecatd.wait_sim_outputs(1, &[0x03], PD_PATIENCE);
+    let log = ecatd.log();
+    assert!(log.contains("force_output_over_owner"), "{log}");
+    drop(owner);
 }

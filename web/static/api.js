@@ -114,18 +114,23 @@ export function upload(path, bytes, progress) {
 }
 
 /**
- * Listens to /api/v1/events (server-sent events read over fetch, so that the token goes in
- * a header) and calls `onEvent(event)` for each; `onStatus(text)` says whether it is live.
- * Reconnects after a second when the stream ends.
+ * Reads the server-sent events of `path` under /api/v1 with `fetch` (so that the token goes
+ * in a header: `EventSource` cannot send one) and calls `onEvent(data, name)` with each
+ * event's JSON data and its `event:` name; `onStatus(text, error)` says whether it is live.
+ * Reconnects after a second when the stream ends or the connection fails. A refusal (4xx)
+ * ends it, unless `retryRefused`: then it tries again after a second, or, refused for want
+ * of a token (401), when `restart()` says a new token is there. `stop()` ends it for good
+ * (leaving the view), `restart()` connects again at once.
  */
-export function listen(onEvent, onStatus) {
+export function stream(path, onEvent, onStatus, { retryRefused = false } = {}) {
   let stopped = false;
   let controller;
+  let wake = null;
   async function run() {
     while (!stopped) {
       controller = new AbortController();
       try {
-        const response = await fetch(BASE + "/events", { headers: headers(), signal: controller.signal });
+        const response = await fetch(BASE + path, { headers: headers(), signal: controller.signal });
         if (!response.ok) throw await failure(response);
         onStatus("live");
         const reader = response.body.pipeThrough(new TextDecoderStream()).getReader();
@@ -136,16 +141,19 @@ export function listen(onEvent, onStatus) {
           buffer += value.replace(/\r\n/g, "\n");
           let end;
           while ((end = buffer.indexOf("\n\n")) >= 0) {
-            const block = buffer.slice(0, end);
+            const block = buffer.slice(0, end).split("\n");
             buffer = buffer.slice(end + 2);
-            const data = block.split("\n").filter((l) => l.startsWith("data:")).map((l) => l.slice(5).trimStart()).join("\n");
-            if (data) {
-              try {
-                onEvent(JSON.parse(data));
-              } catch {
-                // A comment or keep-alive: nothing to show.
-              }
+            const name = (block.find((l) => l.startsWith("event:")) || "event: message").slice(6).trim();
+            const data = block.filter((l) => l.startsWith("data:")).map((l) => l.slice(5).trimStart()).join("\n");
+            if (!data) continue;
+            let parsed;
+            try {
+              parsed = JSON.parse(data);
+            } catch {
+              // Not JSON (a comment or keep-alive): nothing to show.
+              continue;
             }
+            onEvent(parsed, name);
           }
         }
         onStatus("reconnecting…");
@@ -156,7 +164,16 @@ export function listen(onEvent, onStatus) {
           onStatus("reconnecting…");
           continue;
         }
-        onStatus(err.status === 401 ? "token needed" : "offline");
+        onStatus(err.status === 401 ? "token needed" : err.status ? "refused" : "offline", err);
+        if (err.status >= 400 && err.status < 500 && !retryRefused) return;
+        if (err.status === 401) {
+          // Asking again with the same token is refused again: wait for a new one.
+          await new Promise((resolve) => {
+            wake = resolve;
+          });
+          wake = null;
+          continue;
+        }
       }
       await new Promise((r) => setTimeout(r, 1000));
     }
@@ -164,13 +181,24 @@ export function listen(onEvent, onStatus) {
   run();
   return {
     restart() {
-      if (controller) controller.abort();
+      if (wake) wake();
+      else if (controller) controller.abort();
     },
     stop() {
       stopped = true;
+      if (wake) wake();
       if (controller) controller.abort();
     },
   };
+}
+
+/**
+ * Listens to /api/v1/events and calls `onEvent(event)` for each; `onStatus(text)` says
+ * whether it is live. Reconnects after a second when the stream ends; refused for want of a
+ * token, when the token prompt's answer restarts it.
+ */
+export function listen(onEvent, onStatus) {
+  return stream("/events", (event) => onEvent(event), onStatus, { retryRefused: true });
 }
 
 /** SHA-256 of `bytes`, hex. */

@@ -1,5 +1,6 @@
-// The dashboard's frame: the views by URL fragment (#/segment, #/slave/3, #/gateway,
-// #/bus, #/events), the event stream shared by all views, the token prompt, the theme.
+// The dashboard's frame: the views by URL fragment (#/segment, #/slave/3, #/process-data,
+// #/process-data/3, #/gateway, #/bus, #/events), the event stream shared by all views, the
+// token prompt, the theme.
 
 import { api, listen, onUnauthorized, setToken, token } from "./api.js";
 import { fill, errorLine } from "./dom.js";
@@ -7,9 +8,10 @@ import * as segment from "./segment.js";
 import * as slave from "./slave.js";
 import * as gateway from "./gateway.js";
 import * as bus from "./bus.js";
+import * as processData from "./process-data.js";
 import * as events from "./events.js";
 
-const VIEWS = { segment, slave, gateway, bus, events };
+const VIEWS = { segment, slave, "process-data": { show: processData.showProcessData }, gateway, bus, events };
 const MAX_EVENTS = 1000;
 
 /** What every view may use. */
@@ -29,6 +31,8 @@ export const app = {
 
 const view = document.getElementById("view");
 let current = null;
+/** Counts routings: a view whose show() ends after the next routing is stopped at once. */
+let routing = 0;
 
 async function loadSession() {
   try {
@@ -43,9 +47,11 @@ async function loadSession() {
 }
 
 async function route() {
+  const mine = ++routing;
   const [, name = "segment", ...args] = (location.hash || "#/segment").split("/");
   const module = VIEWS[name] || segment;
   if (current && current.stop) current.stop();
+  current = null;
   app.listeners.clear();
   document.querySelectorAll("nav a").forEach((a) => {
     const active = a.dataset.view === name || (name === "slave" && a.dataset.view === "segment");
@@ -55,9 +61,15 @@ async function route() {
   fill(view);
   document.title = `ecatd: ${name}`;
   try {
-    current = (await module.show(view, app, ...args.map(decodeURIComponent))) || null;
+    const shown = (await module.show(view, app, ...args.map(decodeURIComponent))) || null;
+    // Left while it loaded: its streams and timers end now.
+    if (mine !== routing) {
+      if (shown && shown.stop) shown.stop();
+      return;
+    }
+    current = shown;
   } catch (err) {
-    fill(view, errorLine(err));
+    if (mine === routing) fill(view, errorLine(err));
   }
 }
 

@@ -24,14 +24,17 @@ function format(value, unit) {
 export class LineChart {
   /**
    * `id`: element id of the chart; `title`; `series`: [{name, key}] (colours from the
-   * stylesheet by index); `unit`; `threshold`: {value, label}; `min` of the y range.
+   * stylesheet by index); `unit`; `threshold`: {value, label}; `yMin`, the bottom of the y
+   * range (null: from the data, 0 unless a value is negative); `points` samples, which
+   * `span` names on the time axis (one a second by default).
    */
-  constructor({ id, title, series, unit = "", threshold = null, yMin = 0, points = 60 }) {
+  constructor({ id, title, series, unit = "", threshold = null, yMin = 0, points = 60, span = null }) {
     this.series = series;
     this.unit = unit;
     this.threshold = threshold;
     this.yMin = yMin;
     this.points = points;
+    this.span = span || `last ${points} s`;
     this.data = series.map(() => []);
     this.svg = s("svg", { viewBox: `0 0 ${W} ${H}`, role: "img", "aria-label": title, class: "chart-svg", id });
     this.legend = h("ul", { class: "legend" });
@@ -58,10 +61,12 @@ export class LineChart {
   draw() {
     const all = this.data.flat().filter((v) => v !== null && !Number.isNaN(v));
     const top = niceMax(Math.max(this.threshold ? this.threshold.value * 1.5 : 0, ...all, 0));
+    const low = Math.min(...all, 0);
+    const bottom = this.yMin ?? (low < 0 ? -niceMax(-low) : 0);
     const x = (i) => PAD.left + (i * (W - PAD.left - PAD.right)) / (this.points - 1);
-    const y = (v) => H - PAD.bottom - ((v - this.yMin) / (top - this.yMin)) * (H - PAD.top - PAD.bottom);
+    const y = (v) => H - PAD.bottom - ((v - bottom) / (top - bottom)) * (H - PAD.top - PAD.bottom);
     const grid = [0, 0.5, 1].map((f) => {
-      const v = this.yMin + f * (top - this.yMin);
+      const v = bottom + f * (top - bottom);
       return [
         s("line", { x1: PAD.left, x2: W - PAD.right, y1: y(v), y2: y(v), class: "grid" }),
         s("text", { x: PAD.left - 6, y: y(v) + 4, class: "axis", "text-anchor": "end" }, format(v, "")),
@@ -89,7 +94,7 @@ export class LineChart {
       : [];
     fill(this.svg,
       grid,
-      s("text", { x: PAD.left, y: H - 6, class: "axis" }, `last ${this.points} s`),
+      s("text", { x: PAD.left, y: H - 6, class: "axis" }, this.span),
       threshold,
       lines);
     fill(this.legend, this.series.map((se, i) =>

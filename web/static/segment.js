@@ -1,9 +1,12 @@
 // The segment: every slave in ring order as a line of ports, with link state (ESC DL status
 // 0x0110, spec-notes §esc.dl), AL state and status code, identity, alias, DC support (ESC
 // features 0x0008 bit 2, spec-notes §esc.info); live from the event stream; state requests for one slave or all.
+// Each slave's key process-data values (a CiA 402 drive's state, a digital terminal's bits),
+// live from the process-data stream.
 
-import { api } from "./api.js";
+import { api, stream } from "./api.js";
 import { h, fill, hex, errorLine } from "./dom.js";
+import { keyValues } from "./process-data.js";
 
 export const STATES = ["INIT", "PREOP", "BOOT", "SAFEOP", "OP"];
 
@@ -72,6 +75,10 @@ export async function show(view, app) {
   const list = h("ol", { class: "segment", "aria-label": "slaves in ring order" });
   const summary = h("p", { class: "summary", role: "status" });
   const links = new Map();
+  /** Process-data entries by slave position, then by index:subindex. */
+  const pd = new Map();
+  const keyBox = (position) => h("div", { class: "key-box", "data-position": position },
+    keyValues(position, [...(pd.get(position) || new Map()).values()]));
   const head = h("div", { class: "view-head" }, h("h2", {}, "Segment"), summary);
   fill(view, head, list);
   if (app.canWrite()) {
@@ -117,14 +124,35 @@ export async function show(view, app) {
           h("dt", {}, "AL status"), h("dd", {}, `${hex(sl.al_status_code)} ${sl.al_status_text}`),
           h("dt", {}, "DC"), h("dd", {}, link ? (link.dc ? "supported" : "no") : "–"),
           h("dt", {}, "Mailbox"), h("dd", {}, sl.mailbox_protocols.join(" ") || "none")),
+        keyBox(sl.position),
         portList(link),
         app.canWrite() ? stateControl(`slave ${sl.position}`, (state) => api(`/slaves/${sl.position}/state`, { method: "PUT", body: { state } }), () => refresh()) : "");
     }));
   }
 
+  // The server's default interval: 100 ms, or the cycle when it is longer.
+  const values = stream("/process-data/stream", (data, name) => {
+    if (name !== "values") return;
+    const touched = new Set();
+    for (const e of data.entries) {
+      if (!pd.has(e.slave)) pd.set(e.slave, new Map());
+      pd.get(e.slave).set(`${e.index}:${e.subindex}`, e);
+      touched.add(e.slave);
+    }
+    for (const position of touched) {
+      const box = list.querySelector(`.key-box[data-position="${position}"]`);
+      if (box) box.replaceWith(keyBox(position));
+    }
+  }, () => {});
+
   let pending = null;
   app.onEvent((event) => {
-    if (["slave_found", "slave_lost", "slave_replaced"].includes(event.kind)) links.clear();
+    if (["slave_found", "slave_lost", "slave_replaced"].includes(event.kind)) {
+      links.clear();
+      // The image may have changed: all values again from a new stream.
+      pd.clear();
+      values.restart();
+    }
     if (event.kind === "emergency" || pending) return;
     // Events come in bursts (a state request for all slaves): one refresh per burst.
     pending = setTimeout(() => {
@@ -133,5 +161,10 @@ export async function show(view, app) {
     }, 100);
   });
   await refresh();
-  return { stop: () => clearTimeout(pending) };
+  return {
+    stop: () => {
+      clearTimeout(pending);
+      values.stop();
+    },
+  };
 }

@@ -1,5 +1,6 @@
 // One slave: identity and SII summary, mailbox protocols, the CoE dictionary, SoE IDNs,
-// FoE file transfer, EoE IP settings, ESC error counters and recent emergencies.
+// FoE file transfer, EoE IP settings, ESC error counters and recent emergencies; a link to
+// its process data.
 
 import { api, download, upload, sha256 } from "./api.js";
 import { h, fill, hex, section, facts, errorLine } from "./dom.js";
@@ -195,6 +196,7 @@ export async function show(view, app, positionText) {
   const has = (p) => slave.mailbox_protocols.includes(p);
   const head = h("div", { class: "view-head" },
     h("h2", {}, `Slave ${position}: ${slave.name}`), stateBadge(slave),
+    h("a", { href: `#/process-data/${position}`, id: "process-data-link" }, "process data"),
     h("a", { href: "#/segment" }, "back to the segment"));
   const identity = h("div", {}, h("p", { class: "muted" }, "reading the SII…"));
   const parts = [section("Identity and SII", identity)];

@@ -34,8 +34,10 @@ pub struct App {
     slots: usize,
     stride: usize,
     entries: Vec<Entry>,
-    /// The last cycle returned by `wait`, its inputs and outputs as sent.
+    /// The last cycle returned by `wait`, when ecatd published it, its inputs and
+    /// outputs as sent.
     cycle: u64,
+    published_ns: u64,
     inputs: Vec<u8>,
     sent: Vec<u8>,
     /// Where a cycle is copied before it is known whole (then swapped in).
@@ -140,6 +142,7 @@ impl App {
             stride,
             entries,
             cycle: 0,
+            published_ns: 0,
             inputs: vec![0; image_len],
             sent: vec![0; image_len],
             spare_inputs: vec![0; image_len],
@@ -305,6 +308,15 @@ impl App {
         self.cycle
     }
 
+    /// When ecatd published the last cycle returned by [`App::wait`]: `CLOCK_MONOTONIC` in
+    /// nanoseconds, the clock every process on this machine shares, so
+    /// `clock_gettime(CLOCK_MONOTONIC)` right after the wait minus this is the wake-up
+    /// latency. Copied with the cycle (one consistent slot). 0 before the first cycle, or
+    /// from an ecatd that does not write it.
+    pub fn published_ns(&self) -> u64 {
+        self.published_ns
+    }
+
     /// The value of `entry` in the last cycle (sign-extended for signed types): an input as
     /// received, an output as this program will commit it when it owns the outputs, else
     /// as the cycle sent it.
@@ -377,7 +389,9 @@ impl App {
             entries: self.entries.len(),
         };
         let (inputs, sent) = (&mut self.spare_inputs, &mut self.spare_sent);
+        let mut published = [0u8; 8];
         let whole = shm::read_slot(&self.image, slot, cycle, |m| {
+            m.read_bytes(slot + shm::slot::PUBLISHED_NS, &mut published);
             m.read_bytes(slot + shape.inputs_at(), inputs);
             m.read_bytes(slot + shape.outputs_at(), sent);
         });
@@ -386,6 +400,7 @@ impl App {
             std::mem::swap(&mut self.inputs, &mut self.spare_inputs);
             std::mem::swap(&mut self.sent, &mut self.spare_sent);
             self.cycle = cycle;
+            self.published_ns = u64::from_le_bytes(published);
         }
         whole
     }

@@ -69,6 +69,14 @@ pub mod image {
     pub const TRIPS: usize = 0x054;
 }
 
+/// Fields of an input slot's header (offsets within the slot).
+pub mod slot {
+    /// u64 when ecatd published the cycle the slot holds: `CLOCK_MONOTONIC` in
+    /// nanoseconds, taken by the bus thread as it starts writing the slot (0: an ecatd
+    /// that does not write it; the field was reserved before).
+    pub const PUBLISHED_NS: usize = 16;
+}
+
 /// Fields of a commit region's header (offsets).
 pub mod commit {
     /// `[u8; 8]` [`COMMIT_MAGIC`](super::COMMIT_MAGIC).

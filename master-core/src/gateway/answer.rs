@@ -7,10 +7,11 @@
 //! | protocol not served | abort 0x06010000 | error 0x1009 | error 0x8002 (access denied) | mailbox error 0x0002 |
 //! | mailbox not running (INIT) | abort 0x08000022 | error 0x1009 | error 0x8002 | mailbox error 0x0002 |
 //! | timeout | abort 0x05040000 | — | error 0x8000 "timeout" | — |
-//! | busy | mailbox error 0x0009 | same | same | same |
+//! | busy (also a slave a broadcast skips: held for another client's transfer) | mailbox error 0x0009 | same | same | same |
 //! | larger than the mailbox | mailbox error 0x0008 | same | same | same |
 //! | other failure | abort 0x08000000 | — | error 0x8000 | — |
 //! | a `read` client's write | abort 0x06010002 | error 0x7004 (read only) | error 0x8002 (access denied) | mailbox error 0x0004 |
+//! | a step that continues a transfer, sent to 0xFFFF | mailbox error 0x0004 | same | same | same |
 //!
 //! CoE aborts name the request's index and subindex; an SDO Information request gets an
 //! SDO Information error with the same code. "—": no answer (the protocol has no way to say
@@ -43,6 +44,8 @@ pub(crate) enum Fault {
     Oversized,
     /// A write from a client whose role is `read`.
     Denied,
+    /// A message that continues a transfer, sent to every slave (`transfer::broadcastable`).
+    NotBroadcast,
     /// Anything else.
     Other,
 }
@@ -57,7 +60,7 @@ impl Fault {
             Fault::Busy => FailureReason::Busy,
             Fault::Oversized => FailureReason::Oversized,
             Fault::Denied => FailureReason::Denied,
-            Fault::Other => FailureReason::Other,
+            Fault::NotBroadcast | Fault::Other => FailureReason::Other,
         }
     }
 }
@@ -72,6 +75,11 @@ pub(crate) fn answer(
     match fault {
         Fault::Busy => return Some(mailbox_error(MailboxErrorCode::ServiceInWork)),
         Fault::Oversized => return Some(mailbox_error(MailboxErrorCode::InvalidSize)),
+        // The service (this step of the protocol) is not one the broadcast address serves,
+        // whatever the protocol (ETG.1000.4 §5.6, spec-notes §mbx.error, §gateway.broadcast).
+        Fault::NotBroadcast => {
+            return Some(mailbox_error(MailboxErrorCode::ServiceNotSupported));
+        }
         _ => {}
     }
     match mailbox_type {
@@ -95,7 +103,9 @@ fn coe_code(fault: Fault) -> AbortCode {
         Fault::NotRunning => AbortCode::DeviceState,
         Fault::Timeout => AbortCode::Timeout,
         Fault::Denied => AbortCode::ReadOnly,
-        Fault::Busy | Fault::Oversized | Fault::Other => AbortCode::GeneralError,
+        Fault::Busy | Fault::Oversized | Fault::NotBroadcast | Fault::Other => {
+            AbortCode::GeneralError
+        }
     }
 }
 

@@ -1,6 +1,7 @@
 //! Forwarding one message to one slave through the mailbox engine: the engine's counter
 //! replaces the client's (so nothing is ever dropped as a repeat), the slave's session is
-//! taken for multi-message transfers, and the slave's answers come back in order.
+//! taken for the exchange and kept for multi-message transfers, and the slave's answers
+//! come back in order.
 
 use std::net::SocketAddr;
 
@@ -10,7 +11,7 @@ use crate::mailbox::{MailboxError, RawReply, SlaveMailbox};
 use crate::wire::mailbox::MailboxType;
 
 use super::answer::Fault;
-use super::session::Sessions;
+use super::session::{Patience, Sessions};
 use super::transfer::{self, Expect, Sizes};
 
 /// Most messages a slave may send for one request (SDO Information lists of large
@@ -19,7 +20,10 @@ const MAX_FOLLOW_UPS: usize = 1024;
 
 /// What a forward needs besides the message.
 pub(crate) struct Forward<'a> {
-    pub sessions: Option<&'a Sessions>,
+    pub sessions: &'a Sessions,
+    /// Whether to wait for another client's transfer with the slave (a request addressed
+    /// to it) or be refused at once (a broadcast).
+    pub patience: Patience,
     pub client: SocketAddr,
     pub deadline: Instant,
     pub session_timeout: std::time::Duration,
@@ -37,7 +41,8 @@ fn fault_of(err: &MailboxError) -> Fault {
 }
 
 /// Sends `data` (mailbox data of `mailbox_type`) to the slave and returns its answers
-/// (none for a message that gets no answer).
+/// (none for a message that gets no answer). A slave another client holds is
+/// [`Fault::Busy`], whether the wait ran out or the patience did not allow one.
 pub(crate) async fn forward(
     f: &Forward<'_>,
     mailbox: &SlaveMailbox,
@@ -45,19 +50,16 @@ pub(crate) async fn forward(
     data: &[u8],
 ) -> Result<Vec<RawReply>, Fault> {
     let station = mailbox.station();
-    let open = match f.sessions {
-        Some(sessions) => sessions
-            .enter(station, f.client, f.deadline)
-            .await
-            .map_err(|()| Fault::Busy)?,
-        None => None,
-    };
+    let open = f
+        .sessions
+        .enter(station, f.client, f.deadline, f.patience)
+        .await
+        .map_err(|_| Fault::Busy)?;
     // From here on every way out updates the session (the slave is held for us).
     let left = f.deadline.saturating_duration_since(Instant::now());
     if left.is_zero() {
-        if let Some(sessions) = f.sessions {
-            sessions.update(station, f.client, None, f.session_timeout);
-        }
+        f.sessions
+            .update(station, f.client, None, f.session_timeout);
         return Err(Fault::Timeout);
     }
     let mb = mailbox.with_timeout(left);
@@ -75,18 +77,16 @@ pub(crate) async fn forward(
     };
     match result {
         Ok(replies) => {
-            if let Some(sessions) = f.sessions {
-                let first = replies.first().map(|m| (m.mailbox_type(), m.data()));
-                let next = transfer::after(mailbox_type, data, first, open, sizes);
-                sessions.update(station, f.client, next, f.session_timeout);
-            }
+            let first = replies.first().map(|m| (m.mailbox_type(), m.data()));
+            let next = transfer::after(mailbox_type, data, first, open, sizes);
+            f.sessions
+                .update(station, f.client, next, f.session_timeout);
             Ok(replies)
         }
         Err(err) => {
             // The transfer is broken either way: the slave is free for others.
-            if let Some(sessions) = f.sessions {
-                sessions.update(station, f.client, None, f.session_timeout);
-            }
+            f.sessions
+                .update(station, f.client, None, f.session_timeout);
             Err(fault_of(&err))
         }
     }

@@ -23,7 +23,7 @@ use super::reply;
 use super::tcp::{self, MAX_MESSAGE, Stop};
 use super::transfer::{self, Expect, Sizes, Transfer};
 
-const FAULTS: [Fault; 8] = [
+const FAULTS: [Fault; 9] = [
     Fault::UnknownAddress,
     Fault::Unsupported,
     Fault::NotRunning,
@@ -31,6 +31,7 @@ const FAULTS: [Fault; 8] = [
     Fault::Busy,
     Fault::Oversized,
     Fault::Denied,
+    Fault::NotBroadcast,
     Fault::Other,
 ];
 
@@ -71,6 +72,7 @@ pub fn request(datagram: &[u8]) -> bool {
     let _ = access::is_write(ty, &data);
     let _ = access::is_audited(ty, &data);
     let _ = access::object(ty, &data);
+    let _ = transfer::broadcastable(ty, &data);
     // The slave's mailbox sizes, from the bytes themselves (any size goes).
     let sizes = Sizes {
         write: usize::from(repr.header.length),

@@ -34,8 +34,9 @@ use super::normalize;
 use super::reply;
 use super::retry::{Check, Retries};
 use super::route::{self, Target};
-use super::session::Sessions;
+use super::session::{Patience, Sessions};
 use super::stats::{FailureReason, Stats};
+use super::transfer;
 
 /// What every request task shares.
 pub(crate) struct Shared {
@@ -145,14 +146,23 @@ impl Shared {
     /// counts it.
     async fn fail(&self, request: &Request, fault: Fault) -> Outcome {
         self.stats.failed(fault.reason());
+        self.answer_fault(request, fault, request.header.address)
+            .await;
+        Outcome::Failed(fault)
+    }
+
+    /// Sends the gateway's own answer to `request` for `fault` (unless strict), carrying
+    /// `address`: the one the client used, or on a broadcast the slave it is about. Counts
+    /// nothing.
+    async fn answer_fault(&self, request: &Request, fault: Fault, address: u16) {
         if self.config.strict {
-            return Outcome::Failed(fault);
+            return;
         }
         let ty = request.header.mailbox_type;
         let answer = match request.layout {
             Layout::Compat(_) => compat::answer(ty, &request.data, fault),
             Layout::Standard
-                if request.header.address == route::MASTER_ADDRESS
+                if address == route::MASTER_ADDRESS
                     && ty != MailboxType::Coe
                     && fault == Fault::Unsupported =>
             {
@@ -161,17 +171,11 @@ impl Shared {
             Layout::Standard => answer(ty, &request.data, fault),
         };
         if let Some((ty, data)) = answer
-            && let Some(datagram) = reply::made(
-                request.header.address,
-                ty,
-                request.header.counter,
-                &data,
-                request.layout,
-            )
+            && let Some(datagram) =
+                reply::made(address, ty, request.header.counter, &data, request.layout)
         {
             self.send(request, datagram).await;
         }
-        Outcome::Failed(fault)
     }
 
     fn answered(&self, request: &Request) {
@@ -310,10 +314,11 @@ async fn to_master(shared: &Shared, request: &Request) -> Outcome {
     outcome
 }
 
-fn forward_for<'a>(shared: &'a Shared, request: &Request, sessions: bool) -> Forward<'a> {
+fn forward_for(shared: &Shared, client: SocketAddr, patience: Patience) -> Forward<'_> {
     Forward {
-        sessions: sessions.then_some(&shared.sessions),
-        client: request.client,
+        sessions: &shared.sessions,
+        patience,
+        client,
         deadline: Instant::now() + shared.config.request_timeout,
         session_timeout: shared.config.session_timeout,
     }
@@ -325,7 +330,7 @@ async fn to_slave(shared: &Shared, request: &Request, station: u16) -> Outcome {
         Ok(mailbox) => mailbox,
         Err(fault) => return shared.fail(request, fault).await,
     };
-    let f = forward_for(shared, request, true);
+    let f = forward_for(shared, request.client, Patience::AnyHolder);
     match forward(&f, &mailbox, ty, &request.data).await {
         Ok(replies) => {
             shared.answered(request);
@@ -345,10 +350,20 @@ async fn to_slave(shared: &Shared, request: &Request, station: u16) -> Outcome {
 
 /// Sends the request to every slave that serves its protocol at once; each answer goes to
 /// the client as its own datagram, as it comes, carrying the answering slave's station
-/// address. Broadcasts take no sessions (a multi-message transfer with every slave at once
-/// is not something a client can drive).
+/// address.
+///
+/// For each slave the broadcast is a message of its client like any other (it holds the
+/// slave for the exchange, and a transfer it opens is the client's, to go on with at the
+/// slave's own address), except that it does not wait for another client's transfer: such
+/// a slave is skipped and answers "busy" (mailbox error 0x0009) with its station address,
+/// so that no client, whatever its role, steps into another's transfer, and the other
+/// slaves' answers do not wait for a transfer that may last long. A message that continues a
+/// transfer is refused before any slave sees it (spec-notes §gateway.broadcast).
 async fn broadcast(shared: &Arc<Shared>, request: &Request) -> Outcome {
     let ty = request.header.mailbox_type;
+    if !transfer::broadcastable(ty, &request.data) {
+        return shared.fail(request, Fault::NotBroadcast).await;
+    }
     let targets: Vec<_> = shared
         .master
         .slaves()
@@ -365,17 +380,13 @@ async fn broadcast(shared: &Arc<Shared>, request: &Request) -> Outcome {
         let data = Arc::clone(&data);
         let client = request.client;
         tasks.spawn(async move {
-            let f = Forward {
-                sessions: None,
-                client,
-                deadline: Instant::now() + shared.config.request_timeout,
-                session_timeout: shared.config.session_timeout,
-            };
+            let f = forward_for(&shared, client, Patience::ExchangeOnly);
             let result = forward(&f, &mailbox, ty, &data).await;
             (mailbox.station(), result)
         });
     }
     let mut any = false;
+    let mut busy = false;
     let mut outcome = Outcome::Sent;
     let mut last_fault = Fault::Timeout;
     while let Some(joined) = tasks.join_next().await {
@@ -395,11 +406,24 @@ async fn broadcast(shared: &Arc<Shared>, request: &Request) -> Outcome {
                     }
                 }
             }
+            // Held by another client's transfer (or still held, or its queue full, at the
+            // deadline): the client learns which slave it did not reach, and may ask it
+            // again at its own address.
+            Err(Fault::Busy) => {
+                busy = true;
+                shared.answer_fault(request, Fault::Busy, station).await;
+            }
             Err(fault) => last_fault = fault,
         }
     }
-    if !any {
-        return shared.fail(request, last_fault).await;
+    if any {
+        return outcome;
     }
-    outcome
+    if busy {
+        // No slave answered and the busy ones have their answers already: counted once, as
+        // busy, which is no final answer (a repeat of the datagram runs again).
+        shared.stats.failed(Fault::Busy.reason());
+        return Outcome::Failed(Fault::Busy);
+    }
+    shared.fail(request, last_fault).await
 }

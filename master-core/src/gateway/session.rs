@@ -8,6 +8,13 @@
 //! of two clients starting transfers at the same moment one goes first and the other
 //! waits, instead of both initiating and the second silently replacing the first.
 //!
+//! A broadcast is, for each slave, a message of its client like any other, with one
+//! difference ([`Patience::ExchangeOnly`]): it waits for another client's single exchange
+//! (which ends with its one answer) but not for another client's transfer (which lasts as
+//! long as its client keeps sending): that slave is refused at once and answers "busy" in
+//! the broadcast's answer, so the transfer is never stepped into and the broadcast's other
+//! slaves do not wait for it.
+//!
 //! The lock on the table is never held across an await: waiting is done on a `Notify`
 //! registered before the table is looked at, so no release is missed. Each slave's waiters
 //! have their own `Notify` (one of [`SHARDS`], by station address): with many clients
@@ -37,6 +44,27 @@ struct Held {
 /// share one wake each other's waiters, who look again and wait on.
 const SHARDS: usize = 64;
 
+/// What a request does about a slave that another client holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Patience {
+    /// Waits for any holder, up to its deadline: a request addressed to the slave, whose
+    /// client asked for that slave and nothing else.
+    AnyHolder,
+    /// Waits for another client's single exchange but is refused at once by another
+    /// client's transfer: a broadcast, whose other slaves should not wait for a transfer
+    /// that may last long, and which must not be carried into the middle of it.
+    ExchangeOnly,
+}
+
+/// Why [`Sessions::enter`] did not let a client in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Refused {
+    /// Another client still held the slave at the deadline.
+    Deadline,
+    /// Another client holds the slave for a transfer (with [`Patience::ExchangeOnly`]).
+    InTransfer,
+}
+
 /// Who holds which slave (by station address).
 #[derive(Debug)]
 pub(crate) struct Sessions {
@@ -61,14 +89,16 @@ impl Sessions {
 
     /// Waits until `client` may talk to `station` (no one else holds it, or their hold ran
     /// out), holds it for `client` until `deadline` (the end of its exchange; see
-    /// [`Self::update`]) and returns the transfer `client` is in with it, if any. `Err(())`
-    /// if `deadline` passes first.
+    /// [`Self::update`]) and returns the transfer `client` is in with it, if any. Refused
+    /// if `deadline` passes first, or at once if `patience` is [`Patience::ExchangeOnly`]
+    /// and another client holds the slave for a transfer.
     pub async fn enter(
         &self,
         station: u16,
         client: SocketAddr,
         deadline: Instant,
-    ) -> Result<Option<Transfer>, ()> {
+        patience: Patience,
+    ) -> Result<Option<Transfer>, Refused> {
         loop {
             let mut released = pin!(self.released(station).notified());
             released.as_mut().enable();
@@ -77,8 +107,11 @@ impl Sessions {
                 let now = Instant::now();
                 match held.get(&station).copied() {
                     Some(h) if h.client != client && h.expires > now => {
+                        if patience == Patience::ExchangeOnly && h.transfer.is_some() {
+                            return Err(Refused::InTransfer);
+                        }
                         if now >= deadline {
-                            return Err(());
+                            return Err(Refused::Deadline);
                         }
                         h.expires.min(deadline)
                     }
@@ -108,6 +141,11 @@ impl Sessions {
 
     /// Records the transfer `client` is in with `station` after a message (`None`: it
     /// ended, the slave is free). Only the holder (or anyone, when free) changes it.
+    ///
+    /// The waiters are woken when the slave is freed and when an exchange turns into a
+    /// transfer (a broadcast waiting for that exchange is refused now, not at the
+    /// exchange's deadline); not at every message of a transfer, which would wake every
+    /// waiter once per segment for nothing.
     pub fn update(
         &self,
         station: u16,
@@ -122,7 +160,7 @@ impl Sessions {
         }
         match transfer {
             Some(transfer) => {
-                held.insert(
+                let previous = held.insert(
                     station,
                     Held {
                         client,
@@ -130,6 +168,10 @@ impl Sessions {
                         expires: Instant::now() + timeout,
                     },
                 );
+                if previous.is_none_or(|h| h.transfer.is_none()) {
+                    drop(held);
+                    self.released(station).notify_waiters();
+                }
             }
             None => {
                 if held.remove(&station).is_some() {
@@ -149,23 +191,28 @@ mod tests {
         SocketAddr::from(([127, 0, 0, 1], port))
     }
 
+    const ANY: Patience = Patience::AnyHolder;
+
     #[tokio::test(flavor = "current_thread")]
     async fn a_held_slave_waits_for_the_release_or_the_timeout() {
         let sessions = std::sync::Arc::new(Sessions::default());
         let far = Instant::now() + Duration::from_secs(60);
-        assert_eq!(sessions.enter(1, addr(1), far).await, Ok(None));
+        assert_eq!(sessions.enter(1, addr(1), far, ANY).await, Ok(None));
         sessions.update(1, addr(1), Some(Transfer::Sdo), Duration::from_secs(3));
         assert_eq!(
-            sessions.enter(1, addr(1), far).await,
+            sessions.enter(1, addr(1), far, ANY).await,
             Ok(Some(Transfer::Sdo))
         );
         // Another client gives up at its own deadline while the hold lasts.
         let soon = Instant::now() + Duration::from_millis(20);
-        assert_eq!(sessions.enter(1, addr(2), soon).await, Err(()));
+        assert_eq!(
+            sessions.enter(1, addr(2), soon, ANY).await,
+            Err(Refused::Deadline)
+        );
         // A release lets it in at once.
         let waiter = {
             let sessions = std::sync::Arc::clone(&sessions);
-            tokio::spawn(async move { sessions.enter(1, addr(2), far).await })
+            tokio::spawn(async move { sessions.enter(1, addr(2), far, ANY).await })
         };
         tokio::task::yield_now().await;
         sessions.update(1, addr(1), None, Duration::from_secs(3));
@@ -174,7 +221,7 @@ mod tests {
         let hold = Duration::from_millis(30);
         sessions.update(2, addr(1), Some(Transfer::FoeWrite), hold);
         let start = Instant::now();
-        assert_eq!(sessions.enter(2, addr(2), far).await, Ok(None));
+        assert_eq!(sessions.enter(2, addr(2), far, ANY).await, Ok(None));
         assert!(start.elapsed() >= hold);
     }
 
@@ -195,13 +242,13 @@ mod tests {
         let sessions = Sessions::default();
         let far = Instant::now() + Duration::from_secs(60);
         for station in [1, 2] {
-            assert_eq!(sessions.enter(station, addr(1), far).await, Ok(None));
+            assert_eq!(sessions.enter(station, addr(1), far, ANY).await, Ok(None));
         }
         // Client 2 waits for station 2.
         let wakes = std::sync::Arc::new(Wakes::default());
         let waker = std::task::Waker::from(std::sync::Arc::clone(&wakes));
         let mut cx = std::task::Context::from_waker(&waker);
-        let mut waiting = pin!(sessions.enter(2, addr(2), far));
+        let mut waiting = pin!(sessions.enter(2, addr(2), far, ANY));
         assert!(waiting.as_mut().poll(&mut cx).is_pending());
         sessions.update(1, addr(1), None, Duration::from_secs(3));
         assert_eq!(wakes.0.load(Ordering::SeqCst), 0, "station 1's release");
@@ -217,12 +264,56 @@ mod tests {
     async fn an_exchange_holds_the_slave_until_its_update() {
         let sessions = Sessions::default();
         let far = Instant::now() + Duration::from_secs(60);
-        assert_eq!(sessions.enter(7, addr(1), far).await, Ok(None));
+        assert_eq!(sessions.enter(7, addr(1), far, ANY).await, Ok(None));
         let soon = Instant::now() + Duration::from_millis(20);
-        assert_eq!(sessions.enter(7, addr(2), soon).await, Err(()));
+        assert_eq!(
+            sessions.enter(7, addr(2), soon, ANY).await,
+            Err(Refused::Deadline)
+        );
         // The same client may go on (a pipelining client).
-        assert_eq!(sessions.enter(7, addr(1), far).await, Ok(None));
+        assert_eq!(sessions.enter(7, addr(1), far, ANY).await, Ok(None));
         sessions.update(7, addr(1), None, Duration::from_secs(3));
-        assert_eq!(sessions.enter(7, addr(2), far).await, Ok(None));
+        assert_eq!(sessions.enter(7, addr(2), far, ANY).await, Ok(None));
+    }
+
+    #[tokio::test(flavor = "current_thread")]
+    async fn a_broadcast_waits_for_an_exchange_but_not_for_a_transfer() {
+        use std::future::Future;
+        const BROADCAST: Patience = Patience::ExchangeOnly;
+        let sessions = Sessions::default();
+        let far = Instant::now() + Duration::from_secs(60);
+        // Client 1 holds station 3 for its first message (an SDO initiate, say).
+        assert_eq!(sessions.enter(3, addr(1), far, ANY).await, Ok(None));
+        // The broadcast of client 2 waits for that exchange...
+        let wakes = std::sync::Arc::new(Wakes::default());
+        let waker = std::task::Waker::from(std::sync::Arc::clone(&wakes));
+        let mut cx = std::task::Context::from_waker(&waker);
+        let mut waiting = pin!(sessions.enter(3, addr(2), far, BROADCAST));
+        assert!(waiting.as_mut().poll(&mut cx).is_pending());
+        // ...which leaves a transfer open: woken at once and refused, not at `far`.
+        sessions.update(3, addr(1), Some(Transfer::Sdo), Duration::from_secs(3));
+        assert_eq!(wakes.0.load(std::sync::atomic::Ordering::SeqCst), 1);
+        assert_eq!(
+            waiting.as_mut().poll(&mut cx),
+            std::task::Poll::Ready(Err(Refused::InTransfer))
+        );
+        // Refused at once while the transfer lasts, and the hold is untouched.
+        assert_eq!(
+            sessions.enter(3, addr(2), far, BROADCAST).await,
+            Err(Refused::InTransfer)
+        );
+        // The transfer's own client goes on, whatever it sends.
+        assert_eq!(
+            sessions.enter(3, addr(1), far, BROADCAST).await,
+            Ok(Some(Transfer::Sdo))
+        );
+        sessions.update(3, addr(1), None, Duration::from_secs(3));
+        // Free again: the broadcast gets in (and holds the slave for its exchange).
+        assert_eq!(sessions.enter(3, addr(2), far, BROADCAST).await, Ok(None));
+        let soon = Instant::now() + Duration::from_millis(20);
+        assert_eq!(
+            sessions.enter(3, addr(1), soon, ANY).await,
+            Err(Refused::Deadline)
+        );
     }
 }

@@ -12,11 +12,14 @@
 //!   ERROR from the client get no answer.
 //! - EoE: frame fragments get no answer; the IP and filter services do.
 //! - Everything else: one answer.
+//!
+//! It also tells which messages may go to every slave at once ([`broadcastable`]): not the
+//! steps that continue a transfer.
 
 use crate::wire::coe::info::SdoInfoFrame;
 use crate::wire::coe::{CoeFrame, CoeService, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
 use crate::wire::eoe::{EoeFrameType, EoePacket};
-use crate::wire::foe::{self, FoePacket, FoeRepr};
+use crate::wire::foe::{self, FoeOpcode, FoePacket, FoeRepr};
 use crate::wire::mailbox::MailboxType;
 use crate::wire::soe::{SoeOpcode, SoePacket};
 
@@ -72,6 +75,38 @@ pub(crate) fn expect(ty: MailboxType, data: &[u8], transfer: Option<Transfer>) -
             Ok(_) => Expect::Reply,
         },
         _ => Expect::Reply,
+    }
+}
+
+/// Whether `data` (mailbox data of `ty`) may be broadcast (address 0xFFFF): a message that
+/// stands alone or opens a transfer. A message that continues one — an SDO download or
+/// upload segment, the client's SDO abort, an FoE DATA, ACK, ERROR or BUSY, an SoE write
+/// fragment with more to come — only means something in the transfer that one slave is in
+/// with the client (ETG.1000.6: SDO segments and FoE packets follow their initiate or
+/// request with the same slave, CiA 301's SDO protocol between one client and one server);
+/// sent to every slave it would be out of place in each slave not in that transfer, or step
+/// into another client's (spec-notes §gateway.broadcast). EoE and VoE are not followed by
+/// the gateway and pass.
+pub(crate) fn broadcastable(ty: MailboxType, data: &[u8]) -> bool {
+    match ty {
+        MailboxType::Coe => match CoeFrame::new_checked(data).map(|f| f.service()) {
+            // The client's command specifiers (ETG.1000.6 §5.6.2): 0 download segment,
+            // 3 upload segment and 4 abort continue a transfer; 1 and 2 initiate one.
+            Ok(CoeService::SdoRequest) => {
+                SdoFrame::new_checked(data).map_or(true, |f| !matches!(f.specifier(), 0 | 3 | 4))
+            }
+            _ => true,
+        },
+        MailboxType::Foe => FoePacket::new_checked(data).map_or(true, |p| {
+            !matches!(
+                p.opcode(),
+                FoeOpcode::Data | FoeOpcode::Ack | FoeOpcode::Error | FoeOpcode::Busy
+            )
+        }),
+        MailboxType::Soe => SoePacket::new_checked(data).map_or(true, |p| {
+            !(p.opcode() == SoeOpcode::WriteRequest && p.incomplete())
+        }),
+        _ => true,
     }
 }
 
@@ -314,5 +349,77 @@ mod tests {
             expect(MailboxType::Soe, &read, None),
             Expect::Replies(_)
         ));
+    }
+
+    #[test]
+    fn only_messages_that_stand_alone_or_open_a_transfer_are_broadcast() {
+        use crate::wire::coe::SdoPayload;
+        let sdo = |r: SdoRequest<'_>| r.to_vec().unwrap();
+        let upload = sdo(SdoRequest::InitiateUpload {
+            index: 0x1018,
+            subindex: 1,
+            complete_access: false,
+        });
+        let download = sdo(SdoRequest::InitiateDownload {
+            index: 0x2000,
+            subindex: 0,
+            complete_access: false,
+            payload: SdoPayload::Expedited(&[1]),
+        });
+        let download_segment = sdo(SdoRequest::DownloadSegment {
+            toggle: false,
+            last: true,
+            data: &[1, 2, 3],
+        });
+        let upload_segment = sdo(SdoRequest::UploadSegment { toggle: true });
+        let abort = [0x00, 0x20, 0x80, 0x00, 0x20, 0x00, 0, 0, 0, 0x08];
+        let info = [0x00, 0x80, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00];
+        assert!(broadcastable(MailboxType::Coe, &upload));
+        assert!(broadcastable(MailboxType::Coe, &download));
+        assert!(broadcastable(MailboxType::Coe, &info));
+        assert!(!broadcastable(MailboxType::Coe, &download_segment));
+        assert!(!broadcastable(MailboxType::Coe, &upload_segment));
+        assert!(!broadcastable(MailboxType::Coe, &abort));
+
+        let rrq = foe(FoeRepr::ReadRequest {
+            password: 0,
+            file_name: b"f",
+        });
+        let wrq = foe(FoeRepr::WriteRequest {
+            password: 0,
+            file_name: b"f",
+        });
+        assert!(broadcastable(MailboxType::Foe, &rrq));
+        assert!(broadcastable(MailboxType::Foe, &wrq));
+        for step in [
+            FoeRepr::Data {
+                packet: 1,
+                data: &[1],
+            },
+            FoeRepr::Ack { packet: 1 },
+            FoeRepr::Error {
+                code: foe::FoeError::NotDefined,
+                text: b"",
+            },
+            FoeRepr::Busy {
+                done: 1,
+                entire: 2,
+                text: b"",
+            },
+        ] {
+            assert!(!broadcastable(MailboxType::Foe, &foe(step)), "{step:?}");
+        }
+
+        // SoE: a read and a whole write go; a write fragment with more to come does not.
+        assert!(broadcastable(MailboxType::Soe, &[0x01, 0x40, 0x20, 0x00]));
+        assert!(broadcastable(
+            MailboxType::Soe,
+            &[0x03, 0x40, 0x20, 0x00, 1, 0]
+        ));
+        assert!(!broadcastable(
+            MailboxType::Soe,
+            &[0x0B, 0x40, 0x02, 0x00, 1, 2, 3, 4]
+        ));
+        assert!(broadcastable(MailboxType::Voe, &[0x64, 0x11, 0, 0, 1, 0]));
     }
 }

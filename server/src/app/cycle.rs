@@ -45,6 +45,23 @@ struct State {
     watchdog: u32,
     /// The session whose ownership the watchdog ended, for the server to tell.
     tripped: Option<u64>,
+    /// Outputs forced from the APIs, written into every frame.
+    forces: Vec<Force>,
+}
+
+/// An output forced from the APIs: its value goes into every frame until released.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Force {
+    /// The entry.
+    pub entry: ecat_app::entry::Entry,
+    /// Its raw bits.
+    pub value: u64,
+    /// Who forced it (the token's name).
+    pub by: String,
+    /// Whether it was forced over an owner's outputs.
+    pub over_owner: bool,
+    /// When, seconds since the Unix epoch.
+    pub since: u64,
 }
 
 /// The hook and the server's handle on it (shared).
@@ -81,6 +98,8 @@ impl CycleShare {
         }
         st.layout = layout;
         st.safe = safe;
+        // A force names bits of the old layout: it does not survive a new one.
+        st.forces.clear();
         let lost = st.owner.take().map(|o| o.session);
         st.put_safe |= lost.is_some();
         lost
@@ -137,6 +156,26 @@ impl CycleShare {
         st.owner.take().map(|o| o.session)
     }
 
+    /// Forces `force` (replacing a force of the same entry); written from the next frame on.
+    pub fn force(&self, force: Force) {
+        let mut st = self.lock();
+        st.forces.retain(|f| f.entry != force.entry);
+        st.forces.push(force);
+    }
+
+    /// Releases the force of `entry`; whether there was one.
+    pub fn release_force(&self, entry: &ecat_app::entry::Entry) -> bool {
+        let mut st = self.lock();
+        let before = st.forces.len();
+        st.forces.retain(|f| &f.entry != entry);
+        st.forces.len() != before
+    }
+
+    /// The forced outputs.
+    pub fn forces(&self) -> Vec<Force> {
+        self.lock().forces.clone()
+    }
+
     /// The session owning the outputs.
     pub fn owner_session(&self) -> Option<u64> {
         self.lock().owner.as_ref().map(|o| o.session)
@@ -182,24 +221,10 @@ impl CycleShare {
             target.copy_from_slice(image);
         }
     }
-}
 
-impl CycleHook for CycleShare {
-    fn before_send(&self, image: &mut OutgoingImage<'_>) {
-        let mut st = self.lock();
-        let st = &mut *st;
-        if st.seen_layout != image.layout {
-            st.seen_layout = image.layout;
-            self.notice.notify_one();
-        }
-        if image.layout != st.layout {
-            // The offsets may have moved: nothing computed for the old layout goes out.
-            return;
-        }
-        if st.put_safe {
-            st.put_safe = false;
-            Self::put(image.outputs, &st.safe);
-        }
+    /// Takes the owner's newest whole commit into the frame, or counts the owner's
+    /// watchdog and trips it.
+    fn owners_outputs(&self, st: &mut State, image: &mut OutgoingImage<'_>) {
         let Some(owner) = &mut st.owner else {
             return;
         };
@@ -226,6 +251,30 @@ impl CycleHook for CycleShare {
                 region.set_trips(u32::try_from(trips).unwrap_or(u32::MAX));
             }
             self.notice.notify_one();
+        }
+    }
+}
+
+impl CycleHook for CycleShare {
+    fn before_send(&self, image: &mut OutgoingImage<'_>) {
+        let mut st = self.lock();
+        let st = &mut *st;
+        if st.seen_layout != image.layout {
+            st.seen_layout = image.layout;
+            self.notice.notify_one();
+        }
+        if image.layout != st.layout {
+            // The offsets may have moved: nothing computed for the old layout goes out.
+            return;
+        }
+        if st.put_safe {
+            st.put_safe = false;
+            Self::put(image.outputs, &st.safe);
+        }
+        self.owners_outputs(st, image);
+        // A forced entry wins over the owner and the safe value, every frame.
+        for force in &st.forces {
+            force.entry.set(image.outputs, force.value);
         }
     }
 

@@ -31,6 +31,7 @@ use tokio::task::JoinHandle;
 
 use crate::config::app::{AppSettings, OnWatchdog};
 
+pub use cycle::Force;
 pub use layout::SafeValue;
 pub use layout::entries as layout_entries;
 
@@ -71,6 +72,18 @@ pub enum AppEvent {
         /// The watchdog in cycles.
         cycles: u32,
     },
+    /// An output was forced from an API.
+    Forced {
+        /// The force.
+        force: Force,
+    },
+    /// A force was released.
+    ForceReleased {
+        /// The entry.
+        entry: ecat_app::entry::Entry,
+        /// Who released it.
+        by: String,
+    },
     /// The image's layout changed: a new generation.
     LayoutChanged {
         /// The new generation.
@@ -87,6 +100,8 @@ impl AppEvent {
             AppEvent::Claimed { .. } => "app_claimed",
             AppEvent::Released { .. } => "app_released",
             AppEvent::Watchdog { .. } => "app_watchdog",
+            AppEvent::Forced { .. } => "process_data_forced",
+            AppEvent::ForceReleased { .. } => "process_data_released",
             AppEvent::LayoutChanged { .. } => "app_layout_changed",
         }
     }
@@ -105,6 +120,24 @@ impl AppEvent {
             AppEvent::Watchdog { peer, cycles } => format!(
                 "application pid {} uid {} committed nothing for {cycles} cycles: watchdog, safe outputs",
                 peer.pid, peer.uid
+            ),
+            AppEvent::Forced { force } => format!(
+                "{} forced slave {} 0x{:04X}:{:02X} ({}) to {}{}",
+                force.by,
+                force.entry.position,
+                force.entry.index,
+                force.entry.subindex,
+                force.entry.name,
+                force.value,
+                if force.over_owner {
+                    " over the application's outputs"
+                } else {
+                    ""
+                }
+            ),
+            AppEvent::ForceReleased { entry, by } => format!(
+                "{by} released the force of slave {} 0x{:04X}:{:02X} ({})",
+                entry.position, entry.index, entry.subindex, entry.name
             ),
             AppEvent::LayoutChanged {
                 generation,
@@ -266,6 +299,17 @@ pub struct AppServer {
     tasks: Vec<JoinHandle<()>>,
 }
 
+/// Why a force was refused.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ForceRefusal {
+    /// An application owns the outputs (and the force did not say to override it).
+    Owned(Peer),
+    /// The entry is an input.
+    NotOutput,
+    /// The value does not fit the entry's type and bits.
+    OutOfRange,
+}
+
 /// A cheap handle on the running interface, for the APIs and the metrics: what it looks
 /// like now.
 #[derive(Clone)]
@@ -275,6 +319,85 @@ pub struct AppHandle {
 }
 
 impl AppHandle {
+    /// The entries of the current layout generation.
+    pub fn entries(&self) -> Vec<ecat_app::entry::Entry> {
+        self.inner
+            .share
+            .region()
+            .map(|r| r.entries().to_vec())
+            .unwrap_or_default()
+    }
+
+    /// Forces output `entry` to `value` from the next frame on, for `by`; refused while an
+    /// application owns the outputs unless `over_owner`.
+    pub fn force(
+        &self,
+        entry: ecat_app::entry::Entry,
+        value: i64,
+        by: &str,
+        over_owner: bool,
+    ) -> Result<Force, ForceRefusal> {
+        if entry.direction != ecat_app::entry::Direction::Out {
+            return Err(ForceRefusal::NotOutput);
+        }
+        if !entry.accepts(value) || entry.bit_length > 64 {
+            return Err(ForceRefusal::OutOfRange);
+        }
+        let share = &self.inner.share;
+        let owner = share.owner_session().and_then(|s| self.inner.peer_of(s));
+        if let (Some(peer), false) = (owner, over_owner) {
+            return Err(ForceRefusal::Owned(peer));
+        }
+        let force = Force {
+            entry,
+            // The low bits carry the value, as the clients write it.
+            value: value as u64,
+            by: by.into(),
+            over_owner: owner.is_some(),
+            since: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs()),
+        };
+        share.force(force.clone());
+        tracing::info!(
+            by,
+            position = force.entry.position,
+            index = force.entry.index,
+            subindex = force.entry.subindex,
+            value,
+            over_owner = force.over_owner,
+            "output forced"
+        );
+        self.inner.publish(AppEvent::Forced {
+            force: force.clone(),
+        });
+        Ok(force)
+    }
+
+    /// Releases the force of `entry`; whether there was one.
+    pub fn release_force(&self, entry: &ecat_app::entry::Entry, by: &str) -> bool {
+        let released = self.inner.share.release_force(entry);
+        if released {
+            tracing::info!(
+                by,
+                position = entry.position,
+                index = entry.index,
+                subindex = entry.subindex,
+                "force released"
+            );
+            self.inner.publish(AppEvent::ForceReleased {
+                entry: entry.clone(),
+                by: by.into(),
+            });
+        }
+        released
+    }
+
+    /// The forced outputs.
+    pub fn forces(&self) -> Vec<Force> {
+        self.inner.share.forces()
+    }
+
     /// The interface now.
     pub fn status(&self) -> AppStatus {
         let share = &self.inner.share;

@@ -27,6 +27,20 @@ fn memfd(name: &std::ffi::CStr, len: usize) -> std::io::Result<OwnedFd> {
     Ok(fd)
 }
 
+/// `CLOCK_MONOTONIC` in nanoseconds: the clock every process on this machine shares, so a
+/// program can compare a cycle's publication with its own wake-up.
+fn monotonic_ns() -> u64 {
+    let mut now = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: a valid clock id and a live timespec to fill.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut now) };
+    let seconds = u64::try_from(now.tv_sec).unwrap_or(0);
+    let nanos = u64::try_from(now.tv_nsec).unwrap_or(0);
+    seconds.saturating_mul(1_000_000_000).saturating_add(nanos)
+}
+
 /// A second, read-only open file description of the memfd `fd`: a program mapping it
 /// cannot write (mmap with `PROT_WRITE` and `MAP_SHARED` fails with `EACCES`).
 fn read_only(fd: &OwnedFd) -> std::io::Result<OwnedFd> {
@@ -121,7 +135,8 @@ impl ImageRegion {
         self.handout.as_fd()
     }
 
-    /// Publishes cycle `cycle` (bus thread): its slot, then the header's cycle number.
+    /// Publishes cycle `cycle` (bus thread): its slot (stamped with the time of
+    /// publication, `CLOCK_MONOTONIC`), then the header's cycle number.
     pub fn publish(&self, cycle: u64, inputs: &[u8], outputs: &[u8], wkc: u16, expected: u16) {
         let len = self.shape.image_len;
         let (Some(inputs), Some(outputs)) = (inputs.get(..len), outputs.get(..len)) else {
@@ -132,12 +147,14 @@ impl ImageRegion {
         let mut counters = [0u8; 4];
         counters[..2].copy_from_slice(&wkc.to_le_bytes());
         counters[2..].copy_from_slice(&expected.to_le_bytes());
+        let published = monotonic_ns().to_le_bytes();
         shm::write_slot(
             &self.map,
             slot,
             cycle,
             &[
                 (8, &counters),
+                (shm::slot::PUBLISHED_NS, &published),
                 (self.shape.inputs_at(), inputs),
                 (self.shape.outputs_at(), outputs),
             ],
@@ -222,5 +239,38 @@ impl CommitRegion {
         shm::read_slot(&self.map, slot, number, |m| {
             m.read_bytes(slot + shm::SLOT_HEADER, into);
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use ecat_app::shm::{self, ImageShape, Mapping};
+
+    use super::*;
+
+    #[test]
+    fn a_published_slot_carries_the_time_of_its_publication() {
+        let region =
+            ImageRegion::create(1, Vec::new(), 4, Duration::from_millis(1), 10).expect("region");
+        let before = monotonic_ns();
+        region.publish(7, &[1, 2, 3, 4], &[0; 4], 3, 3);
+        let after = monotonic_ns();
+        let map = Mapping::map(region.handout(), region.len(), false).expect("map");
+        let shape = ImageShape {
+            image_len: 4,
+            entries: 0,
+        };
+        let slot = shm::slot_of(shape.slots(), shape.stride(), 7);
+        let mut published = [0u8; 8];
+        assert!(shm::read_slot(&map, slot, 7, |m| {
+            m.read_bytes(slot + shm::slot::PUBLISHED_NS, &mut published);
+        }));
+        let published = u64::from_le_bytes(published);
+        assert!(
+            (before..=after).contains(&published),
+            "{before} {published} {after}"
+        );
     }
 }

@@ -5,6 +5,7 @@ use proto::v1::coe_service_client::CoeServiceClient;
 use proto::v1::eoe_service_client::EoeServiceClient;
 use proto::v1::foe_service_client::FoeServiceClient;
 use proto::v1::gateway_service_client::GatewayServiceClient;
+use proto::v1::process_data_service_client::ProcessDataServiceClient;
 use proto::v1::soe_service_client::SoeServiceClient;
 use proto::v1::voe_service_client::VoeServiceClient;
 use tonic::metadata::MetadataValue;
@@ -45,6 +46,8 @@ pub struct Clients {
     pub eoe: EoeServiceClient<Svc>,
     /// The mailbox gateway.
     pub gateway: GatewayServiceClient<Svc>,
+    /// Process data.
+    pub pd: ProcessDataServiceClient<Svc>,
 }
 
 /// Connects to `address` (`http://host:port`); over TLS trusting the CA certificate in
@@ -89,6 +92,7 @@ pub async fn connect(
         foe: FoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
         voe: VoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
         eoe: EoeServiceClient::with_interceptor(channel.clone(), auth.clone()),
-        gateway: GatewayServiceClient::with_interceptor(channel, auth),
+        gateway: GatewayServiceClient::with_interceptor(channel.clone(), auth.clone()),
+        pd: ProcessDataServiceClient::with_interceptor(channel, auth),
     })
 }

@@ -96,8 +96,14 @@ command_set! {
     Download(commands::coe::Download),
     /// List the CoE dictionary (SDO Information) with its entries.
     Sdos(commands::coe::Sdos),
-    /// Show the PDO assignment and mapping (0x1C12/0x1C13 and the PDOs they name).
-    Pdos(commands::coe::Pdos),
+    /// Show each slave's SyncManagers, the PDOs assigned to them and their entries, with
+    /// their names (IgH's `pdos`; every slave when none is selected).
+    Pdos(commands::pd::Pdos),
+    /// Show the process data's named entries with their live values (slave, index:sub,
+    /// name, type, direction, value, forced by); `--watch [INTERVAL]` follows them,
+    /// `--force -p SLAVE INDEX SUB VALUE [--override]` forces an output, `--release -p
+    /// SLAVE [INDEX SUB]` releases it (or every forced output), `--forced` lists them.
+    Pd(commands::pd::Pd),
     /// Read an SoE IDN (`S-0-0011`, `P-0-0100` or a number).
     SoeRead(commands::soe::SoeRead),
     /// Write an SoE IDN.
@@ -165,6 +171,7 @@ fn main() -> ExitCode {
     };
     let mut session = Session::new(cli.address, cli.token, cli.tls_ca);
     let json = cli.json;
+    session.set_json(json);
     match runtime
         .block_on(dispatch(cli.command, &mut session))
         .and_then(|out| out.print(json))

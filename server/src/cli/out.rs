@@ -11,6 +11,9 @@ pub enum Human {
     Text(String),
     /// Bytes written to standard output as they are.
     Bytes(Vec<u8>),
+    /// Everything was printed as it came (a stream), in the form asked for: nothing is left
+    /// to print in either form.
+    Printed,
 }
 
 /// What a command prints.
@@ -29,6 +32,14 @@ pub fn out(json: Value, human: impl Into<String>) -> Out {
     }
 }
 
+/// The result of a command that printed as it went (`--watch`).
+pub fn printed() -> Out {
+    Out {
+        json: Value::Null,
+        human: Human::Printed,
+    }
+}
+
 /// A result whose default form is raw bytes.
 pub fn bytes(json: Value, data: Vec<u8>) -> Out {
     Out {
@@ -41,13 +52,16 @@ impl Out {
     /// Prints the JSON or the human form to standard output.
     pub fn print(self, json: bool) -> Result<(), String> {
         let mut stdout = std::io::stdout().lock();
-        let written = if json {
+        let written = if matches!(self.human, Human::Printed) {
+            Ok(())
+        } else if json {
             writeln!(stdout, "{}", self.json)
         } else {
             match self.human {
                 Human::Text(text) if text.is_empty() => Ok(()),
                 Human::Text(text) => writeln!(stdout, "{text}"),
                 Human::Bytes(data) => stdout.write_all(&data),
+                Human::Printed => Ok(()),
             }
         };
         written

@@ -14,6 +14,7 @@ pub struct Session {
     token: Option<String>,
     tls_ca: Option<PathBuf>,
     clients: Option<Clients>,
+    json: bool,
 }
 
 impl Session {
@@ -24,7 +25,19 @@ impl Session {
             token,
             tls_ca,
             clients: None,
+            json: false,
         }
+    }
+
+    /// Sets whether the output is JSON (`--json`), for commands that print as they go.
+    pub fn set_json(&mut self, json: bool) {
+        self.json = json;
+    }
+
+    /// Whether the output is JSON: a command that prints as it goes (a stream) prints JSON
+    /// lines itself.
+    pub fn json(&self) -> bool {
+        self.json
     }
 
     /// The gRPC clients, connecting on the first call.

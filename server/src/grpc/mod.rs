@@ -1,8 +1,8 @@
 //! The gRPC API (`ecat.v1`), server reflection (v1 and v1alpha) and `grpc.health.v1`.
 //!
-//! Files: one per service (`bus`, `coe`, `foe`, `gateway`, `protocols` for SoE/VoE/EoE),
-//! `auth` (the token interceptor and write check), `convert` (views to messages), `status`
-//! (the error mapping).
+//! Files: one per service (`bus`, `coe`, `foe`, `gateway`, `process_data`, `protocols` for
+//! SoE/VoE/EoE), `auth` (the token interceptor and write check), `convert` (views to
+//! messages), `status` (the error mapping).
 
 pub mod audit;
 pub mod auth;
@@ -12,6 +12,7 @@ pub mod convert;
 pub mod deadline;
 pub mod foe;
 pub mod gateway;
+pub mod process_data;
 pub mod protocols;
 pub mod status;
 
@@ -23,6 +24,7 @@ use proto::v1::coe_service_server::CoeServiceServer;
 use proto::v1::eoe_service_server::EoeServiceServer;
 use proto::v1::foe_service_server::FoeServiceServer;
 use proto::v1::gateway_service_server::GatewayServiceServer;
+use proto::v1::process_data_service_server::ProcessDataServiceServer;
 use proto::v1::soe_service_server::SoeServiceServer;
 use proto::v1::voe_service_server::VoeServiceServer;
 use tonic::service::interceptor::InterceptedService;
@@ -101,6 +103,10 @@ pub async fn serve_tls(
             gateway::Gateway { core: core.clone() }
         ))
         .add_service(svc!(
+            ProcessDataServiceServer,
+            process_data::ProcessData { core: core.clone() }
+        ))
+        .add_service(svc!(
             SoeServiceServer,
             protocols::Protocols { core: core.clone() }
         ))
@@ -160,7 +166,7 @@ fn transport(builder: Server) -> Server {
 }
 
 /// Every service the health service reports on ("" is the server as a whole).
-const HEALTH_NAMES: [&str; 8] = [
+const HEALTH_NAMES: [&str; 9] = [
     "",
     "ecat.v1.BusService",
     "ecat.v1.CoeService",
@@ -169,6 +175,7 @@ const HEALTH_NAMES: [&str; 8] = [
     "ecat.v1.VoeService",
     "ecat.v1.EoeService",
     "ecat.v1.GatewayService",
+    "ecat.v1.ProcessDataService",
 ];
 
 /// Keeps `grpc.health.v1` in step with `/readyz`: NOT_SERVING until the first scan is done

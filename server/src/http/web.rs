@@ -40,6 +40,7 @@ const ASSETS: &[Asset] = assets![
     "static/app.js",
     "static/api.js",
     "static/bus.js",
+    "static/process-data.js",
     "static/chart.js",
     "static/dictionary.js",
     "static/dom.js",

@@ -21,6 +21,12 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
     };
     vec![
         one(
+            "ecat_process_data_forced_entries",
+            "Outputs forced from the APIs (their values go into every frame until released).",
+            MetricType::GAUGE,
+            core.forced_outputs().len() as f64,
+        ),
+        one(
             "ecat_app_attached",
             "Control programs attached to the application interface (owner and monitors).",
             MetricType::GAUGE,

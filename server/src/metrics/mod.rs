@@ -43,6 +43,7 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     families.extend(eoe::collect(core));
     families.extend(store.calls.collect());
     families.extend(store.esc.collect());
+    crate::watch::refresh_pdo(core, &store.watch);
     families.extend(store.watch.collect());
     families.extend(store.events.collect());
     families.extend(store.config.collect());

@@ -122,6 +122,16 @@ impl ApiError {
         err
     }
 
+    /// The outputs are owned by an application (a force without `override`).
+    pub fn outputs_owned(message: impl Into<String>) -> ApiError {
+        ApiError::new(ErrorKind::FailedPrecondition, "outputs_owned", message)
+    }
+
+    /// The slave maps no such process-data entry.
+    pub fn unknown_entry(message: impl Into<String>) -> ApiError {
+        ApiError::new(ErrorKind::NotFound, "unknown_entry", message)
+    }
+
     /// No slave answers to the name.
     pub fn unknown_slave(message: impl Into<String>) -> ApiError {
         ApiError::new(ErrorKind::NotFound, "unknown_slave", message)

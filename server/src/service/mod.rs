@@ -6,7 +6,9 @@
 //! start and stop), `bus` (frame and cycle counters), `read_effects` (register reads that
 //! need the write role), `transfer` (deadlines and progress of FoE and SDO transfers),
 //! `capture` (live captures), `rolling` (the rolling capture's ring of files), `domains`
-//! (the process image by slave group), `log_filter` (the runtime log filter).
+//! (the process image by slave group), `log_filter` (the runtime log filter),
+//! `process_data` (the layout, values and forced outputs), `pd_stream` (the interval and
+//! changes of a process-data stream), `pdos` (each slave's SyncManagers and PDOs).
 
 pub mod address;
 pub mod bus;
@@ -18,6 +20,8 @@ pub mod gateway;
 pub mod ip;
 pub mod log_filter;
 pub mod master_view;
+pub mod pd_stream;
+pub mod pdos;
 pub mod process_data;
 pub mod read_effects;
 pub mod rolling;

@@ -1,6 +1,7 @@
 //! Watched values (`[[watch]]` in the configuration): CoE entries or SoE IDNs read at their
 //! own period by background tasks and exported as gauges, so Prometheus can alert on slave
-//! parameters without a script.
+//! parameters without a script; process-data entries (`pdo`) are read from the last cycle's
+//! image when Prometheus scrapes, with no mailbox traffic.
 //!
 //! One task per watch (at most [`spec::MAX_WATCHES`]); each reads through the core (so the
 //! reads also count in the per-protocol mailbox metrics), one read at a time, a late tick
@@ -43,11 +44,17 @@ pub fn start(core: &Core, specs: &[WatchSpec], values: &Arc<WatchValues>) -> Vec
                 tracing::error!(slave = %spec.slave, "watch not started: invalid");
                 return None;
             };
-            let slot = values.add(WatchLabels {
+            let labels = WatchLabels {
                 slave: spec.slave.clone(),
                 object: target.label(),
                 name: spec.name.clone().unwrap_or_default(),
-            });
+            };
+            if let Target::Pdo { index, subindex } = target {
+                // Read from the image at scrape time: no task, no mailbox traffic.
+                values.add_pdo(labels, index, subindex);
+                return None;
+            }
+            let slot = values.add(labels);
             let watch = Watch {
                 slave: spec.slave.clone(),
                 target,
@@ -100,12 +107,36 @@ async fn read(core: &Core, watch: &mut Watch) -> Result<f64, ApiError> {
                 .await?;
             (data, Some(ty))
         }
+        Target::Pdo { .. } => {
+            return Err(ApiError::internal(
+                "process-data watches are read at scrape time",
+            ));
+        }
         Target::Idn { drive, idn } => (
             core.soe_read(&watch.slave, drive, idn.raw(), 0).await?,
             watch.value_type,
         ),
     };
     number(ty, &data)
+}
+
+/// Sets the process-data watches from the last completed cycle (at scrape time).
+pub fn refresh_pdo(core: &Core, values: &WatchValues) {
+    use crate::service::process_data::PdValue;
+    values.refresh_pdo(|slave, index, subindex| {
+        let view = core.process_data(Some(slave)).ok()?;
+        let v = view
+            .values
+            .iter()
+            .find(|v| v.entry.index == index && v.entry.subindex == subindex)?;
+        match &v.value {
+            PdValue::Bool(b) => Some(f64::from(u8::from(*b))),
+            PdValue::Int(i) => Some(*i as f64),
+            PdValue::Uint(u) => Some(*u as f64),
+            PdValue::Real(r) => Some(*r),
+            PdValue::Hex(_) => None,
+        }
+    });
 }
 
 /// The value of `data` as a number: decoded as `ty`, or without a type as an unsigned

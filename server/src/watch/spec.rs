@@ -42,6 +42,11 @@ pub struct WatchSpec {
     /// An SoE IDN (`"S-0-0051"`, `"P-0-0100"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub idn: Option<String>,
+    /// A process-data entry, `index:subindex` in hex (`"0x6064:0"`): read from the last
+    /// cycle's image when Prometheus scrapes, with no mailbox traffic (`period_ms` and
+    /// `type` do not apply: the entry's own type decodes it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pdo: Option<String>,
     /// The SoE drive number (IDNs only).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub drive: u8,
@@ -91,6 +96,13 @@ pub enum Target {
         /// Subindex.
         subindex: u8,
     },
+    /// A process-data entry, read from the image at scrape time.
+    Pdo {
+        /// Index.
+        index: u16,
+        /// Subindex.
+        subindex: u8,
+    },
     /// SoE IDN of a drive.
     Idn {
         /// Drive number.
@@ -104,10 +116,20 @@ impl Target {
     /// The `object` label: `0x6041:00` or `S-0-0051`.
     pub fn label(&self) -> String {
         match self {
-            Target::Sdo { index, subindex } => format!("{index:#06x}:{subindex:02x}"),
+            Target::Sdo { index, subindex } | Target::Pdo { index, subindex } => {
+                format!("{index:#06x}:{subindex:02x}")
+            }
             Target::Idn { idn, .. } => idn.to_string(),
         }
     }
+}
+
+/// `index:subindex`, both hex.
+fn hex_pair(text: &str) -> Option<(u16, u8)> {
+    let (index, subindex) = text.split_once(':')?;
+    let index = hex_number(index).and_then(|i| u16::try_from(i).ok())?;
+    let subindex = hex_number(subindex).and_then(|s| u8::try_from(s).ok())?;
+    Some((index, subindex))
 }
 
 fn hex_number(text: &str) -> Option<u32> {
@@ -122,6 +144,17 @@ fn hex_number(text: &str) -> Option<u32> {
 impl WatchSpec {
     /// What it reads; an error names what is wrong.
     pub fn target(&self) -> Result<Target, String> {
+        if let Some(pdo) = &self.pdo {
+            if self.sdo.is_some() || self.idn.is_some() || self.index.is_some() {
+                return Err(format!(
+                    "watch on slave {:?}: give exactly one of pdo, sdo, index and idn",
+                    self.slave
+                ));
+            }
+            let (index, subindex) = hex_pair(pdo)
+                .ok_or_else(|| format!("watch pdo {pdo:?}: expected index:subindex in hex"))?;
+            return Ok(Target::Pdo { index, subindex });
+        }
         if let Some(index) = &self.index {
             if self.sdo.is_some() || self.idn.is_some() {
                 return Err(format!(
@@ -145,14 +178,8 @@ impl WatchSpec {
         }
         match (&self.sdo, &self.idn) {
             (Some(sdo), None) => {
-                let bad = || format!("watch sdo {sdo:?}: expected index:subindex in hex");
-                let (index, subindex) = sdo.split_once(':').ok_or_else(bad)?;
-                let index = hex_number(index)
-                    .and_then(|i| u16::try_from(i).ok())
-                    .ok_or_else(bad)?;
-                let subindex = hex_number(subindex)
-                    .and_then(|s| u8::try_from(s).ok())
-                    .ok_or_else(bad)?;
+                let (index, subindex) = hex_pair(sdo)
+                    .ok_or_else(|| format!("watch sdo {sdo:?}: expected index:subindex in hex"))?;
                 Ok(Target::Sdo { index, subindex })
             }
             (None, Some(idn)) => Ok(Target::Idn {
@@ -225,6 +252,15 @@ mod tests {
         );
         assert_eq!(sdo.target().unwrap().label(), "0x6041:00");
         assert_eq!(sdo.period_ms, 1000);
+        let pdo = spec("slave = \"0\"\npdo = \"0x6064:0\"");
+        assert_eq!(
+            pdo.target(),
+            Ok(Target::Pdo {
+                index: 0x6064,
+                subindex: 0
+            })
+        );
+        assert_eq!(pdo.target().unwrap().label(), "0x6064:00");
         let idn = spec("slave = \"#1001\"\nidn = \"P-0-100\"\ntype = \"u16\"\nperiod_ms = 50");
         assert_eq!(idn.target().unwrap().label(), "P-0-0100");
         assert_eq!(idn.value_type(), Ok(Some(ValueType::U16)));
@@ -256,6 +292,8 @@ mod tests {
             "slave = \"3\"\nindex = \"6041h\"",
             "slave = \"3\"\nindex = 0x6041\nsdo = \"0x6041:00\"",
             "slave = \"3\"\nsubindex = 1\nsdo = \"0x6041:00\"",
+            "slave = \"3\"\npdo = \"0x6064\"",
+            "slave = \"3\"\npdo = \"0x6064:0\"\nsdo = \"0x6064:00\"",
         ] {
             assert!(spec(text).check().is_err(), "{text}");
         }

@@ -23,6 +23,8 @@ struct Slot {
     labels: WatchLabels,
     value: Option<f64>,
     errors: u64,
+    /// A process-data entry (index, subindex), read from the image at scrape time.
+    pdo: Option<(u16, u8)>,
 }
 
 /// Every watch's state, by its place in the configuration.
@@ -44,8 +46,32 @@ impl WatchValues {
             labels,
             value: None,
             errors: 0,
+            pdo: None,
         });
         slots.len() - 1
+    }
+
+    /// Adds a watch of the process-data entry `index:subindex`, read at scrape time.
+    pub fn add_pdo(&self, labels: WatchLabels, index: u16, subindex: u8) {
+        self.lock().push(Slot {
+            labels,
+            value: None,
+            errors: 0,
+            pdo: Some((index, subindex)),
+        });
+    }
+
+    /// Sets every process-data watch from `read` (slave, index, subindex → the value in the
+    /// last cycle, or `None` when the entry is not mapped: an error counted).
+    pub fn refresh_pdo(&self, mut read: impl FnMut(&str, u16, u8) -> Option<f64>) {
+        for slot in self.lock().iter_mut() {
+            if let Some((index, subindex)) = slot.pdo {
+                match read(&slot.labels.slave, index, subindex) {
+                    Some(value) => slot.value = Some(value),
+                    None => slot.errors += 1,
+                }
+            }
+        }
     }
 
     /// Records a value read.

@@ -23,9 +23,11 @@
 //!   DO8 from the same frame on (the simulator's wire), so the DI8's low nibble in cycle
 //!   `c` names the commit frame `c` carried. Reports the wake-up latency (the program's
 //!   `CLOCK_MONOTONIC` after the wait minus the cycle's publication time) as p50, p99 and
-//!   max, how many cycles after the one it was computed in each commit was carried (1, 2,
-//!   3, 4 or more), the commits no frame carried (replaced by the next before a frame took
-//!   them) and the cycles the program missed.
+//!   max; the commits the next frame carried (`next_frame`), those a later frame carried
+//!   (`later`: the next cycle's DI8 did not show them), those no frame carried (`replaced`
+//!   by the next commit before a frame took them), those whose next cycle the program
+//!   missed (`after_miss`: carried by that frame or a later one, it cannot tell); and the
+//!   cycles the program missed.
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
@@ -255,8 +257,8 @@ fn bench(socket: &std::path::Path, seconds: u64) -> Result<(), Error> {
     let mut wakes = Vec::with_capacity((seconds * 1_000_000_000 / period_ns) as usize + 4096);
     // Commits not yet seen on the wire: (commit number, cycle it was computed in).
     let mut pending: VecDeque<(u64, u64)> = VecDeque::with_capacity(16);
-    let mut turnaround = [0u64; 4];
-    let (mut replaced, mut missed, mut commits, mut unstamped) = (0u64, 0u64, 0u64, 0u64);
+    let (mut next_frame, mut later, mut after_miss, mut replaced) = (0u64, 0u64, 0u64, 0u64);
+    let (mut missed, mut commits, mut unstamped) = (0u64, 0u64, 0u64);
     let first = app.wait(WAIT)?;
     let mut last = first;
     let end = Instant::now() + Duration::from_secs(seconds);
@@ -268,20 +270,26 @@ fn bench(socket: &std::path::Path, seconds: u64) -> Result<(), Error> {
             published => wakes.push(now.saturating_sub(published)),
         }
         missed += cycle - last - 1;
-        last = cycle;
         let seen = inputs.iter().enumerate().fold(0u8, |acc, (bit, input)| {
             acc | ((app.read(input) as u8 & 1) << bit)
         });
-        // The commit this cycle's frame carried: its tag is on the DI8's low nibble.
+        // The commit this cycle's frame carried: its tag is on the DI8's low nibble. The
+        // commits before it were replaced unseen; it was carried by the next frame if this
+        // is the next cycle, by a later one if the program saw a cycle in between.
         if let Some(at) = pending
             .iter()
             .position(|&(n, _)| n & 0xF == u64::from(seen & 0xF))
         {
             let made = pending[at].1;
             replaced += at as u64;
-            turnaround[((cycle - made).clamp(1, 4) - 1) as usize] += 1;
+            match (last == made, cycle == made + 1) {
+                (true, true) => next_frame += 1,
+                (true, false) => after_miss += 1,
+                (false, _) => later += 1,
+            }
             pending.drain(..=at);
         }
+        last = cycle;
         commits += 1;
         let value = ((seen >> 4).wrapping_add(1) << 4) | (commits & 0xF) as u8;
         for (bit, output) in outputs.iter().enumerate() {
@@ -297,13 +305,9 @@ fn bench(socket: &std::path::Path, seconds: u64) -> Result<(), Error> {
     }
     wakes.sort_unstable();
     println!(
-        r#"{{"client": "rust", "period_ns": {period_ns}, "seconds": {seconds}, "cycles": {}, "waits": {}, "missed": {missed}, "commits": {commits}, "turnaround": [{}, {}, {}, {}], "replaced": {replaced}, "unseen": {}, "unstamped": {unstamped}, "wake_p50_ns": {}, "wake_p99_ns": {}, "wake_max_ns": {}}}"#,
+        r#"{{"client": "rust", "period_ns": {period_ns}, "seconds": {seconds}, "cycles": {}, "waits": {}, "missed": {missed}, "commits": {commits}, "next_frame": {next_frame}, "later": {later}, "replaced": {replaced}, "after_miss": {after_miss}, "unseen": {}, "unstamped": {unstamped}, "wake_p50_ns": {}, "wake_p99_ns": {}, "wake_max_ns": {}}}"#,
         last - first,
         wakes.len() as u64 + unstamped,
-        turnaround[0],
-        turnaround[1],
-        turnaround[2],
-        turnaround[3],
         pending.len(),
         quantile(&wakes, 0.50),
         quantile(&wakes, 0.99),

@@ -15,6 +15,9 @@ use std::sync::mpsc;
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
+/// Numbers the application sockets of the ecatds this test binary starts.
+static NEXT_SOCKET: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
 /// How long ecatd may take to come up (build excluded) or go down.
 const DEADLINE: Duration = Duration::from_secs(30);
 
@@ -178,9 +181,22 @@ impl Ecatd {
             // which is what may run between fork and exec.
             unsafe { command.pre_exec(setup) };
         }
+        // Its own application socket, so that ecatds of tests running side by side do not
+        // meet at the default one (unless the test chooses where).
+        let app_socket = std::env::temp_dir().join(format!(
+            "ecatd-test-{}-{}.sock",
+            std::process::id(),
+            NEXT_SOCKET.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+        ));
+        let app: Vec<String> = if extra.contains(&"--app-socket") {
+            Vec::new()
+        } else {
+            vec!["--app-socket".into(), app_socket.display().to_string()]
+        };
         let mut child = command
             .args(segment)
             .args(gateway)
+            .args(&app)
             .args([
                 "--grpc-listen",
                 "127.0.0.1:0",

@@ -7,7 +7,7 @@
 //! | protocol not served, mailbox not running | abort 0x06010000 | error 0x8001 | error 0x8001 | 0x0001 |
 //! | a `read` client's write | abort 0x06010002 | error 0x7002 | error 0x8002 | 0x0001 |
 //! | timeout | abort 0x08000000 | error 0x8000 | error 0x8000 | 0x0003 |
-//! | busy, larger than the mailbox, anything else | abort 0x08000000 | error 0x8000 | error 0x8000 | 0x0000 |
+//! | busy, larger than the mailbox, a transfer step sent to 0xFFFF, anything else | abort 0x08000000 | error 0x8000 | error 0x8000 | 0x0000 |
 //!
 //! In that table FoE 0x8001 is "invalid op code / not implemented" and 0x8002 "file not
 //! found" (ETG.1000.6 numbers them "not found" and "access denied"); SoE 0x8001 "service not
@@ -43,7 +43,9 @@ fn coe(fault: Fault) -> u32 {
         Fault::UnknownAddress => 0x0602_0000,
         Fault::Unsupported | Fault::NotRunning => 0x0601_0000,
         Fault::Denied => 0x0601_0002,
-        Fault::Timeout | Fault::Busy | Fault::Oversized | Fault::Other => 0x0800_0000,
+        Fault::Timeout | Fault::Busy | Fault::Oversized | Fault::NotBroadcast | Fault::Other => {
+            0x0800_0000
+        }
     }
 }
 
@@ -52,7 +54,9 @@ fn soe(fault: Fault) -> u16 {
         Fault::UnknownAddress => 0x1009,
         Fault::Unsupported | Fault::NotRunning => 0x8001,
         Fault::Denied => 0x7002,
-        Fault::Timeout | Fault::Busy | Fault::Oversized | Fault::Other => 0x8000,
+        Fault::Timeout | Fault::Busy | Fault::Oversized | Fault::NotBroadcast | Fault::Other => {
+            0x8000
+        }
     }
 }
 
@@ -60,7 +64,9 @@ fn foe(fault: Fault) -> u32 {
     match fault {
         Fault::UnknownAddress | Fault::Denied => 0x8002,
         Fault::Unsupported | Fault::NotRunning => 0x8001,
-        Fault::Timeout | Fault::Busy | Fault::Oversized | Fault::Other => 0x8000,
+        Fault::Timeout | Fault::Busy | Fault::Oversized | Fault::NotBroadcast | Fault::Other => {
+            0x8000
+        }
     }
 }
 
@@ -68,7 +74,7 @@ fn other(fault: Fault) -> u16 {
     match fault {
         Fault::UnknownAddress | Fault::Unsupported | Fault::NotRunning | Fault::Denied => 0x0001,
         Fault::Timeout => 0x0003,
-        Fault::Busy | Fault::Oversized | Fault::Other => 0x0000,
+        Fault::Busy | Fault::Oversized | Fault::NotBroadcast | Fault::Other => 0x0000,
     }
 }
 

@@ -1,4 +1,4 @@
-//! CoE commands: `upload`, `download`, `sdos`, `pdos`. Value types take IgH's names
+//! CoE commands: `upload`, `download`, `sdos`. Value types take IgH's names
 //! (`uint16`, `int32`, `float`, `double`, `string`, `octet_string`) and ours (`u16`, `f32`,
 //! `hex`).
 
@@ -61,14 +61,6 @@ pub struct Sdos {
     /// Objects only, without their entries.
     #[arg(long)]
     pub quiet: bool,
-}
-
-/// `ecat pdos`.
-#[derive(Debug, clap::Args)]
-pub struct Pdos {
-    /// The slave.
-    #[command(flatten)]
-    pub select: Selection,
 }
 
 /// IgH's name of a CoE data type (`uint32`, `float`, ...).
@@ -273,59 +265,5 @@ impl Run for Sdos {
             );
         }
         Ok(out(Value::Array(objects), human.join("\n")))
-    }
-}
-
-async fn upload_u(c: &mut Clients, slave: &str, index: u32, subindex: u32) -> Result<u64, String> {
-    let data = c
-        .coe
-        .upload(pb::UploadRequest {
-            slave: slave.to_owned(),
-            index,
-            subindex,
-            complete_access: false,
-            value_type: String::new(),
-        })
-        .await
-        .map_err(failed)?
-        .into_inner()
-        .data;
-    let mut bytes = [0u8; 8];
-    let n = data.len().min(8);
-    bytes[..n].copy_from_slice(&data[..n]);
-    Ok(u64::from_le_bytes(bytes))
-}
-
-impl Run for Pdos {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
-        let slave = self.select.one(session, "pdos").await?;
-        let c = session.clients().await?;
-        let mut human = Vec::new();
-        let mut json = Vec::new();
-        // The PDO assignment of SM2 (outputs) and SM3 (inputs) and each assigned PDO's
-        // mapping entries (index << 16 | subindex << 8 | bit length; ETG.1000.6,
-        // spec-notes §coe.pdo).
-        for (sm, assign, kind) in [(2, 0x1C12u32, "RxPDO"), (3, 0x1C13, "TxPDO")] {
-            let count = upload_u(c, &slave, assign, 0).await?;
-            human.push(format!("SM{sm}: 0x{assign:04x}, {count} PDOs"));
-            let mut pdos = Vec::new();
-            for n in 1..=count.min(254) as u32 {
-                let pdo = upload_u(c, &slave, assign, n).await? as u32 & 0xFFFF;
-                human.push(format!("  {kind} 0x{pdo:04x}"));
-                let entries = upload_u(c, &slave, pdo, 0).await?;
-                let mut mapped = Vec::new();
-                for e in 1..=entries.min(254) as u32 {
-                    let m = upload_u(c, &slave, pdo, e).await? as u32;
-                    let (index, subindex, bits) = (m >> 16, (m >> 8) & 0xFF, m & 0xFF);
-                    human.push(format!(
-                        "    PDO entry 0x{index:04x}:{subindex:02x}, {bits:2} bit"
-                    ));
-                    mapped.push(json!({"index": index, "subindex": subindex, "bit_length": bits}));
-                }
-                pdos.push(json!({"index": pdo, "entries": mapped}));
-            }
-            json.push(json!({"sync_manager": sm, "kind": kind, "pdos": pdos}));
-        }
-        Ok(out(Value::Array(json), human.join("\n")))
     }
 }

@@ -12,6 +12,7 @@ pub mod graph;
 pub mod ip;
 pub mod master;
 pub mod pcap;
+pub mod pd;
 pub mod registers;
 pub mod sii;
 pub mod slaves;

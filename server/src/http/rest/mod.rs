@@ -90,5 +90,7 @@ pub fn transfer_routes() -> OpenApiRouter<Core> {
 /// The routes that stream or run for as long as asked (no request time limit): events and
 /// captures.
 pub fn stream_routes() -> OpenApiRouter<Core> {
-    slaves::stream_routes().merge(capture::routes())
+    slaves::stream_routes()
+        .merge(capture::routes())
+        .merge(process_data::stream_routes())
 }
