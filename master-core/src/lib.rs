@@ -21,6 +21,7 @@
 pub mod bus;
 pub mod gateway;
 pub mod link;
+mod log_limit;
 pub mod mailbox;
 pub mod master;
 pub mod master_od;

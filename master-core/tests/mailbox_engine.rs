@@ -272,8 +272,16 @@ async fn a_full_receive_mailbox_is_written_again_until_the_slave_takes_the_reque
     bus.shutdown();
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_full_request_queue_refuses_at_once() {
+/// The CoE store's mailbox behind a [`StalledSm0`] link, scanned to PREOP with a request
+/// queue of `queue_len` and no idle polling; `stalls` stalls its SM0 writes.
+struct Stallable {
+    bus: master_core::bus::BusHandle,
+    master: master_core::master::Master,
+    store: master_core::mailbox::SlaveMailbox,
+    stalls: Arc<AtomicUsize>,
+}
+
+fn stallable_store(queue_len: usize) -> Stallable {
     let built = build_with_handles(&Topology::default_segment()).unwrap();
     let stalls = Arc::new(AtomicUsize::new(0));
     let link = StalledSm0 {
@@ -282,18 +290,34 @@ async fn a_full_request_queue_refuses_at_once() {
         sm0: 0x1000,
         stalls: Arc::clone(&stalls),
     };
+    // The bus thread ends with the bus's shutdown; its handle is not needed.
     let (bus, _thread) = Bus::start(link, bus_config()).unwrap();
     let config = MailboxConfig {
-        queue_len: 1,
+        queue_len,
         idle_poll: None,
         ..MailboxConfig::default()
     };
     let (master, slaves) = mailbox_support::scan_to_preop(&bus, config);
-    let engine = master.mailbox_engine();
     let (_, slave_config) = slaves.iter().find(|(p, _)| *p == COE_STORE).unwrap();
-    let store = engine
-        .add_slave(*slave_config)
-        .with_timeout(Duration::from_secs(1));
+    let store = master.mailbox_engine().add_slave(*slave_config);
+    Stallable {
+        bus,
+        master,
+        store,
+        stalls,
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_full_request_queue_refuses_at_once() {
+    let Stallable {
+        bus,
+        master,
+        store,
+        stalls,
+    } = stallable_store(1);
+    let engine = master.mailbox_engine();
+    let store = store.with_timeout(Duration::from_secs(1));
     // The first request is taken up and stuck writing; the second waits in the queue.
     stalls.store(usize::MAX, Ordering::Relaxed);
     let first = tokio::spawn({
@@ -353,4 +377,49 @@ async fn an_owner_that_replaces_another_continues_its_counter() {
         }
         assert_eq!(owner.stats().failed, 0, "round {round}");
     }
+}
+
+/// Issue 35: a request whose deadline passes while a stalled request ahead of it holds the
+/// slave is never sent, and says so (not a timeout of the slave's answer).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_request_whose_time_runs_out_in_the_queue_is_not_sent_and_says_so() {
+    let Stallable {
+        bus,
+        master,
+        store,
+        stalls,
+    } = stallable_store(MailboxConfig::default().queue_len);
+    let engine = master.mailbox_engine();
+    stalls.store(usize::MAX, Ordering::Relaxed);
+    let first = tokio::spawn({
+        let store = store.with_timeout(Duration::from_millis(800));
+        async move { store.sdo_upload(0x2001, 0).await }
+    });
+    mailbox_support::wait_until("the first request taken", Duration::from_secs(5), || {
+        store.stats().requests == 1
+    });
+    let second = tokio::spawn({
+        let store = store.with_timeout(Duration::from_millis(200));
+        async move { store.sdo_upload(0x2001, 0).await }
+    });
+    assert!(matches!(
+        first.await.unwrap(),
+        Err(MailboxError::Timeout { .. })
+    ));
+    let err = second.await.unwrap().unwrap_err();
+    assert!(
+        matches!(err, MailboxError::NotSent { station: s, waited_ms } if s == station(COE_STORE) && waited_ms >= 200),
+        "{err}"
+    );
+    assert!(err.to_string().contains("not sent"), "{err}");
+    stalls.store(0, Ordering::Relaxed);
+    assert!(
+        store
+            .with_timeout(Duration::from_secs(5))
+            .sdo_upload(0x2001, 0)
+            .await
+            .is_ok()
+    );
+    engine.shutdown();
+    bus.shutdown();
 }

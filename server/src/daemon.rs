@@ -202,6 +202,8 @@ pub(crate) async fn serve(
         tokens.clone(),
         grpc_listener,
         tls.as_ref().map(crate::tls::TlsFiles::grpc).transpose()?,
+        config.limits.clone(),
+        Arc::clone(&metrics.connections.grpc),
         stopped(stop_rx.clone()),
     ));
     let hosts = http::browser::AllowedHosts::new(
@@ -219,13 +221,22 @@ pub(crate) async fn serve(
         hosts,
         http::browser::guard,
     ));
+    let connections = Arc::clone(&metrics.connections.http);
     let http_task = match &tls {
         Some(files) => tokio::spawn(http::serve_tls(
             app,
             crate::tls::TlsListener::new(http_listener, files.http()?),
+            config.limits.clone(),
+            connections,
             stopped(stop_rx),
         )),
-        None => tokio::spawn(http::serve(app, http_listener, stopped(stop_rx))),
+        None => tokio::spawn(http::serve(
+            app,
+            http_listener,
+            config.limits.clone(),
+            connections,
+            stopped(stop_rx),
+        )),
     };
 
     // A shutdown during the start-up scan stops the scan where it is.

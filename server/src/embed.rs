@@ -30,8 +30,8 @@
 //! # The configuration
 //!
 //! [`Config`] is ecatd's; these parts apply: `grpc_listen`, `http_listen`, `gateway`,
-//! `tokens`, `tls`, `insecure`, `allowed_hosts`, `metrics_token`, `watch`, `eoe`, `capture`
-//! (the rolling capture needs [`Embedded::capture`]), `app`, `safe_state` and
+//! `tokens`, `tls`, `insecure`, `allowed_hosts`, `metrics_token`, `limits`, `watch`, `eoe`,
+//! `capture` (the rolling capture needs [`Embedded::capture`]), `app`, `safe_state` and
 //! `shutdown_timeout_ms`. `segment`, if given, only names the link the program's master runs
 //! on (for the metrics' `ecat_link_up`, the EoE interfaces' MAC addresses and the link name
 //! the APIs show); it is never opened. The master's own settings (`[bus]`, `[[slave]]`,

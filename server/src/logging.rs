@@ -25,13 +25,52 @@ struct Runtime {
 
 static RUNTIME: OnceLock<Runtime> = OnceLock::new();
 
+/// The tracing targets of ecatd's own crates (binaries and libraries).
+const OWN_TARGETS: [&str; 6] = ["ecatd", "ecat", "server", "master_core", "sim", "ecat_app"];
+
+/// `filter` with a bare `debug` or `trace` level scoped to ecatd's own crates: the other
+/// crates (h2, hyper, tonic, ...) stay at `warn` unless a directive names them. Without
+/// this, `--log debug` is almost all HTTP/2 frame dumps. `info` and quieter levels, and
+/// every directive with a target, are kept as written.
+fn scoped(filter: &str) -> String {
+    let directives: Vec<&str> = filter
+        .split(',')
+        .map(str::trim)
+        .filter(|d| !d.is_empty())
+        .collect();
+    // Targets the filter names itself keep their own level.
+    let named: Vec<&str> = directives
+        .iter()
+        .filter_map(|d| d.split_once('=').map(|(target, _)| target.trim()))
+        .collect();
+    let mut out = Vec::new();
+    for directive in directives {
+        let verbose = ["debug", "trace"]
+            .iter()
+            .any(|level| directive.eq_ignore_ascii_case(level));
+        if verbose {
+            out.push("warn".to_owned());
+            let level = directive.to_ascii_lowercase();
+            out.extend(
+                OWN_TARGETS
+                    .iter()
+                    .filter(|target| !named.contains(target))
+                    .map(|target| format!("{target}={level}")),
+            );
+        } else {
+            out.push(directive.to_owned());
+        }
+    }
+    out.join(",")
+}
+
 /// The filter as the log layer uses it: the audit target is the audit sink's alone, so the
-/// log filter neither shows it twice nor hides it.
+/// log filter neither shows it twice nor hides it; a bare verbose level is [`scoped`].
 fn log_filter(filter: &str) -> Result<EnvFilter, String> {
     let audit_off = format!("{AUDIT_TARGET}=off")
         .parse()
         .map_err(|err| format!("bad log filter: {err}"))?;
-    Ok(EnvFilter::try_new(filter)
+    Ok(EnvFilter::try_new(scoped(filter))
         .map_err(|err| format!("bad log filter: {err}"))?
         .add_directive(audit_off))
 }
@@ -101,4 +140,29 @@ pub fn init(format: LogFormat, filter: &str, audit_log: Option<&Path>) -> Result
         handle,
     });
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bare_verbose_level_is_ecatds_own_and_named_targets_keep_theirs() {
+        assert_eq!(
+            scoped("debug"),
+            "warn,ecatd=debug,ecat=debug,server=debug,master_core=debug,sim=debug,ecat_app=debug"
+        );
+        assert_eq!(
+            scoped("TRACE,h2=debug,server=info"),
+            "warn,ecatd=trace,ecat=trace,master_core=trace,sim=trace,ecat_app=trace,h2=debug,\
+             server=info"
+        );
+        for kept in ["info", "warn", "master_core::bus=trace", "info,tower=debug"] {
+            assert_eq!(scoped(kept), kept);
+        }
+        // What the layer builds from them parses.
+        for filter in ["debug", "trace,h2=debug", "info"] {
+            assert!(log_filter(filter).is_ok(), "{filter}");
+        }
+    }
 }

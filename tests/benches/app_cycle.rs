@@ -33,6 +33,10 @@
 //! stamps the cycle as ecatd's publish does and "wakes" by a direct call, computes in
 //! `after_receive` into a pending buffer that the next `before_send` puts into the frame.
 //!
+//! `APP_CYCLE_CPU=N` pins ecatd's bus thread (`[bus] cpu = N`) and every program to CPU
+//! `N`: the program then wakes on the CPU the cycle completed on, with no inter-processor
+//! interrupt between them (and runs only when the bus thread sleeps).
+//!
 //! Needs root (`SCHED_FIFO`), `cc` and `python3` (`ECATD_PYTHON` overrides). Not part of
 //! CI: the rows depend on the machine's load.
 
@@ -397,8 +401,15 @@ fn python() -> PathBuf {
 }
 
 /// Runs the `bench` scenario of `client` against `socket` for `seconds`, real-time when
-/// `realtime`; its JSON line.
-fn run_program(client: Client, c_exe: &Path, socket: &Path, seconds: u64, realtime: bool) -> Value {
+/// `realtime`, pinned to `cpu` if given; its JSON line.
+fn run_program(
+    client: Client,
+    c_exe: &Path,
+    socket: &Path,
+    seconds: u64,
+    realtime: bool,
+    cpu: Option<usize>,
+) -> Value {
     let mut command = match client {
         Client::Rust => Command::new(env!("CARGO_BIN_EXE_app_program")),
         Client::C => Command::new(c_exe),
@@ -417,6 +428,20 @@ fn run_program(client: Client, c_exe: &Path, socket: &Path, seconds: u64, realti
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
+    if let Some(cpu) = cpu {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: `cpu_set_t` is plain data; only system calls between fork and exec.
+        unsafe {
+            command.pre_exec(move || {
+                let mut only: libc::cpu_set_t = std::mem::zeroed();
+                libc::CPU_SET(cpu, &mut only);
+                if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &only) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                Ok(())
+            })
+        };
+    }
     if realtime {
         use std::os::unix::process::CommandExt;
         // SAFETY: only a system call between fork and exec.
@@ -507,6 +532,14 @@ fn main() {
     if !root_user {
         eprintln!("not root: the programs run without SCHED_FIFO, ecatd's bus thread too");
     }
+    let cpu: Option<usize> = std::env::var("APP_CYCLE_CPU")
+        .ok()
+        .and_then(|v| v.parse().ok());
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+    assert!(
+        cpu.is_none_or(|cpu| cpu < cpus),
+        "APP_CYCLE_CPU: this machine has CPUs 0..{cpus}"
+    );
     let c_exe = c_program();
     let periods = [Duration::from_millis(1), Duration::from_micros(250)];
     let clients = [Client::Rust, Client::C, Client::Python];
@@ -530,8 +563,9 @@ fn main() {
         std::fs::write(
             &config,
             format!(
-                "[bus]\ncycle = \"{}us\"\nrt_priority = {BUS_PRIORITY}\n\n[app]\nwatchdog = {watchdog}\n",
-                period.as_micros()
+                "[bus]\ncycle = \"{}us\"\nrt_priority = {BUS_PRIORITY}\n{}\n[app]\nwatchdog = {watchdog}\n",
+                period.as_micros(),
+                cpu.map_or_else(String::new, |cpu| format!("cpu = {cpu}\n")),
             ),
         )
         .expect("config");
@@ -547,7 +581,7 @@ fn main() {
             // The last program's socket closed: let ecatd end its ownership first.
             std::thread::sleep(Duration::from_secs(1));
             rows.push(measured(|| {
-                let value = run_program(client, &c_exe, &socket, seconds, root_user);
+                let value = run_program(client, &c_exe, &socket, seconds, root_user, cpu);
                 Row::from_json(client, period, &value)
             }));
         }
@@ -559,12 +593,15 @@ fn main() {
     println!();
     println!(
         "Application interface: ecatd --simulate (release), bus thread SCHED_FIFO {BUS_PRIORITY}, \
-         program SCHED_FIFO {PROGRAM_PRIORITY}{}, {seconds} s per row",
+         program SCHED_FIFO {PROGRAM_PRIORITY}{}, {seconds} s per row{}",
         if root_user {
             ""
         } else {
             " (NOT granted: not root)"
-        }
+        },
+        cpu.map_or_else(String::new, |cpu| format!(
+            "; bus thread and programs pinned to CPU {cpu}"
+        )),
     );
     for (period, threads) in &bus_rt {
         println!(

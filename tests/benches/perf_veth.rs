@@ -63,12 +63,16 @@ mod server_support;
 #[path = "support/api_clients.rs"]
 mod api_clients;
 
+#[path = "support/cycle_jitter.rs"]
+mod cycle_jitter;
+
 use std::process::Command;
 use std::sync::Barrier;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use api_clients::{GrpcClient, RestClient};
+use cycle_jitter::{cycle_metrics, metrics_text, print_header, print_window};
 use ecat_tests::python::{python, run_script, script};
 use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
@@ -192,8 +196,8 @@ fn start_ecatd(topology: &TempFile) -> (Ecatd, Option<TempFile>) {
 #[derive(Default)]
 struct Table {
     kept: std::cell::RefCell<Vec<(Key, Row)>>,
-    /// The cycle jitter's bucket bounds (µs) at [`JITTER_QUANTILES`], quiet and while the
-    /// rows ran.
+    /// The cycle jitter's bucket bounds (µs) at [`cycle_jitter::JITTER_QUANTILES`], quiet
+    /// and while the rows ran.
     jitter: std::cell::RefCell<Option<(Vec<f64>, Vec<f64>)>>,
 }
 
@@ -241,13 +245,11 @@ const CLIENTS_GOAL: f64 = 80.0;
 const DELAY_GOAL_US: f64 = 150.0;
 /// The delay (µs) the slow-slave goal is set for.
 const GOAL_DELAY_US: u32 = 100;
-/// The percentiles of the cycle's jitter the table shows.
-const JITTER_QUANTILES: [f64; 4] = [0.5, 0.9, 0.99, 0.999];
 /// The jitter goal ("no regression beyond noise"), judged on these of
-/// [`JITTER_QUANTILES`]: while the rows run, each stays in the quiet window's histogram
-/// bucket or a lower one. The median is left out: any work on the cores moves it from the
-/// ≤ 5-10 µs buckets to ≤ 25 µs, a shift of a few µs that the buckets magnify; the p99.9
-/// of a 3 s window is three cycles, the host's hiccups.
+/// [`cycle_jitter::JITTER_QUANTILES`]: while the rows run, each stays in the quiet window's
+/// histogram bucket or a lower one. The median is left out: any work on the cores moves it
+/// from the ≤ 5-10 µs buckets to ≤ 25 µs, a shift of a few µs that the buckets magnify; the
+/// p99.9 of a 3 s window is three cycles, the host's hiccups.
 const JITTER_GOAL: [(usize, &str); 2] = [(1, "p90"), (2, "p99")];
 
 /// The rows a ratio, a goal or a bound is computed from.
@@ -623,53 +625,6 @@ fn rss_kib(pid: u32) -> u64 {
         .expect("VmRSS")
 }
 
-/// What ecatd's `/metrics` says of its cycle: the cumulative buckets of the jitter
-/// histogram (upper bound s, count) and the periods missed (no cycle ran in them).
-struct CycleMetrics {
-    buckets: Vec<(f64, u64)>,
-    missed: u64,
-    at: Instant,
-}
-
-/// ecatd's `/metrics` page.
-fn metrics_text(agent: &ureq::Agent, http: &str) -> String {
-    agent
-        .get(format!("{http}/metrics"))
-        .call()
-        .expect("/metrics")
-        .body_mut()
-        .read_to_string()
-        .expect("metrics text")
-}
-
-fn cycle_metrics(agent: &ureq::Agent, http: &str) -> CycleMetrics {
-    let text = metrics_text(agent, http);
-    let value = |rest: &str| rest.rsplit(' ').next()?.parse::<f64>().ok();
-    let buckets = text
-        .lines()
-        .filter_map(|l| l.strip_prefix("ecat_process_data_cycle_jitter_seconds_bucket{le=\""))
-        .filter_map(|l| {
-            let (le, rest) = l.split_once('"')?;
-            let le = if le == "+Inf" {
-                f64::INFINITY
-            } else {
-                le.parse().ok()?
-            };
-            Some((le, value(rest)? as u64))
-        })
-        .collect();
-    let missed = text
-        .lines()
-        .find_map(|l| l.strip_prefix("ecat_process_data_cycles_missed_total"))
-        .and_then(value)
-        .unwrap_or(0.0) as u64;
-    CycleMetrics {
-        buckets,
-        missed,
-        at: Instant::now(),
-    }
-}
-
 /// The sum (s) and count of ecatd's CoE requests from its API handlers
 /// (`ecat_mailbox_protocol_request_duration_seconds{protocol="coe"}`): the time the handler
 /// spends in the mailbox call, from resolving the slave to the answer.
@@ -700,31 +655,6 @@ fn with_call_time(agent: &ureq::Agent, http: &str, row: impl FnOnce()) {
             (after.0 - before.0) / calls * 1e6
         );
     }
-}
-
-/// Cycles counted between two bucket snapshots and the bucket bound (µs) below which each
-/// of `quantiles` falls.
-fn jitter_between(
-    before: &[(f64, u64)],
-    after: &[(f64, u64)],
-    quantiles: &[f64],
-) -> (u64, Vec<f64>) {
-    let diff: Vec<(f64, u64)> = after
-        .iter()
-        .zip(before)
-        .map(|(&(le, a), &(_, b))| (le, a.saturating_sub(b)))
-        .collect();
-    let total = diff.last().map_or(0, |d| d.1);
-    let bounds = quantiles
-        .iter()
-        .map(|q| {
-            let want = (q * total as f64).ceil() as u64;
-            diff.iter()
-                .find(|d| d.1 >= want.max(1))
-                .map_or(f64::NAN, |d| d.0 * 1e6)
-        })
-        .collect();
-    (total, bounds)
 }
 
 fn phase_direct(table: &Table, count: usize, each: usize) {
@@ -964,25 +894,9 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
             p => format!("SCHED_FIFO {p} (PERF_VETH_RT)"),
         }
     );
-    println!(
-        "{:<28} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
-        "", "window s", "cycles", "missed", "p50 ≤", "p90 ≤", "p99 ≤", "p99.9 ≤"
-    );
-    let mut windows = Vec::new();
-    for (name, before, after) in [
-        ("quiet", &quiet_start, &quiet_end),
-        ("while the rows above ran", &quiet_end, &loaded_end),
-    ] {
-        let (cycles, q) = jitter_between(&before.buckets, &after.buckets, &JITTER_QUANTILES);
-        let window = after.at.duration_since(before.at).as_secs_f64();
-        let missed = after.missed.saturating_sub(before.missed);
-        println!(
-            "{name:<28} {window:>8.1} {cycles:>8} {missed:>8} {:>8} {:>8} {:>8} {:>8}",
-            q[0], q[1], q[2], q[3]
-        );
-        windows.push(q);
-    }
-    let [quiet, loaded] = <[Vec<f64>; 2]>::try_from(windows).expect("two windows");
+    print_header();
+    let quiet = print_window("quiet", &quiet_start, &quiet_end);
+    let loaded = print_window("while the rows above ran", &quiet_end, &loaded_end);
     *table.jitter.borrow_mut() = Some((quiet, loaded));
 
     println!();

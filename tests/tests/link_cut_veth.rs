@@ -103,8 +103,8 @@ fn wait_all_op(ecatd: &Ecatd, slaves: usize) {
         let (status, body) = curl(&["-s", &format!("{}/api/v1/slaves", ecatd.http)]);
         if status == 200 {
             let listed: serde_json::Value = serde_json::from_str(&body).unwrap();
-            // A slave lost during the cut keeps its last state until it is found again:
-            // only present slaves in OP count as back.
+            // A slave lost during the cut is listed ABSENT until it is found again, and
+            // then passes through INIT: only present slaves in OP count as back.
             let states: Vec<&str> = listed
                 .as_array()
                 .unwrap()
@@ -241,4 +241,144 @@ fn a_two_second_cut_ends_transfers_cleanly_and_the_segment_recovers() {
 
 fn hex(data: &[u8]) -> String {
     data.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Waits until every slave is listed absent (`present` false) over REST; the listing.
+fn wait_all_absent(ecatd: &Ecatd) -> Vec<serde_json::Value> {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let (status, body) = curl(&["-s", &format!("{}/api/v1/slaves", ecatd.http)]);
+        assert_eq!(status, 200, "{body}");
+        let listed: Vec<serde_json::Value> = serde_json::from_str(&body).unwrap();
+        if !listed.is_empty() && listed.iter().all(|s| s["present"] == false) {
+            return listed;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the slaves were not lost after the cut: {body}"
+        );
+        // Poll interval of the listing; the loop ends on the loss or the deadline.
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Issue 35: a slave lost with the cable is absent in every API (never its last state as
+/// if live) and a request to it fails at once saying so, until it is found again.
+#[test]
+fn a_lost_slave_is_absent_in_every_api_until_it_is_found_again() {
+    let ecatd = Ecatd::start(&[]);
+    let slaves = Topology::default_segment().slaves.len();
+    wait_all_op(&ecatd, slaves);
+    let gateway = ecatd.gateway_addr();
+    let drive = 1001u16;
+
+    ecatd.set_sim_link(false);
+    let listed = wait_all_absent(&ecatd);
+    for slave in &listed {
+        assert_eq!(slave["state"], "ABSENT", "{slave}");
+    }
+    // At the default level (info) the loss is in the log, one line per slave.
+    let lost = ecatd.log_until("slave lost");
+    let line = lost.last().expect("the line waited for");
+    assert_eq!(line["level"], "WARN", "{line}");
+    assert!(line["fields"]["station"].as_u64().is_some(), "{line}");
+
+    // REST: 404 with the reason, at once.
+    let (status, body) = curl(&[
+        "-s",
+        &format!("{}/api/v1/slaves/0/coe/sdo/0x1018/1", ecatd.http),
+    ]);
+    assert_eq!(status, 404, "{body}");
+    let error: serde_json::Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(error["reason"], "SLAVE_ABSENT", "{body}");
+    assert!(
+        error["detail"]
+            .as_str()
+            .unwrap_or_default()
+            .contains("absent"),
+        "{body}"
+    );
+
+    // gRPC: UNAVAILABLE (14), and the listing says not present, state unspecified.
+    let (code, message) = server_support::call(
+        &ecatd.grpc,
+        &[],
+        "ecat.v1.CoeService/Upload",
+        r#"{"slave": "0", "index": 4120, "subindex": 1}"#,
+    )
+    .unwrap_err();
+    assert_eq!(code, "14", "{message}");
+    assert!(message.contains("absent"), "{message}");
+    let list = server_support::call(&ecatd.grpc, &[], "ecat.v1.BusService/ListSlaves", "{}")
+        .expect("ListSlaves");
+    for slave in list["slaves"].as_array().expect("slaves") {
+        // proto3 JSON leaves out false and the zero enum value.
+        assert!(slave.get("present").is_none(), "{slave}");
+        assert!(slave.get("state").is_none(), "{slave}");
+    }
+
+    // The gateway: the SDO abort "protocol timed out" at once, not after a timeout.
+    let mut client = server_support::gateway_client::GatewayClient::new(gateway);
+    let asked = Instant::now();
+    assert_eq!(client.sdo_upload(drive, 0x1018, 1), Err(0x0504_0000));
+    assert!(
+        asked.elapsed() < Duration::from_secs(1),
+        "{:?}",
+        asked.elapsed()
+    );
+
+    // The CLI's listing and the metrics.
+    let output = Command::new(server_support::bin_dir().join("ecat"))
+        .args(["--address", &format!("http://{}", ecatd.grpc), "slaves"])
+        .output()
+        .expect("ecat runs");
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{text}");
+    assert_eq!(text.lines().count(), slaves, "{text}");
+    assert!(
+        text.lines()
+            .all(|l| l.contains("ABSENT") || l.contains("absent")),
+        "{text}"
+    );
+    let (status, metrics) = curl(&["-s", &format!("{}/metrics", ecatd.http)]);
+    assert_eq!(status, 200);
+    assert!(
+        metrics.lines().any(|l| l == "ecat_slaves{state=\"OP\"} 0"),
+        "{metrics}"
+    );
+
+    ecatd.set_sim_link(true);
+    wait_all_op(&ecatd, slaves);
+    // ... and so is the return: a "slave found" line after the last "slave lost".
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let found_again = loop {
+        let messages: Vec<serde_json::Value> = ecatd
+            .log()
+            .lines()
+            .filter_map(|l| serde_json::from_str(l).ok())
+            .collect();
+        let last_lost = messages
+            .iter()
+            .rposition(|v| v["fields"]["message"] == "slave lost")
+            .expect("slave lost logged");
+        if let Some(found) = messages[last_lost..]
+            .iter()
+            .find(|v| v["fields"]["message"] == "slave found")
+        {
+            break found.clone();
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no slave found after the loss:\n{}",
+            ecatd.log()
+        );
+        // Poll interval of the log reader; the loop ends on the line or the deadline.
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(found_again["level"], "INFO", "{found_again}");
+    let (status, body) = curl(&[
+        "-s",
+        &format!("{}/api/v1/slaves/0/coe/sdo/0x1018/1", ecatd.http),
+    ]);
+    assert_eq!(status, 200, "{body}");
 }

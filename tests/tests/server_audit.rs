@@ -174,6 +174,8 @@ fn every_write_kind_is_audited_with_its_outcome_at_log_warn() {
     })
     .unwrap_or_else(|| panic!("no REST audit line:\n{:#?}", lines()));
     assert_eq!(line["fields"]["caller"], "engineer");
+    // The slave the path names, as gRPC's lines carry the request's slave.
+    assert_eq!(line["fields"]["target"], "3");
     assert_eq!(line["fields"]["size"], body.len());
     assert_eq!(line["fields"]["sha256"], sha_prefix(body.as_bytes()));
     // REST PUT, failed: the error.

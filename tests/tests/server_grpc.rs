@@ -896,3 +896,46 @@ fn process_data_refuses_bad_requests_and_forces_over_an_owner_only_with_override
     assert!(log.contains("force_output_over_owner"), "{log}");
     drop(owner);
 }
+
+/// Issue 35: a request body that does not parse as the method's message is the caller's
+/// fault, INVALID_ARGUMENT (prost's codec alone says INTERNAL), and changes nothing.
+#[test]
+fn a_request_that_does_not_parse_is_an_invalid_argument() {
+    let ecatd = Ecatd::start(&[]);
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let status = runtime.block_on(async {
+        let channel = tonic::transport::Channel::from_shared(format!("http://{}", ecatd.grpc))
+            .unwrap()
+            .connect()
+            .await
+            .expect("connects");
+        let mut grpc = tonic::client::Grpc::new(channel);
+        grpc.ready().await.expect("ready");
+        // `Domain` has a varint at field 1 where `GetSlaveRequest` has a string: the bytes
+        // are valid protobuf of the wrong shape.
+        let wrong = proto::v1::Domain {
+            index: 7,
+            ..Default::default()
+        };
+        let codec = tonic_prost::ProstCodec::<proto::v1::Domain, proto::v1::Slave>::default();
+        grpc.unary(
+            tonic::Request::new(wrong),
+            tonic::codegen::http::uri::PathAndQuery::from_static("/ecat.v1.BusService/GetSlave"),
+            codec,
+        )
+        .await
+        .expect_err("a malformed request is refused")
+    });
+    assert_eq!(status.code(), tonic::Code::InvalidArgument, "{status:?}");
+    assert!(
+        status.message().contains("GetSlaveRequest"),
+        "{}",
+        status.message()
+    );
+    // The server goes on answering.
+    let list = call(&ecatd.grpc, &[], "ecat.v1.BusService/ListSlaves", "{}").unwrap();
+    assert!(!list["slaves"].as_array().unwrap().is_empty());
+}

@@ -107,6 +107,27 @@ fn counters_equal_what_was_done() {
     assert_eq!(status, 200);
     let states = scrape(&ecatd);
     assert_eq!(sample(&states, r#"ecat_slaves{state="PREOP"}"#), 1.0);
+    // The change is in the log at the default level (info), with the slave and both states.
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    let changed = loop {
+        let line = ecatd
+            .log()
+            .lines()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .find(|v| {
+                v["fields"]["message"] == "slave state changed"
+                    && v["fields"]["position"] == 1
+                    && v["fields"]["from"] == "OP"
+                    && v["fields"]["to"] == "PREOP"
+            });
+        if let Some(line) = line {
+            break line;
+        }
+        assert!(std::time::Instant::now() < deadline, "{}", ecatd.log());
+        // Poll interval of the log reader; the loop ends on the line or the deadline.
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(changed["level"], "INFO", "{changed}");
     assert_eq!(
         sample(&states, r#"ecat_slaves{state="OP"}"#),
         topology.slaves.len() as f64 - 1.0
@@ -249,6 +270,11 @@ fn gateway_counters_equal_the_datagrams_sent() {
             r#"ecat_mailbox_gateway_failures_total{reason="malformed"}"#
         ),
         3.0
+    );
+    // Eight datagrams fit the receive queue: the kernel dropped none (read from /proc).
+    assert_eq!(
+        sample(&after, "ecat_mailbox_gateway_dropped_datagrams_total"),
+        0.0
     );
 }
 

@@ -1,7 +1,9 @@
 //! Watched values: ecatd with a configuration file listing `[[watch]]` entries exports each
 //! as `ecat_watch_value`; when the test changes the watched CoE object through the REST
 //! download API the gauge follows, an IDN watch shows the simulator's value, and a watch of
-//! a missing object counts read errors without a value.
+//! a missing object counts read errors without a value. A process-data watch (`pdo`) shows
+//! the value in the process image, follows a DO8 output forced onto the DI8's input, and
+//! moves no mailbox counter.
 
 mod server_support;
 
@@ -150,4 +152,110 @@ fn a_bad_watch_refuses_the_start() {
     std::fs::remove_dir_all(&dir).unwrap();
     assert!(!status.success());
     assert!(stderr.contains("watch sdo"), "{stderr}");
+}
+
+/// The value of `index:subindex` of the slave at `position` in the last completed cycle,
+/// over REST (the process image ecatd serves).
+fn image_value(ecatd: &Ecatd, position: u16, index: u16, subindex: u8) -> serde_json::Value {
+    let (status, body) = curl(&[
+        "-s",
+        &format!("{}/api/v1/slaves/{position}/process-data", ecatd.http),
+    ]);
+    assert_eq!(status, 200, "{body}");
+    let view: serde_json::Value = serde_json::from_str(&body).expect("JSON");
+    view["entries"]
+        .as_array()
+        .expect("entries")
+        .iter()
+        .find(|e| e["index"] == index && e["subindex"] == subindex)
+        .map(|e| e["value"].clone())
+        .unwrap_or_else(|| panic!("{index:#06x}:{subindex} not mapped on {position}: {view}"))
+}
+
+/// The mailbox counters a read through a mailbox would move: every station's requests
+/// (CoE, SoE, FoE, VoE and EoE calls, whoever made them) and ecatd's own requests by slave
+/// and protocol (where its watch tasks count). The messages written are left out: the EoE
+/// side traffic of the drive and the EoE port carries the host's own frames (router
+/// solicitations on their interfaces) whenever the kernel sends them.
+fn mailbox_requests(text: &str) -> Vec<String> {
+    text.lines()
+        .filter(|l| {
+            l.starts_with("ecat_mailbox_requests_total{")
+                || l.starts_with("ecat_mailbox_protocol_requests_total{")
+        })
+        .map(str::to_owned)
+        .collect()
+}
+
+#[test]
+fn a_process_data_watch_shows_the_image_and_reads_no_mailbox() {
+    // The DI8's input 3, wired to the DO8's output 3, and the drive's statusword: the
+    // drive has a mailbox, so a watch read through it would show in its counters.
+    let dir = std::env::temp_dir().join(format!("ecatd-pdowatch-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let config = dir.join("ecatd.toml");
+    std::fs::write(
+        &config,
+        r#"
+[[watch]]
+slave = "2"
+pdo = "0x6000:03"
+name = "input_3"
+
+[[watch]]
+slave = "0"
+pdo = "0x6041:0"
+name = "statusword"
+"#,
+    )
+    .unwrap();
+    let ecatd = Ecatd::start(&["--config", config.to_str().unwrap()]);
+    std::fs::remove_dir_all(&dir).unwrap();
+    let input = r#"ecat_watch_value{slave="2",object="0x6000:03",name="input_3"}"#;
+    let statusword = r#"ecat_watch_value{slave="0",object="0x6041:00",name="statusword"}"#;
+
+    let before = scrape(&ecatd);
+    let requests = mailbox_requests(&before);
+    assert!(
+        requests.iter().any(|l| l.contains(r#"station="1001""#)),
+        "no mailbox counters of the drive:\n{before}"
+    );
+
+    // Nothing drives the DI8 yet: input 3 is off in the image and on the gauge.
+    assert_eq!(image_value(&ecatd, 2, 0x6000, 3), false);
+    assert_eq!(wait_for(&ecatd, input, |_| true), 0.0);
+    // The statusword stands still until a controlword moves the drive's state machine.
+    let image = image_value(&ecatd, 0, 0x6041, 0);
+    let shown = wait_for(&ecatd, statusword, |_| true);
+    assert_eq!(Some(shown), image.as_f64(), "{image}");
+
+    let (status, body) = curl(&[
+        "-s",
+        "-X",
+        "PUT",
+        "-H",
+        "content-type: application/json",
+        "-d",
+        r#"{"value": true}"#,
+        &format!("{}/api/v1/slaves/1/process-data/0x7000/3", ecatd.http),
+    ]);
+    assert_eq!(status, 200, "{body}");
+    // The wire carries output 3 to input 3 from the next frame on.
+    assert_eq!(wait_for(&ecatd, input, |v| v == 1.0), 1.0);
+    assert_eq!(image_value(&ecatd, 2, 0x6000, 3), true);
+
+    // A few scrapes more, each reading both watches from the image.
+    for _ in 0..5 {
+        let text = scrape(&ecatd);
+        assert_eq!(sample(&text, input), Some(1.0));
+        assert_eq!(sample(&text, statusword), Some(shown));
+    }
+    let after = scrape(&ecatd);
+    assert_eq!(mailbox_requests(&after), requests);
+    for series in [
+        r#"ecat_watch_read_errors_total{slave="2",object="0x6000:03",name="input_3"}"#,
+        r#"ecat_watch_read_errors_total{slave="0",object="0x6041:00",name="statusword"}"#,
+    ] {
+        assert_eq!(sample(&after, series), Some(0.0), "{after}");
+    }
 }

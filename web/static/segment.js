@@ -12,6 +12,7 @@ export const STATES = ["INIT", "PREOP", "BOOT", "SAFEOP", "OP"];
 
 /** The state badge: colour and the state's name as text (never colour alone). */
 export function stateBadge(slave) {
+  // A slave that does not answer is "ABSENT" (the API never reports its last state as live).
   const state = slave.state.startsWith("UNKNOWN") ? "UNKNOWN" : slave.state;
   return h("span", { class: `state state-${state.toLowerCase()}${slave.al_error ? " state-error" : ""}` },
     slave.state, slave.al_error ? " + ERROR" : "");
@@ -115,8 +116,7 @@ export async function show(view, app) {
       return h("li", { class: `slave${sl.al_error ? " slave-error" : ""}${sl.present ? "" : " slave-missing"}`, "data-position": sl.position, "data-state": sl.state },
         h("div", { class: "slave-title" },
           h("a", { href: `#/slave/${sl.position}` }, `${sl.position}: ${sl.name || "(no name)"}`),
-          stateBadge(sl),
-          sl.present ? "" : h("span", { class: "state state-error" }, "MISSING")),
+          stateBadge(sl)),
         h("dl", { class: "facts compact" },
           h("dt", {}, "Station"), h("dd", {}, hex(sl.station)),
           h("dt", {}, "Alias"), h("dd", {}, sl.alias ? String(sl.alias) : "none"),

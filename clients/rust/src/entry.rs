@@ -81,6 +81,12 @@ impl Entry {
         };
         let name = &r[18..18 + NAME_LEN];
         let name = &name[..name.iter().position(|&b| b == 0).unwrap_or(NAME_LEN)];
+        // ecatd writes whole characters only; of anything else, the valid beginning (a
+        // replacement character would not fit the field again).
+        let name = match std::str::from_utf8(name) {
+            Ok(name) => name,
+            Err(err) => std::str::from_utf8(&name[..err.valid_up_to()]).unwrap_or_default(),
+        };
         Some(Entry {
             position: u16_at(0),
             station: u16_at(2),
@@ -91,7 +97,7 @@ impl Entry {
             data_type: u16_at(10),
             bit_offset: u32::from_le_bytes([r[12], r[13], r[14], r[15]]),
             bit_length: u16_at(16),
-            name: String::from_utf8_lossy(name).into_owned(),
+            name: name.to_owned(),
         })
     }
 
@@ -191,6 +197,27 @@ mod tests {
             bit_length,
             name: "Position actual value".into(),
         }
+    }
+
+    #[test]
+    fn a_name_that_is_not_utf8_reads_as_its_valid_beginning_and_round_trips() {
+        let mut record = Entry {
+            position: 1,
+            station: 1002,
+            pdo: 0x1a00,
+            index: 0x6000,
+            subindex: 1,
+            direction: Direction::In,
+            data_type: 1,
+            bit_offset: 0,
+            bit_length: 1,
+            name: "Input".into(),
+        }
+        .encode();
+        record[18 + 5..18 + 9].copy_from_slice(&[0xbf, 0xbe, b'A', b'B']);
+        let entry = Entry::decode(&record).unwrap();
+        assert_eq!(entry.name, "Input");
+        assert_eq!(Entry::decode(&entry.encode()), Some(entry));
     }
 
     #[test]

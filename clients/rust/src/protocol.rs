@@ -121,7 +121,7 @@ impl Line {
             },
             ["OK", "RELEASE"] => Line::Released,
             ["OK", "PING"] => Line::Pong,
-            ["ERR", reason @ ..] => Line::Refused(reason.join(" ")),
+            ["ERR", reason @ ..] => Line::Refused(one_line(&reason.join(" ")).into_owned()),
             ["EVENT", "layout_changed", generation] => Line::LayoutChanged(
                 u32::try_from(number(generation)?)
                     .map_err(|_| format!("{generation}: generation too large"))?,
@@ -151,11 +151,27 @@ impl fmt::Display for Line {
             Line::Claimed { region_len } => write!(f, "OK CLAIM {region_len}"),
             Line::Released => f.write_str("OK RELEASE"),
             Line::Pong => f.write_str("OK PING"),
-            Line::Refused(reason) => write!(f, "ERR {}", truncate(reason)),
+            Line::Refused(reason) => write!(f, "ERR {}", one_line(reason)),
             Line::LayoutChanged(generation) => write!(f, "EVENT layout_changed {generation}"),
             Line::Watchdog => f.write_str("EVENT watchdog"),
             Line::Shutdown => f.write_str("EVENT shutdown"),
         }
+    }
+}
+
+/// A refusal's reason as it goes on the wire: line breaks become spaces (a reason is never
+/// two lines) and it is cut so that `ERR <reason>\n` stays within [`MAX_LINE`]. Parsing
+/// applies the same, so a parsed reason prints back to the same line.
+fn one_line(reason: &str) -> std::borrow::Cow<'_, str> {
+    let mut end = reason.len().min(MAX_LINE - "ERR \n".len());
+    while !reason.is_char_boundary(end) {
+        end -= 1;
+    }
+    let cut = &reason[..end];
+    if cut.contains(['\n', '\r']) {
+        cut.replace(['\n', '\r'], " ").into()
+    } else {
+        cut.into()
     }
 }
 
@@ -219,5 +235,16 @@ mod tests {
         assert!(Request::parse(&"A".repeat(1000)).unwrap_err().len() < MAX_LINE);
         assert!(Line::parse("OK HELLO 1").is_err());
         assert!(Line::parse("OK CLAIM -1").is_err());
+    }
+
+    #[test]
+    fn a_refusal_is_one_line_within_the_limit_and_prints_back_as_parsed() {
+        let long = Line::Refused(format!("first\nsecond {}", "é".repeat(300)));
+        let text = long.to_string();
+        assert!(!text.contains('\n'), "{text:?}");
+        assert!(text.len() < MAX_LINE, "{} bytes", text.len());
+        let parsed = Line::parse(&text).unwrap();
+        assert_eq!(parsed.to_string(), text);
+        assert_eq!(Line::parse(&parsed.to_string()), Ok(parsed));
     }
 }

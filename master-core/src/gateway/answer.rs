@@ -38,6 +38,8 @@ pub(crate) enum Fault {
     NotRunning,
     /// The slave did not answer in time.
     Timeout,
+    /// The slave did not answer the master's last look: it is not asked at all.
+    Absent,
     /// Too many requests in flight.
     Busy,
     /// Larger than the slave's receive mailbox.
@@ -56,7 +58,7 @@ impl Fault {
         match self {
             Fault::UnknownAddress => FailureReason::UnknownAddress,
             Fault::Unsupported | Fault::NotRunning => FailureReason::UnsupportedProtocol,
-            Fault::Timeout => FailureReason::Timeout,
+            Fault::Timeout | Fault::Absent => FailureReason::Timeout,
             Fault::Busy => FailureReason::Busy,
             Fault::Oversized => FailureReason::Oversized,
             Fault::Denied => FailureReason::Denied,
@@ -101,7 +103,9 @@ fn coe_code(fault: Fault) -> AbortCode {
         Fault::UnknownAddress => AbortCode::ObjectDoesNotExist,
         Fault::Unsupported => AbortCode::UnsupportedAccess,
         Fault::NotRunning => AbortCode::DeviceState,
-        Fault::Timeout => AbortCode::Timeout,
+        // What the client's own master would see from a slave that does not answer,
+        // given at once (spec-notes §gateway.absent).
+        Fault::Timeout | Fault::Absent => AbortCode::Timeout,
         Fault::Denied => AbortCode::ReadOnly,
         Fault::Busy | Fault::Oversized | Fault::NotBroadcast | Fault::Other => {
             AbortCode::GeneralError
@@ -124,6 +128,7 @@ fn foe_code(fault: Fault) -> (FoeError, &'static [u8]) {
         Fault::UnknownAddress => (FoeError::NotFound, b""),
         Fault::Unsupported | Fault::NotRunning | Fault::Denied => (FoeError::AccessDenied, b""),
         Fault::Timeout => (FoeError::NotDefined, b"timeout"),
+        Fault::Absent => (FoeError::NotDefined, b"slave absent"),
         _ => (FoeError::NotDefined, b""),
     }
 }

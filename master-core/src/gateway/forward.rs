@@ -32,7 +32,7 @@ pub(crate) struct Forward<'a> {
 fn fault_of(err: &MailboxError) -> Fault {
     match err {
         MailboxError::Timeout { .. } => Fault::Timeout,
-        MailboxError::QueueFull(_) => Fault::Busy,
+        MailboxError::QueueFull(_) | MailboxError::NotSent { .. } => Fault::Busy,
         MailboxError::TooLarge { .. } => Fault::Oversized,
         MailboxError::Unsupported { .. } => Fault::Unsupported,
         MailboxError::UnknownSlave(_) => Fault::UnknownAddress,

@@ -44,6 +44,7 @@ mod config;
 mod forward;
 #[doc(hidden)]
 pub mod fuzzing;
+mod kernel_drops;
 mod normalize;
 mod reply;
 mod retry;
@@ -69,6 +70,7 @@ pub use allow::{AllowedNet, ClientNet, ClientNetError, GatewayRole};
 pub use config::{
     DEFAULT_PORT, GatewayConfig, MAX_DEFAULT_WORKERS, default_workers, port_for_master,
 };
+pub use kernel_drops::udp_drops;
 pub use route::{BROADCAST_ADDRESS, MASTER_ADDRESS, POSITION_BASE};
 pub use stats::{FailureCounts, FailureReason, MailboxGatewayStats};
 
@@ -80,6 +82,8 @@ use stats::Stats;
 /// A running service: its address, how to stop it, its worker threads.
 struct Running {
     local: SocketAddr,
+    /// The UDP sockets' inodes ([`kernel_drops`]).
+    inodes: Vec<u64>,
     stop: watch::Sender<bool>,
     threads: Vec<JoinHandle<()>>,
 }
@@ -150,6 +154,14 @@ impl MailboxGateway {
             .is_some_and(|r| !r.threads.is_empty() && r.threads.iter().all(|t| !t.is_finished()))
     }
 
+    /// The inodes of the UDP sockets while running, for [`udp_drops`]: the datagrams the
+    /// kernel dropped before the gateway could read them (none when not running).
+    pub fn socket_inodes(&self) -> Vec<u64> {
+        self.running
+            .as_ref()
+            .map_or_else(Vec::new, |r| r.inodes.clone())
+    }
+
     /// Statistics since the last start (lock-free; any thread, any time).
     pub fn stats(&self) -> MailboxGatewayStats {
         self.stats.snapshot()
@@ -175,7 +187,9 @@ impl MailboxGateway {
         )?;
         let fell_back = bound.fell_back;
         let mut runtimes = Vec::with_capacity(bound.udp.len());
+        let mut inodes = Vec::with_capacity(bound.udp.len());
         for udp in bound.udp {
+            inodes.push(kernel_drops::socket_inode(&udp)?);
             udp.set_nonblocking(true)?;
             let runtime = tokio::runtime::Builder::new_current_thread()
                 .enable_all()
@@ -249,6 +263,7 @@ impl MailboxGateway {
         }
         self.running = Some(Running {
             local,
+            inodes,
             stop,
             threads,
         });

@@ -55,6 +55,7 @@ pub(crate) fn mailbox(
         .mailbox(SlaveAddress::Station(station))
         .map_err(|err| match err {
             MasterError::UnknownSlave(_) => Fault::UnknownAddress,
+            MasterError::Absent { .. } => Fault::Absent,
             MasterError::NoMailbox { .. } => {
                 let has_one = master
                     .slave(SlaveAddress::Station(station))

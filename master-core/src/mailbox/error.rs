@@ -43,6 +43,20 @@ pub enum MailboxError {
         /// What the engine was waiting for when the time ran out.
         waiting_for: &'static str,
     },
+    /// The deadline passed while the request waited for its turn behind the requests
+    /// queued before it for the same slave: it was never sent and changed nothing. The
+    /// deadline counts from the call (as a caller's own deadline does), so a slave stalled
+    /// by one long request fails the ones behind it this way, at once and safe to retry.
+    #[error(
+        "slave {station:#06x}: not sent: its {waited_ms} ms went by waiting behind the requests \
+         queued before it (the slave is busy; nothing was changed)"
+    )]
+    NotSent {
+        /// Station address.
+        station: u16,
+        /// How long it waited, ms.
+        waited_ms: u64,
+    },
     /// A datagram of the request failed on the bus.
     #[error("bus: {0}")]
     Bus(#[from] BusError),

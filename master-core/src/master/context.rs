@@ -7,12 +7,14 @@ use tokio::sync::broadcast;
 use crate::bus::BusHandle;
 use crate::mailbox::MailboxEngine;
 
+use crate::log_limit::LogLimit;
 use crate::master::access::address::{self, SlaveAddress};
 use crate::master::bringup::dc_settings::DcSlave;
 use crate::master::bringup::slave_config::{SlaveConfig, SlaveConfigs};
 use crate::master::config::MasterConfig;
 use crate::master::error::MasterError;
 use crate::master::event::MasterEvent;
+use crate::master::event_log;
 use crate::master::info::SlaveInfo;
 use crate::master::process_data::image::Image;
 use crate::master::process_data::layout::LayoutSource;
@@ -26,6 +28,8 @@ pub(crate) struct Context {
     pub config: MasterConfig,
     pub slaves: Mutex<Slaves>,
     pub events: broadcast::Sender<MasterEvent>,
+    /// The bucket of the events' log lines (`event_log`).
+    pub event_log: LogLimit,
     pub image: Arc<Image>,
     pub layout_source: Box<dyn LayoutSource>,
     /// What the last scan measured and set on DC slaves.
@@ -48,6 +52,7 @@ impl Context {
 
     /// Reports `event`; nobody listening is fine.
     pub fn emit(&self, event: MasterEvent) {
+        event_log::log(&self.event_log, &event);
         let _ = self.events.send(event);
     }
 

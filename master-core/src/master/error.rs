@@ -88,6 +88,15 @@ pub enum MasterError {
         /// Configured base.
         base: u16,
     },
+    /// The slave did not answer the master's last look (link cut, powered off, removed):
+    /// nothing is sent to it until it is found again.
+    #[error("slave {position} (station {station:#06x}) is absent: it did not answer the last look")]
+    Absent {
+        /// Ring position.
+        position: u16,
+        /// Station address.
+        station: u16,
+    },
     /// The slave has no mailbox, or it is not served in the slave's state (INIT).
     #[error("slave {position} has no mailbox in {state}")]
     NoMailbox {

@@ -46,6 +46,7 @@ mod context;
 mod diagnostics;
 mod error;
 mod event;
+mod event_log;
 mod info;
 mod process_data;
 mod record;
@@ -136,6 +137,7 @@ impl Master {
             config,
             slaves: Mutex::new(Slaves::default()),
             events,
+            event_log: event_log::limit(),
             image,
             layout_source: source,
             pdo_configs: Mutex::new(Vec::new()),
@@ -197,9 +199,17 @@ impl Master {
 
     /// The mailbox of the slave at `address`, with every protocol client on it (CoE, SoE,
     /// FoE, VoE, EoE, raw messages). A slave's mailbox is served from PREOP on; in INIT, or
-    /// for a slave without a mailbox, this fails with [`MasterError::NoMailbox`].
+    /// for a slave without a mailbox, this fails with [`MasterError::NoMailbox`]; for a
+    /// slave that did not answer the last look, with [`MasterError::Absent`] (its mailbox
+    /// was let go when it was lost, and its last state says nothing of now).
     pub fn mailbox(&self, address: SlaveAddress) -> Result<SlaveMailbox, MasterError> {
         let info = self.ctx.resolve(address)?.info;
+        if !info.present {
+            return Err(MasterError::Absent {
+                position: info.position,
+                station: info.station,
+            });
+        }
         self.ctx
             .mailboxes
             .slave(info.station)

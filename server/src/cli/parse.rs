@@ -46,6 +46,16 @@ pub fn state(name: &str) -> Result<pb::AlState, String> {
     )
 }
 
+/// A slave's state as the listings print it: its AL state, or `ABSENT` while it does not
+/// answer (its last AL state says nothing of now).
+pub fn slave_state_text(slave: &pb::Slave) -> &'static str {
+    if slave.present {
+        state_text(slave.state)
+    } else {
+        "ABSENT"
+    }
+}
+
 /// The name of an AL state as IgH prints it.
 pub fn state_text(value: i32) -> &'static str {
     match pb::AlState::try_from(value) {

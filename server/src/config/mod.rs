@@ -3,7 +3,8 @@
 //!
 //! The segment's configuration has files of its own: `[bus]` (`bus`), `[[slave]]`
 //! (`slaves`), `[[group]]` (`groups`), durations (`duration`), and the ENI import that
-//! becomes the same `[bus] cycle` and `[[slave]]` entries (`eni`).
+//! becomes the same `[bus] cycle` and `[[slave]]` entries (`eni`); so do the servers'
+//! connection limits (`[limits]`, `limits`).
 
 pub mod app;
 pub mod bus;
@@ -11,6 +12,7 @@ pub mod capture;
 pub mod duration;
 pub mod eni;
 pub mod groups;
+pub mod limits;
 pub mod slaves;
 
 use std::net::{IpAddr, SocketAddr};
@@ -450,6 +452,8 @@ pub struct Config {
     pub capture: capture::CaptureSettings,
     /// The application interface (`[app]`, docs/application.md).
     pub app: app::AppSettings,
+    /// Connection limits of the HTTP and gRPC servers (`[limits]`).
+    pub limits: limits::LimitSettings,
     /// The configuration file this came from (SIGHUP reloads its tokens).
     #[serde(skip)]
     pub file: Option<PathBuf>,
@@ -484,6 +488,7 @@ impl Default for Config {
             eoe: Default::default(),
             capture: capture::CaptureSettings::default(),
             app: app::AppSettings::default(),
+            limits: limits::LimitSettings::default(),
             file: None,
             eni_unused: Vec::new(),
         }
@@ -685,6 +690,7 @@ impl Config {
             gateway.check(self.insecure)?;
         }
         crate::watch::spec::check_all(&self.watch)?;
+        self.limits.check()?;
         for token in &self.tokens {
             // `load` resolved them; a configuration built otherwise is checked here too.
             if token.token.chars().count() < crate::security::MIN_SECRET_LEN {
@@ -994,6 +1000,31 @@ mod tests {
         .unwrap_err();
         assert!(both.contains("only one"), "{both}");
         std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn limits_come_from_their_section_and_are_checked_at_start() {
+        let file: Config =
+            toml::from_str("[limits]\nheader_read_timeout = \"1s\"\nmax_connections = 500\n")
+                .unwrap();
+        assert_eq!(
+            file.limits.header_read_timeout,
+            std::time::Duration::from_secs(1)
+        );
+        assert_eq!(file.limits.max_connections, 500);
+        assert_eq!(file.limits.max_connections_per_peer, 64, "the default");
+        assert!(file.check().is_ok());
+        assert_eq!(Config::default().limits, limits::LimitSettings::default());
+        let bad: Config = toml::from_str("[limits]\nmax_connections = 0\n").unwrap();
+        assert!(bad.check().unwrap_err().contains("max_connections"));
+        // Below the per-address default: the message says which to change.
+        let small: Config = toml::from_str("[limits]\nmax_connections = 50\n").unwrap();
+        assert!(
+            small
+                .check()
+                .unwrap_err()
+                .contains("max_connections_per_peer = 64 must be 1 to max_connections (50)")
+        );
     }
 
     #[test]

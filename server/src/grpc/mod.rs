@@ -17,7 +17,11 @@ pub mod protocols;
 pub mod status;
 
 use std::future::Future;
+use std::net::SocketAddr;
+use std::sync::Arc;
 use std::time::Duration;
+
+use futures_util::{Stream, StreamExt};
 
 use proto::v1::bus_service_server::BusServiceServer;
 use proto::v1::coe_service_server::CoeServiceServer;
@@ -31,6 +35,10 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Server;
 use tonic::transport::server::TcpIncoming;
 
+use crate::config::limits::LimitSettings;
+use crate::http::connections::{
+    Activity, ConnectionStats, LimitedIo, Limiter, Timeouts, TrackLayer,
+};
 use crate::security::Tokens;
 use crate::service::Core;
 use auth::grpc_interceptor;
@@ -41,14 +49,17 @@ pub const MAX_MESSAGE: usize = 4 << 20;
 /// exempt, see [`deadline`]).
 pub const TIMEOUT: Duration = Duration::from_secs(60);
 
-/// Serves every gRPC service on `listener` until `shutdown` completes.
+/// Serves every gRPC service on `listener` under `limits` (the connections counted in
+/// `stats`) until `shutdown` completes.
 pub async fn serve(
     core: Core,
     tokens: Tokens,
     listener: tokio::net::TcpListener,
+    limits: LimitSettings,
+    stats: Arc<ConnectionStats>,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
-    serve_tls(core, tokens, listener, None, shutdown).await
+    serve_tls(core, tokens, listener, None, limits, stats, shutdown).await
 }
 
 /// Like [`serve`], over TLS when `tls` is given.
@@ -57,6 +68,8 @@ pub async fn serve_tls(
     tokens: Tokens,
     listener: tokio::net::TcpListener,
     tls: Option<tokio_rustls::TlsAcceptor>,
+    limits: LimitSettings,
+    stats: Arc<ConnectionStats>,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
     let reflection = || {
@@ -83,7 +96,10 @@ pub async fn serve_tls(
             )
         };
     }
-    let router = transport(Server::builder())
+    let router = transport(Server::builder(), &limits)
+        // Outermost: a call is in flight on its connection (which is then not idle) until
+        // its last response message has been sent.
+        .layer(TrackLayer)
         .layer(tower::util::MapRequestLayer::new(
             auth::with_path::<tonic::body::Body>,
         ))
@@ -120,6 +136,7 @@ pub async fn serve_tls(
         // (SIGHUP) reaches new connections without a restart.
         Some(acceptor) => {
             let incoming = crate::tls::TlsListener::new(listener, acceptor).into_incoming();
+            let incoming = limited(incoming, &limits, stats);
             router
                 .serve_with_incoming_shutdown(incoming, shutdown)
                 .await
@@ -129,7 +146,10 @@ pub async fn serve_tls(
             // trailers) that must not wait for the client's ACK of the first.
             // `Server::tcp_nodelay` applies only to sockets tonic binds itself, so the
             // accepted ones are set here.
-            let incoming = TcpIncoming::from(listener).with_nodelay(Some(true));
+            let incoming = TcpIncoming::from(listener)
+                .with_nodelay(Some(true))
+                .with_keepalive(Some(TCP_KEEPALIVE));
+            let incoming = limited(incoming, &limits, stats);
             router
                 .serve_with_incoming_shutdown(incoming, shutdown)
                 .await
@@ -147,22 +167,80 @@ pub const MAX_STREAMS: u32 = 256;
 pub const STREAM_WINDOW: u32 = 1 << 20;
 /// The connection's window: several streams' worth.
 pub const CONNECTION_WINDOW: u32 = 4 << 20;
-/// HTTP/2 PING interval on an idle connection and how long its answer may take: a client
-/// that vanished without closing (a cable pulled) gives its streams back.
-pub const KEEPALIVE: (Duration, Duration) = (Duration::from_secs(30), Duration::from_secs(10));
+/// Idle time after which the kernel starts probing a plain-TCP client (TCP keep-alive, set
+/// on the sockets tonic accepts): a peer that vanished is noticed even between HTTP/2 PINGs.
+pub const TCP_KEEPALIVE: Duration = Duration::from_secs(60);
 
 /// The HTTP/2 settings for small unary calls: fixed windows large enough that no call
 /// waits on flow control (no adaptive window: its BDP PINGs are work per call for nothing
-/// here), bounded streams per connection, keep-alive PINGs to notice dead peers. Nagle is
-/// switched off on the accepted sockets (`serve_tls`).
-fn transport(builder: Server) -> Server {
+/// here), bounded streams per connection, keep-alive PINGs (`[limits] keepalive_interval`,
+/// `keepalive_timeout`) to notice dead peers. Nagle is switched off on the accepted sockets
+/// (`serve_tls`).
+///
+/// Tonic's own `timeout` is not used: it would cut FoE transfers, which have deadlines
+/// that follow their progress; [`deadline::DeadlineLayer`] limits every other call.
+/// `concurrency_limit_per_connection` is not needed either: `max_concurrent_streams`
+/// already bounds the calls of one connection, and tells the client so (it queues on its
+/// side instead of on ecatd's).
+fn transport(builder: Server, limits: &LimitSettings) -> Server {
     builder
         .http2_adaptive_window(Some(false))
         .initial_stream_window_size(STREAM_WINDOW)
         .initial_connection_window_size(CONNECTION_WINDOW)
         .max_concurrent_streams(MAX_STREAMS)
-        .http2_keepalive_interval(Some(KEEPALIVE.0))
-        .http2_keepalive_timeout(Some(KEEPALIVE.1))
+        .http2_keepalive_interval(Some(limits.keepalive_interval))
+        .http2_keepalive_timeout(Some(limits.keepalive_timeout))
+}
+
+/// A socket whose client address is known (the connection limits count per address).
+trait Peer {
+    fn peer(&self) -> Option<SocketAddr>;
+}
+
+impl Peer for tokio::net::TcpStream {
+    fn peer(&self) -> Option<SocketAddr> {
+        self.peer_addr().ok()
+    }
+}
+
+impl Peer for tokio_rustls::server::TlsStream<tokio::net::TcpStream> {
+    fn peer(&self) -> Option<SocketAddr> {
+        self.get_ref().0.peer_addr().ok()
+    }
+}
+
+/// The accepted connections under `[limits]`: one over a connection limit is closed at
+/// once (the client sees UNAVAILABLE), the others are handed to tonic with their deadlines
+/// (the preface and first call within `header_read_timeout`, none in flight for at most
+/// `idle_timeout`), which tonic and hyper have none of for HTTP/2.
+fn limited<IO: Peer>(
+    incoming: impl Stream<Item = Result<IO, std::io::Error>>,
+    limits: &LimitSettings,
+    stats: Arc<ConnectionStats>,
+) -> impl Stream<Item = Result<LimitedIo<IO>, std::io::Error>> {
+    let limiter = Limiter::new(limits, Arc::clone(&stats));
+    let timeouts = Timeouts::from(limits);
+    incoming.filter_map(move |accepted| {
+        let admitted = match accepted {
+            Err(err) => Some(Err(err)),
+            // Gone before it was looked at.
+            Ok(io) => io.peer().and_then(|peer| match limiter.admit(peer.ip()) {
+                Ok(permit) => Some(Ok(LimitedIo::new(
+                    io,
+                    peer,
+                    permit,
+                    Activity::new(),
+                    timeouts,
+                    Arc::clone(&stats),
+                ))),
+                Err(refusal) => {
+                    tracing::debug!(%peer, ?refusal, "gRPC connection refused by [limits]");
+                    None
+                }
+            }),
+        };
+        std::future::ready(admitted)
+    })
 }
 
 /// Every service the health service reports on ("" is the server as a whole).

@@ -39,10 +39,45 @@ pub async fn authenticate(
     });
     if access == Some(Access::Write) {
         let operation = format!("{} {}", request.method(), request.uri().path());
-        if let Err(err) = authorize_write(Some(&caller), &operation, "") {
+        let target = request
+            .extensions()
+            .get::<MatchedPath>()
+            .and_then(|matched| slave_of(matched.as_str(), request.uri().path()))
+            .unwrap_or_default();
+        if let Err(err) = authorize_write(Some(&caller), &operation, target) {
             return err.into_response();
         }
     }
     request.extensions_mut().insert(caller);
     next.run(request).await
+}
+
+/// The slave a write names: the `{slave}` segment of `path` where the route template has
+/// it (the audit line's `target`, as gRPC's is the request's `slave` field).
+fn slave_of<'a>(template: &str, path: &'a str) -> Option<&'a str> {
+    let template = template.strip_prefix(PREFIX).unwrap_or(template);
+    let path = path.strip_prefix(PREFIX).unwrap_or(path);
+    template
+        .split('/')
+        .zip(path.split('/'))
+        .find_map(|(t, p)| (t == "{slave}").then_some(p))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_target_is_the_slave_the_path_names() {
+        let route = "/slaves/{slave}/coe/sdo/{index}/{subindex}";
+        assert_eq!(slave_of(route, "/slaves/3/coe/sdo/0x2001/0"), Some("3"));
+        assert_eq!(
+            slave_of(
+                &format!("{PREFIX}{route}"),
+                "/slaves/station:1004/coe/sdo/1/0"
+            ),
+            Some("station:1004")
+        );
+        assert_eq!(slave_of("/bus/rescan", "/bus/rescan"), None);
+    }
 }

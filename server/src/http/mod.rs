@@ -3,16 +3,21 @@
 //!
 //! Files: `rest` (handlers, one file per resource), `gateway` (the gateway's handlers),
 //! `openapi` (the document's frame), `error` (errors as JSON), `auth` (tokens), `health`,
-//! `sim` (the simulator's debug route, `--simulate` only), `web` (the dashboard at `/`).
+//! `sim` (the simulator's debug route, `--simulate` only), `web` (the dashboard at `/`),
+//! `body_limit` (the request body limit), `connections` (`[limits]`: connection caps and
+//! deadlines, shared with gRPC) and `serve` (the accept loop).
 
 pub mod audit;
 pub mod auth;
+pub mod body_limit;
 pub mod browser;
+pub mod connections;
 pub mod error;
 pub mod gateway;
 pub mod health;
 pub mod openapi;
 pub mod rest;
+mod serve;
 pub mod sim;
 pub mod web;
 
@@ -29,12 +34,14 @@ use utoipa::OpenApi;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+use crate::config::limits::LimitSettings;
 use crate::metrics;
 use crate::security::Tokens;
 use crate::service::Core;
 use crate::sim_hooks::SimHooks;
 
-/// Largest request body (an FoE file).
+/// Largest request body (an FoE file); a larger one gets 413 before it is read
+/// ([`body_limit`]).
 pub const MAX_BODY: usize = 16 << 20;
 /// Time limit of one request (the event stream and FoE transfers excepted).
 pub const TIMEOUT: Duration = Duration::from_secs(60);
@@ -98,6 +105,11 @@ pub fn router(
         )
         .merge(health::routes(core))
         .merge(web::routes())
+        // Outside every other layer, the audit's included: see `body_limit`.
+        .layer(axum::middleware::from_fn_with_state(
+            MAX_BODY,
+            body_limit::enforce,
+        ))
 }
 
 /// Whether `/metrics` needs a token (`metrics_token`): then any configured token (read
@@ -143,22 +155,27 @@ async fn render_metrics(
     }
 }
 
-/// Serves `app` (the [`router`]) over TLS on `listener` until `shutdown` completes.
+/// Serves `app` (the [`router`]) over TLS on `listener` under `limits` (the connections
+/// counted in `stats`) until `shutdown` completes.
 pub async fn serve_tls(
     app: Router,
     listener: crate::tls::TlsListener,
+    limits: LimitSettings,
+    stats: Arc<connections::ConnectionStats>,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
-    axum::serve(listener, app)
-        .with_graceful_shutdown(shutdown)
-        .await
-        .map_err(|err| format!("HTTPS server: {err}"))
+    let app = with_body_timeout(app, &limits);
+    serve::serve(app, listener, &limits, stats, serve::refuse_tls, shutdown).await;
+    Ok(())
 }
 
-/// Serves `app` (the [`router`]) on `listener` until `shutdown` completes.
+/// Serves `app` (the [`router`]) on `listener` under `limits` (the connections counted in
+/// `stats`) until `shutdown` completes.
 pub async fn serve(
     app: Router,
     listener: tokio::net::TcpListener,
+    limits: LimitSettings,
+    stats: Arc<connections::ConnectionStats>,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
     use axum::serve::ListenerExt;
@@ -169,8 +186,17 @@ pub async fn serve(
             tracing::debug!(%err, "cannot set TCP_NODELAY");
         }
     });
-    axum::serve(listener, app)
-        .with_graceful_shutdown(shutdown)
-        .await
-        .map_err(|err| format!("HTTP server: {err}"))
+    let app = with_body_timeout(app, &limits);
+    serve::serve(app, listener, &limits, stats, serve::refuse_tcp, shutdown).await;
+    Ok(())
+}
+
+/// A request body that stops arriving for `idle_timeout` fails (the handler answers 400):
+/// while a request is in flight its connection is not idle, so without this a client could
+/// hold an FoE upload route (which has no request time limit) open for ever by starting a
+/// body and sending no more of it.
+fn with_body_timeout(app: Router, limits: &LimitSettings) -> Router {
+    app.layer(tower_http::timeout::RequestBodyTimeoutLayer::new(
+        limits.idle_timeout,
+    ))
 }

@@ -118,6 +118,14 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
             "Repeated UDP requests answered from the stored reply instead of running again.",
             retries_answered,
         ),
+        core.gateway_dropped_datagrams().and_then(|dropped| {
+            counter(
+                "ecat_mailbox_gateway_dropped_datagrams_total",
+                "UDP datagrams the kernel dropped before the gateway read them (its sockets' \
+                 receive queues were full), since the sockets were bound.",
+                dropped,
+            )
+        }),
         protocols.done(),
         reasons.done(),
         gauge(

@@ -50,6 +50,7 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     families.extend(gateway::collect(core));
     families.extend(capture::collect(core));
     families.extend(app::collect(core));
+    families.extend(store.connections.collect());
     families.extend(process::collect());
     families.into_iter().flatten().collect()
 }
@@ -70,6 +71,8 @@ pub struct Store {
     pub link: state::Link,
     /// Configuration mismatches and failed start-up commands.
     pub config: Arc<config::ConfigFindings>,
+    /// The API servers' connections (`[limits]`): open, refused, timed out.
+    pub connections: Arc<crate::http::connections::ServerStats>,
 }
 
 /// The background readers behind the metrics; they stop when this is dropped.

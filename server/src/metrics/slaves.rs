@@ -15,7 +15,7 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
     let slaves = core.master().slaves();
     let mut per_state = Family::new(
         "ecat_slaves",
-        "Slaves by current AL state.",
+        "Slaves that answer, by current AL state (absent ones: ecat_slave_present).",
         MetricType::GAUGE,
     );
     for state in [
@@ -25,7 +25,11 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
         AlState::SafeOp,
         AlState::Op,
     ] {
-        let n = slaves.iter().filter(|s| s.al_state == state).count();
+        // An absent slave's last state is not its state now (`ecat_slave_present` counts it).
+        let n = slaves
+            .iter()
+            .filter(|s| s.present && s.al_state == state)
+            .count();
         per_state = per_state.gauge(&[("state", &state_name(state))], n as f64);
     }
     let mut info = Family::new(

@@ -35,6 +35,9 @@ pub enum ErrorKind {
     DeadlineExceeded,
     /// The bus or master is not available.
     Unavailable,
+    /// The slave is known but did not answer the master's last look: HTTP 404 (nothing
+    /// answers at that address now) and gRPC UNAVAILABLE (it may come back; retry later).
+    Absent,
     /// A bug or an unexpected failure.
     Internal,
 }
@@ -52,7 +55,7 @@ impl ErrorKind {
             ErrorKind::PermissionDenied => Code::PermissionDenied,
             ErrorKind::ResourceExhausted => Code::ResourceExhausted,
             ErrorKind::DeadlineExceeded => Code::DeadlineExceeded,
-            ErrorKind::Unavailable => Code::Unavailable,
+            ErrorKind::Unavailable | ErrorKind::Absent => Code::Unavailable,
             ErrorKind::Internal => Code::Internal,
         }
     }
@@ -61,7 +64,7 @@ impl ErrorKind {
     pub fn http(self) -> u16 {
         match self {
             ErrorKind::InvalidArgument => 400,
-            ErrorKind::NotFound => 404,
+            ErrorKind::NotFound | ErrorKind::Absent => 404,
             ErrorKind::FailedPrecondition | ErrorKind::Aborted => 409,
             ErrorKind::Unauthenticated => 401,
             ErrorKind::PermissionDenied => 403,
@@ -188,6 +191,7 @@ impl From<MasterError> for ApiError {
             MasterError::NoMailbox { .. } => {
                 ApiError::new(ErrorKind::FailedPrecondition, "no_mailbox", message)
             }
+            MasterError::Absent { .. } => ApiError::new(ErrorKind::Absent, "slave_absent", message),
             MasterError::Stopped => ApiError::unavailable(message),
             MasterError::Bus { .. } => ApiError::new(ErrorKind::Unavailable, "bus", message),
             MasterError::Eeprom { .. } => {
@@ -213,6 +217,9 @@ impl From<MailboxError> for ApiError {
             }
             MailboxError::QueueFull(_) => {
                 ApiError::new(ErrorKind::ResourceExhausted, "queue_full", message)
+            }
+            MailboxError::NotSent { .. } => {
+                ApiError::new(ErrorKind::Unavailable, "slave_busy", message)
             }
             MailboxError::TooLarge { .. } => ApiError::too_large(message),
             MailboxError::Cancelled | MailboxError::Shutdown => ApiError::unavailable(message),
@@ -325,6 +332,20 @@ mod tests {
         assert_eq!(err.reason(), "SDO_ABORT");
         assert_eq!(err.code, Some(0x0602_0000));
         assert_eq!(err.code_text, code.description());
+    }
+
+    #[test]
+    fn an_absent_slave_is_not_found_over_http_and_unavailable_over_grpc() {
+        let err = ApiError::from(MasterError::Absent {
+            position: 2,
+            station: 0x03eb,
+        });
+        assert_eq!(err.tag, "slave_absent");
+        assert_eq!(
+            (err.kind.grpc(), err.kind.http()),
+            (tonic::Code::Unavailable, 404)
+        );
+        assert!(err.message.contains("absent"), "{}", err.message);
     }
 
     /// The table of `docs/call-it.md`, "Errors".

@@ -155,6 +155,17 @@ impl Core {
             .map(|gateway| (gateway.stats(), gateway.is_running()))
     }
 
+    /// The datagrams the kernel dropped on the gateway's sockets (receive queue full)
+    /// since they were bound, read from `/proc` outside the gateway's lock; `None` when no
+    /// gateway serves or the count cannot be read.
+    pub fn gateway_dropped_datagrams(&self) -> Option<u64> {
+        let inodes = self.gateway_slot().as_ref()?.socket_inodes();
+        if inodes.is_empty() {
+            return None;
+        }
+        master_core::gateway::udp_drops(&inodes).ok()
+    }
+
     fn gateway_slot(&self) -> std::sync::MutexGuard<'_, Option<MailboxGateway>> {
         self.gateway
             .lock()

@@ -5,6 +5,9 @@ use master_core::wire::register::AlState;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
+/// The `state` of a slave that did not answer the master's last look.
+pub const ABSENT: &str = "ABSENT";
+
 /// An AL state by its name (`INIT`, `PREOP`, `BOOT`, `SAFEOP`, `OP`).
 pub fn state_name(state: AlState) -> String {
     match state {
@@ -55,7 +58,7 @@ pub struct SlaveView {
     pub identity: IdentityView,
     /// Name from the SII.
     pub name: String,
-    /// Current AL state.
+    /// Current AL state; [`ABSENT`] while the slave does not answer.
     pub state: String,
     /// The error indication of the AL status register.
     pub al_error: bool,
@@ -100,7 +103,13 @@ impl From<&SlaveInfo> for SlaveView {
                 serial: info.identity.serial,
             },
             name: info.name.clone(),
-            state: state_name(info.al_state),
+            // A lost slave's last AL state says nothing of now (issue 35: "OP" beside
+            // `present: false` read as live).
+            state: if info.present {
+                state_name(info.al_state)
+            } else {
+                ABSENT.to_owned()
+            },
             al_error: info.al_error,
             al_status_code: u16::from(info.al_status_code),
             al_status_text: info.al_status_code.description().to_owned(),

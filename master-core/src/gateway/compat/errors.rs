@@ -6,7 +6,7 @@
 //! | unknown address | abort 0x06020000 | error 0x1009 | error 0x8002 | 0x0001 |
 //! | protocol not served, mailbox not running | abort 0x06010000 | error 0x8001 | error 0x8001 | 0x0001 |
 //! | a `read` client's write | abort 0x06010002 | error 0x7002 | error 0x8002 | 0x0001 |
-//! | timeout | abort 0x08000000 | error 0x8000 | error 0x8000 | 0x0003 |
+//! | timeout, an absent slave | abort 0x08000000 | error 0x8000 | error 0x8000 | 0x0003 |
 //! | busy, larger than the mailbox, a transfer step sent to 0xFFFF, anything else | abort 0x08000000 | error 0x8000 | error 0x8000 | 0x0000 |
 //!
 //! In that table FoE 0x8001 is "invalid op code / not implemented" and 0x8002 "file not
@@ -43,9 +43,12 @@ fn coe(fault: Fault) -> u32 {
         Fault::UnknownAddress => 0x0602_0000,
         Fault::Unsupported | Fault::NotRunning => 0x0601_0000,
         Fault::Denied => 0x0601_0002,
-        Fault::Timeout | Fault::Busy | Fault::Oversized | Fault::NotBroadcast | Fault::Other => {
-            0x0800_0000
-        }
+        Fault::Timeout
+        | Fault::Absent
+        | Fault::Busy
+        | Fault::Oversized
+        | Fault::NotBroadcast
+        | Fault::Other => 0x0800_0000,
     }
 }
 
@@ -54,9 +57,12 @@ fn soe(fault: Fault) -> u16 {
         Fault::UnknownAddress => 0x1009,
         Fault::Unsupported | Fault::NotRunning => 0x8001,
         Fault::Denied => 0x7002,
-        Fault::Timeout | Fault::Busy | Fault::Oversized | Fault::NotBroadcast | Fault::Other => {
-            0x8000
-        }
+        Fault::Timeout
+        | Fault::Absent
+        | Fault::Busy
+        | Fault::Oversized
+        | Fault::NotBroadcast
+        | Fault::Other => 0x8000,
     }
 }
 
@@ -64,16 +70,19 @@ fn foe(fault: Fault) -> u32 {
     match fault {
         Fault::UnknownAddress | Fault::Denied => 0x8002,
         Fault::Unsupported | Fault::NotRunning => 0x8001,
-        Fault::Timeout | Fault::Busy | Fault::Oversized | Fault::NotBroadcast | Fault::Other => {
-            0x8000
-        }
+        Fault::Timeout
+        | Fault::Absent
+        | Fault::Busy
+        | Fault::Oversized
+        | Fault::NotBroadcast
+        | Fault::Other => 0x8000,
     }
 }
 
 fn other(fault: Fault) -> u16 {
     match fault {
         Fault::UnknownAddress | Fault::Unsupported | Fault::NotRunning | Fault::Denied => 0x0001,
-        Fault::Timeout => 0x0003,
+        Fault::Timeout | Fault::Absent => 0x0003,
         Fault::Busy | Fault::Oversized | Fault::NotBroadcast | Fault::Other => 0x0000,
     }
 }

@@ -87,7 +87,10 @@ where
                 // A request whose deadline passed while it waited for its turn is not
                 // started: its answer could only arrive after the caller gave up.
                 let result = if exchange.expired() {
-                    Err(exchange.timeout("its turn at the mailbox"))
+                    Err(MailboxError::NotSent {
+                        station: exchange.station(),
+                        waited_ms: u64::try_from(now.elapsed().as_millis()).unwrap_or(u64::MAX),
+                    })
                 } else {
                     // With progress deadlines the first exchange gets a whole window.
                     exchange.progressed();

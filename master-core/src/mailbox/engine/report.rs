@@ -9,17 +9,13 @@
 //! next line that passes.
 
 use std::fmt;
-use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::time::Instant;
+
+pub(crate) use crate::log_limit::LogLimit;
 
 use crate::mailbox::error::MailboxError;
 use crate::wire::mailbox::MailboxType;
 use crate::wire::soe::Idn;
-
-/// Lines a slave may log in a burst.
-const BURST: u32 = 5;
-/// A token comes back this often.
-const REFILL: Duration = Duration::from_secs(1);
 
 /// What a request addressed, for its log line.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -59,48 +55,6 @@ impl fmt::Display for Subject {
     }
 }
 
-/// A token bucket: at most [`BURST`] lines at once, then one per [`REFILL`].
-#[derive(Debug)]
-pub(crate) struct LogLimit(Mutex<Bucket>);
-
-#[derive(Debug)]
-struct Bucket {
-    tokens: u32,
-    refilled: Instant,
-    suppressed: u64,
-}
-
-impl Default for LogLimit {
-    fn default() -> Self {
-        LogLimit(Mutex::new(Bucket {
-            tokens: BURST,
-            refilled: Instant::now(),
-            suppressed: 0,
-        }))
-    }
-}
-
-impl LogLimit {
-    /// Whether a line may be logged now, with the number of lines held back since the last
-    /// one that was; `None` counts this one as held back.
-    pub(crate) fn admit(&self, now: Instant) -> Option<u64> {
-        // Never held across an await: taken and released right here.
-        let mut bucket = self.0.lock().unwrap_or_else(|p| p.into_inner());
-        let elapsed = now.saturating_duration_since(bucket.refilled);
-        let earned = (elapsed.as_millis() / REFILL.as_millis()).min(u128::from(BURST)) as u32;
-        if earned > 0 {
-            bucket.tokens = (bucket.tokens + earned).min(BURST);
-            bucket.refilled = now;
-        }
-        if bucket.tokens == 0 {
-            bucket.suppressed += 1;
-            return None;
-        }
-        bucket.tokens -= 1;
-        Some(std::mem::take(&mut bucket.suppressed))
-    }
-}
-
 fn protocol_name(protocol: Option<MailboxType>, subject: &Subject) -> &'static str {
     match (protocol, subject) {
         (Some(protocol), _) | (None, &Subject::Raw(protocol)) => protocol.name(),
@@ -135,7 +89,9 @@ pub(crate) fn failure(
     match err {
         // The caller went away: nothing failed on the slave's side.
         MailboxError::Cancelled | MailboxError::Shutdown => {}
-        MailboxError::Timeout { .. } | MailboxError::Protocol { .. } => {
+        MailboxError::Timeout { .. }
+        | MailboxError::Protocol { .. }
+        | MailboxError::NotSent { .. } => {
             if let Some(suppressed) = limit.admit(Instant::now()) {
                 tracing::warn!(
                     %station, protocol, object = %subject, code, suppressed,
@@ -165,25 +121,6 @@ pub(crate) fn unexpected(limit: &LogLimit, station: u16, protocol: MailboxType, 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_burst_then_one_a_second_with_the_held_back_count() {
-        let limit = LogLimit::default();
-        let start = Instant::now();
-        for _ in 0..BURST {
-            assert_eq!(limit.admit(start), Some(0));
-        }
-        assert_eq!(limit.admit(start), None);
-        assert_eq!(limit.admit(start + Duration::from_millis(500)), None);
-        assert_eq!(limit.admit(start + REFILL), Some(2), "two were held back");
-        assert_eq!(limit.admit(start + REFILL), None);
-        // A long quiet time refills no more than the burst.
-        let later = start + REFILL * 100;
-        for _ in 0..BURST {
-            assert!(limit.admit(later).is_some());
-        }
-        assert_eq!(limit.admit(later), None);
-    }
 
     #[test]
     fn subjects_read_as_addresses() {

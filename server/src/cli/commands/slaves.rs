@@ -7,7 +7,7 @@ use serde_json::{Value, json};
 
 use crate::Run;
 use crate::out::{Out, out};
-use crate::parse::{failed, state_text};
+use crate::parse::{failed, slave_state_text};
 use crate::select::Selection;
 use crate::session::Session;
 
@@ -27,7 +27,7 @@ pub fn slave_json(s: &pb::Slave) -> Value {
     let id = s.identity.unwrap_or_default();
     json!({
         "position": s.position, "station": s.station, "alias": s.alias, "name": s.name,
-        "state": state_text(s.state), "al_error": s.al_error, "al_status_code": s.al_status_code,
+        "state": slave_state_text(s), "present": s.present, "al_error": s.al_error, "al_status_code": s.al_status_code,
         "al_status_text": s.al_status_text, "mailbox_protocols": s.mailbox_protocols,
         "vendor_id": id.vendor_id, "product_code": id.product_code, "revision": id.revision,
         "serial": id.serial,
@@ -64,7 +64,7 @@ fn table(slaves: &[pb::Slave], relpos: &[(u32, u32)]) -> String {
     let pos_w = width(&|i| slaves[i].position.to_string().len());
     let alias_w = width(&|i| relpos[i].0.to_string().len());
     let rel_w = width(&|i| relpos[i].1.to_string().len());
-    let state_w = width(&|i| state_text(slaves[i].state).len());
+    let state_w = width(&|i| slave_state_text(&slaves[i]).len());
     slaves
         .iter()
         .zip(relpos)
@@ -74,7 +74,7 @@ fn table(slaves: &[pb::Slave], relpos: &[(u32, u32)]) -> String {
                 s.position,
                 alias,
                 rel,
-                state_text(s.state),
+                slave_state_text(s),
                 if s.al_error { 'E' } else { '+' },
                 display_name(s)
             )
@@ -137,7 +137,7 @@ fn verbose_block(s: &pb::Slave, (alias, rel): (u32, u32), details: &str) -> Stri
         s.alias,
         s.station,
         s.station,
-        state_text(s.state),
+        slave_state_text(s),
         if s.al_error { 'E' } else { '+' },
         id.vendor_id,
         id.product_code,
