@@ -85,6 +85,10 @@ struct VethSegment {
     // Dropped in this order: the simulator, then its namespace and the veth pair.
     sim: ecat_tests::sim_process::SimProcess,
     rig: ecat_tests::rig::HostRig,
+    /// The newest output report read per terminal (`outputs POSITION HEX`): ecat-sim
+    /// reports a change once, and a wait that read it must not make the next wait for the
+    /// same state think it has never been seen.
+    outputs: std::collections::HashMap<u16, String>,
 }
 
 /// A running `ecatd`, stopped with SIGTERM on drop.
@@ -156,7 +160,11 @@ impl Ecatd {
                 ecat_tests::rig::SIM_IFACE,
                 &topology,
             );
-            VethSegment { sim, rig }
+            VethSegment {
+                sim,
+                rig,
+                outputs: std::collections::HashMap::new(),
+            }
         });
         let iface;
         let segment: &[&str] = match &veth {
@@ -344,7 +352,7 @@ impl Ecatd {
             // The reports come on every change: the newest one about the terminal is its
             // state now, older ones (kept back by earlier waits) are history.
             let prefix = format!("ecat-sim: outputs {position} ");
-            let mut now = None;
+            let mut now = veth.outputs.get(&position).cloned();
             while let Some(line) = veth
                 .sim
                 .wait_line(Duration::ZERO, |l| l.starts_with(&prefix))
@@ -361,6 +369,9 @@ impl Ecatd {
                             panic!("slave {position}'s outputs are {now:?}, not {want}")
                         }),
                 );
+            }
+            if let Some(line) = now {
+                veth.outputs.insert(position, line);
             }
             return;
         }
