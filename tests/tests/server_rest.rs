@@ -15,8 +15,21 @@ use server_support::{Ecatd, curl, curl_as_browser};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
-const ROUTES: [(&str, &str); 35] = [
+const ROUTES: [(&str, &str); 42] = [
     ("get", "/api/v1/master"),
+    ("get", "/api/v1/process-data"),
+    ("get", "/api/v1/process-data/layout"),
+    ("get", "/api/v1/process-data/forced"),
+    ("get", "/api/v1/process-data/stream"),
+    ("get", "/api/v1/slaves/{slave}/process-data"),
+    (
+        "put",
+        "/api/v1/slaves/{slave}/process-data/{index}/{subindex}",
+    ),
+    (
+        "delete",
+        "/api/v1/slaves/{slave}/process-data/{index}/{subindex}",
+    ),
     ("get", "/api/v1/capture"),
     ("get", "/api/v1/domains"),
     ("get", "/api/v1/log-filter"),
