@@ -551,5 +551,7 @@ fn an_unauthenticated_body_is_never_read() {
     ];
     let (status, text) = curl(&args);
     std::fs::remove_file(&body).unwrap();
-    assert_eq!(status, 401, "{text}");
+    // Refused without reading it: by the body limit from its Content-Length (outermost,
+    // docs/configuration.md, [limits]) or by the missing token; never read and then judged.
+    assert!(status == 413 || status == 401, "{status}: {text}");
 }
