@@ -281,6 +281,23 @@ struct Stallable {
     stalls: Arc<AtomicUsize>,
 }
 
+/// With the stall lifted, the store answers again; then the engine and the bus stop.
+async fn recovers_then_stops(
+    bus: &master_core::bus::BusHandle,
+    engine: &master_core::mailbox::MailboxEngine,
+    store: &master_core::mailbox::SlaveMailbox,
+) {
+    assert!(
+        store
+            .with_timeout(Duration::from_secs(5))
+            .sdo_upload(0x2001, 0)
+            .await
+            .is_ok()
+    );
+    engine.shutdown();
+    bus.shutdown();
+}
+
 fn stallable_store(queue_len: usize) -> Stallable {
     let built = build_with_handles(&Topology::default_segment()).unwrap();
     let stalls = Arc::new(AtomicUsize::new(0));
@@ -343,15 +360,7 @@ async fn a_full_request_queue_refuses_at_once() {
     stalls.store(0, Ordering::Relaxed);
     // The queued one runs after the first gave up (its own deadline may have passed too).
     let _ = second.await.unwrap();
-    assert!(
-        store
-            .with_timeout(Duration::from_secs(5))
-            .sdo_upload(0x2001, 0)
-            .await
-            .is_ok()
-    );
-    engine.shutdown();
-    bus.shutdown();
+    recovers_then_stops(&bus, engine, &store).await;
 }
 
 #[tokio::test]
@@ -413,13 +422,5 @@ async fn a_request_whose_time_runs_out_in_the_queue_is_not_sent_and_says_so() {
     );
     assert!(err.to_string().contains("not sent"), "{err}");
     stalls.store(0, Ordering::Relaxed);
-    assert!(
-        store
-            .with_timeout(Duration::from_secs(5))
-            .sdo_upload(0x2001, 0)
-            .await
-            .is_ok()
-    );
-    engine.shutdown();
-    bus.shutdown();
+    recovers_then_stops(&bus, engine, &store).await;
 }

@@ -8,6 +8,7 @@
 pub mod app;
 pub mod audit;
 pub mod config;
+pub mod connections;
 pub mod daemon;
 pub mod embed;
 pub mod eoe;

@@ -36,9 +36,7 @@ use tonic::transport::Server;
 use tonic::transport::server::TcpIncoming;
 
 use crate::config::limits::LimitSettings;
-use crate::http::connections::{
-    Activity, ConnectionStats, LimitedIo, Limiter, Timeouts, TrackLayer,
-};
+use crate::connections::{ConnectionStats, LimitedIo, Limiter, TrackLayer};
 use crate::security::Tokens;
 use crate::service::Core;
 use auth::grpc_interceptor;
@@ -218,26 +216,15 @@ fn limited<IO: Peer>(
     limits: &LimitSettings,
     stats: Arc<ConnectionStats>,
 ) -> impl Stream<Item = Result<LimitedIo<IO>, std::io::Error>> {
-    let limiter = Limiter::new(limits, Arc::clone(&stats));
-    let timeouts = Timeouts::from(limits);
+    let limiter = Limiter::new(limits, stats);
     incoming.filter_map(move |accepted| {
         let admitted = match accepted {
             Err(err) => Some(Err(err)),
-            // Gone before it was looked at.
-            Ok(io) => io.peer().and_then(|peer| match limiter.admit(peer.ip()) {
-                Ok(permit) => Some(Ok(LimitedIo::new(
-                    io,
-                    peer,
-                    permit,
-                    Activity::new(),
-                    timeouts,
-                    Arc::clone(&stats),
-                ))),
-                Err(refusal) => {
-                    tracing::debug!(%peer, ?refusal, "gRPC connection refused by [limits]");
-                    None
-                }
-            }),
+            // Gone before it was looked at; refused: closed as it is dropped.
+            Ok(io) => io
+                .peer()
+                .and_then(|peer| limiter.accept(io, peer).ok())
+                .map(Ok),
         };
         std::future::ready(admitted)
     })

@@ -12,15 +12,15 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::task::{Context, Poll};
 
-use axum::Json;
 use axum::body::{Body, Bytes, HttpBody};
 use axum::extract::{Request, State};
-use axum::http::header::{CONNECTION, CONTENT_LENGTH, CONTENT_TYPE};
+use axum::http::header::{CONNECTION, CONTENT_LENGTH};
 use axum::http::{HeaderValue, StatusCode};
 use axum::middleware::Next;
-use axum::response::{IntoResponse, Response};
+use axum::response::Response;
 
-use super::error::{ErrorBody, PROBLEM_JSON};
+use super::error::problem;
+use crate::service::ApiError;
 
 /// The middleware (`from_fn_with_state(limit, enforce)`): `limit` is the largest body in
 /// bytes.
@@ -54,22 +54,13 @@ pub async fn enforce(State(limit): State<usize>, request: Request, next: Next) -
 /// 413 with the problem details every API error has; the connection is closed after it, as
 /// the rest of the body is not read.
 fn too_large(limit: usize, what: &str) -> Response {
-    let status = StatusCode::PAYLOAD_TOO_LARGE;
-    let body = ErrorBody {
-        problem_type: "urn:ecat:error:too_large".into(),
-        title: status.canonical_reason().unwrap_or("Error").into(),
-        status: status.as_u16(),
-        detail: format!("request body too large: {what}; the limit is {limit} bytes"),
-        reason: "TOO_LARGE".into(),
-        grpc_code: tonic::Code::ResourceExhausted as i32,
-        protocol_code: None,
-        protocol_code_text: None,
-        field: None,
-    };
-    let mut response = (status, Json(body)).into_response();
-    let headers = response.headers_mut();
-    headers.insert(CONTENT_TYPE, HeaderValue::from_static(PROBLEM_JSON));
-    headers.insert(CONNECTION, HeaderValue::from_static("close"));
+    let err = ApiError::too_large(format!(
+        "request body too large: {what}; the limit is {limit} bytes"
+    ));
+    let mut response = problem(err, StatusCode::PAYLOAD_TOO_LARGE);
+    response
+        .headers_mut()
+        .insert(CONNECTION, HeaderValue::from_static("close"));
     response
 }
 
@@ -132,7 +123,9 @@ impl HttpBody for Capped {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::http::error::PROBLEM_JSON;
     use axum::Router;
+    use axum::http::header::CONTENT_TYPE;
     use axum::routing::put;
     use tower::ServiceExt;
 

@@ -43,26 +43,37 @@ pub struct ErrorBody {
 /// RFC 9457 §3's media type.
 pub const PROBLEM_JSON: &str = "application/problem+json";
 
+impl ErrorBody {
+    /// The problem details of `err` answered with `status`.
+    pub fn new(err: ApiError, status: StatusCode) -> ErrorBody {
+        ErrorBody {
+            problem_type: format!("urn:ecat:error:{}", err.tag),
+            title: status.canonical_reason().unwrap_or("Error").to_owned(),
+            status: status.as_u16(),
+            reason: err.reason(),
+            grpc_code: err.kind.grpc() as i32,
+            protocol_code_text: err.code.map(|_| err.code_text.clone()),
+            protocol_code: err.code,
+            field: err.field.map(str::to_owned),
+            detail: err.message,
+        }
+    }
+}
+
+/// `err` as a response with `status` rather than the one its class maps to: for the few
+/// answers HTTP has a status of its own for (413 for a body over the limit).
+pub fn problem(err: ApiError, status: StatusCode) -> Response {
+    let mut response = (status, Json(ErrorBody::new(err, status))).into_response();
+    response
+        .headers_mut()
+        .insert(CONTENT_TYPE, HeaderValue::from_static(PROBLEM_JSON));
+    response
+}
+
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let status =
             StatusCode::from_u16(self.kind.http()).unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
-        let reason = self.reason();
-        let body = ErrorBody {
-            problem_type: format!("urn:ecat:error:{}", self.tag),
-            title: status.canonical_reason().unwrap_or("Error").to_owned(),
-            status: status.as_u16(),
-            reason,
-            grpc_code: self.kind.grpc() as i32,
-            protocol_code_text: self.code.map(|_| self.code_text.clone()),
-            protocol_code: self.code,
-            field: self.field.map(str::to_owned),
-            detail: self.message,
-        };
-        let mut response = (status, Json(body)).into_response();
-        response
-            .headers_mut()
-            .insert(CONTENT_TYPE, HeaderValue::from_static(PROBLEM_JSON));
-        response
+        problem(self, status)
     }
 }

@@ -11,7 +11,6 @@ pub mod audit;
 pub mod auth;
 pub mod body_limit;
 pub mod browser;
-pub mod connections;
 pub mod error;
 pub mod gateway;
 pub mod health;
@@ -161,7 +160,7 @@ pub async fn serve_tls(
     app: Router,
     listener: crate::tls::TlsListener,
     limits: LimitSettings,
-    stats: Arc<connections::ConnectionStats>,
+    stats: Arc<crate::connections::ConnectionStats>,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
     let app = with_body_timeout(app, &limits);
@@ -175,7 +174,7 @@ pub async fn serve(
     app: Router,
     listener: tokio::net::TcpListener,
     limits: LimitSettings,
-    stats: Arc<connections::ConnectionStats>,
+    stats: Arc<crate::connections::ConnectionStats>,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
     use axum::serve::ListenerExt;

@@ -19,11 +19,10 @@ use hyper_util::server::conn::auto::Builder;
 use tokio::sync::watch;
 use tower::ServiceExt;
 
-use super::connections::{
-    Activity, ConnectionStats, LimitedIo, Limiter, Refusal, Timeout, Timeouts, Tracked,
-};
 use super::error::{ErrorBody, PROBLEM_JSON};
 use crate::config::limits::LimitSettings;
+use crate::connections::{ConnectionStats, Limiter, Refusal, Timeout, Tracked};
+use crate::service::ApiError;
 
 /// HTTP/2 streams one connection may have open at once (the dashboard's requests, an event
 /// stream); beyond, the client waits for one to end.
@@ -43,7 +42,6 @@ pub(super) async fn serve<L>(
     L: Listener<Addr = SocketAddr>,
 {
     let limiter = Limiter::new(limits, Arc::clone(&stats));
-    let timeouts = Timeouts::from(limits);
     let builder = builder(limits);
     let answers = [Refusal::Total, Refusal::Peer].map(|r| (r, refusal_answer(r)));
     // Connections watch `stop` to shut down gracefully and hold `open` until they end.
@@ -55,24 +53,15 @@ pub(super) async fn serve<L>(
             accepted = listener.accept() => accepted,
             () = &mut shutdown => break,
         };
-        let permit = match limiter.admit(peer.ip()) {
-            Ok(permit) => permit,
-            Err(refusal) => {
-                tracing::debug!(%peer, ?refusal, "HTTP connection refused by [limits]");
+        let io = match limiter.accept(io, peer) {
+            Ok(io) => io,
+            Err((io, refusal)) => {
                 if let Some((_, answer)) = answers.iter().find(|(r, _)| *r == refusal) {
                     refuse(io, answer);
                 }
                 continue;
             }
         };
-        let io = LimitedIo::new(
-            io,
-            peer,
-            permit,
-            Activity::new(),
-            timeouts,
-            Arc::clone(&stats),
-        );
         // Each request carries the client's address and is in flight on its connection
         // until its response body has been sent.
         let (app, info) = (app.clone(), io.info());
@@ -142,18 +131,8 @@ fn builder(limits: &LimitSettings) -> Builder<TokioExecutor> {
 /// details body, as every other refusal of the API.
 fn refusal_answer(refusal: Refusal) -> Vec<u8> {
     let (reason, detail) = refusal.text();
-    let status = StatusCode::SERVICE_UNAVAILABLE;
-    let body = ErrorBody {
-        problem_type: "urn:ecat:error:too_many_connections".into(),
-        title: status.canonical_reason().unwrap_or("Error").into(),
-        status: status.as_u16(),
-        detail: format!("{detail} ([limits] {reason})"),
-        reason: "TOO_MANY_CONNECTIONS".into(),
-        grpc_code: tonic::Code::Unavailable as i32,
-        protocol_code: None,
-        protocol_code_text: None,
-        field: None,
-    };
+    let err = ApiError::too_many_connections(format!("{detail} ([limits] {reason})"));
+    let body = ErrorBody::new(err, StatusCode::SERVICE_UNAVAILABLE);
     let body = serde_json::to_string(&body).unwrap_or_default();
     format!(
         "HTTP/1.1 503 Service Unavailable\r\ncontent-type: {PROBLEM_JSON}\r\ncontent-length: {}\r\nretry-after: 1\r\nconnection: close\r\n\r\n{body}",

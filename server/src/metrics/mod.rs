@@ -72,7 +72,7 @@ pub struct Store {
     /// Configuration mismatches and failed start-up commands.
     pub config: Arc<config::ConfigFindings>,
     /// The API servers' connections (`[limits]`): open, refused, timed out.
-    pub connections: Arc<crate::http::connections::ServerStats>,
+    pub connections: Arc<crate::connections::ServerStats>,
 }
 
 /// The background readers behind the metrics; they stop when this is dropped.

@@ -169,6 +169,11 @@ impl ApiError {
     pub fn too_large(message: impl Into<String>) -> ApiError {
         ApiError::new(ErrorKind::ResourceExhausted, "too_large", message)
     }
+
+    /// A connection over a `[limits]` connection cap.
+    pub fn too_many_connections(message: impl Into<String>) -> ApiError {
+        ApiError::new(ErrorKind::Unavailable, "too_many_connections", message)
+    }
 }
 
 impl From<MasterError> for ApiError {

@@ -154,11 +154,13 @@ impl ServerStats {
     }
 }
 
-/// Counts open connections, in total and per client address, against `[limits]`.
+/// Counts open connections, in total and per client address, against `[limits]`, and
+/// gives each admitted one its deadlines.
 #[derive(Debug)]
 pub struct Limiter {
     max_total: usize,
     max_peer: usize,
+    timeouts: Timeouts,
     stats: Arc<ConnectionStats>,
     /// Open connections per address; an address leaves the map with its last connection,
     /// so the map holds at most `max_total` entries.
@@ -171,13 +173,38 @@ impl Limiter {
         Arc::new(Limiter {
             max_total: limits.max_connections,
             max_peer: limits.max_connections_per_peer,
+            timeouts: Timeouts::from(limits),
             stats,
             open: Mutex::new((0, HashMap::new())),
         })
     }
 
+    /// Admits the connection `io` from `peer` with its deadlines, or gives it back with the
+    /// limit that refuses it (counted; the caller answers or just closes it).
+    pub fn accept<IO>(
+        self: &Arc<Limiter>,
+        io: IO,
+        peer: SocketAddr,
+    ) -> Result<LimitedIo<IO>, (IO, Refusal)> {
+        let permit = match self.admit(peer.ip()) {
+            Ok(permit) => permit,
+            Err(refusal) => {
+                tracing::debug!(%peer, ?refusal, "connection refused by [limits]");
+                return Err((io, refusal));
+            }
+        };
+        Ok(LimitedIo::new(
+            io,
+            peer,
+            permit,
+            Activity::new(),
+            self.timeouts,
+            Arc::clone(&self.stats),
+        ))
+    }
+
     /// Admits a connection from `peer`, or says which limit refuses it (and counts it).
-    pub fn admit(self: &Arc<Limiter>, peer: IpAddr) -> Result<Permit, Refusal> {
+    fn admit(self: &Arc<Limiter>, peer: IpAddr) -> Result<Permit, Refusal> {
         // An IPv4 client on a dual-stack socket is the same client as on an IPv4 one.
         let peer = peer.to_canonical();
         let mut open = self.open.lock().unwrap_or_else(PoisonError::into_inner);
@@ -326,15 +353,17 @@ pub struct LimitedIo<IO> {
     timeouts: Timeouts,
     stats: Arc<ConnectionStats>,
     deadline: Pin<Box<Sleep>>,
-    /// Set while a write is pending; the connection ends if it stays so for `idle`.
-    stall: Option<Pin<Box<Sleep>>>,
+    /// Armed while a write is pending (`stalled`); the connection ends if it stays so for
+    /// `idle`. One timer for the connection's life, reset per stall.
+    stall: Pin<Box<Sleep>>,
+    stalled: bool,
     expired: bool,
     _permit: Permit,
 }
 
 impl<IO> LimitedIo<IO> {
     /// `inner` from `peer`, admitted with `permit`, its requests tracked by `activity`.
-    pub fn new(
+    fn new(
         inner: IO,
         peer: SocketAddr,
         permit: Permit,
@@ -350,7 +379,8 @@ impl<IO> LimitedIo<IO> {
             timeouts,
             stats,
             deadline: Box::pin(tokio::time::sleep_until(first)),
-            stall: None,
+            stall: Box::pin(tokio::time::sleep_until(first)),
+            stalled: false,
             expired: false,
             _permit: permit,
         }
@@ -374,11 +404,12 @@ impl<IO> LimitedIo<IO> {
     }
 
     fn poll_stall(&mut self, cx: &mut Context<'_>) -> Poll<io::Error> {
-        let idle = self.timeouts.idle;
-        let stall = self
-            .stall
-            .get_or_insert_with(|| Box::pin(tokio::time::sleep(idle)));
-        match stall.as_mut().poll(cx) {
+        if !self.stalled {
+            self.stalled = true;
+            let due = Instant::now() + self.timeouts.idle;
+            self.stall.as_mut().reset(due);
+        }
+        match self.stall.as_mut().poll(cx) {
             Poll::Ready(()) => Poll::Ready(self.expire(Timeout::WriteStall)),
             Poll::Pending => Poll::Pending,
         }
@@ -422,7 +453,7 @@ impl<IO: AsyncWrite + Unpin> AsyncWrite for LimitedIo<IO> {
         let this = self.get_mut();
         match Pin::new(&mut this.inner).poll_write(cx, buf) {
             Poll::Ready(written) => {
-                this.stall = None;
+                this.stalled = false;
                 Poll::Ready(written)
             }
             Poll::Pending => this.poll_stall(cx).map(Err),
@@ -437,7 +468,7 @@ impl<IO: AsyncWrite + Unpin> AsyncWrite for LimitedIo<IO> {
         let this = self.get_mut();
         match Pin::new(&mut this.inner).poll_write_vectored(cx, bufs) {
             Poll::Ready(written) => {
-                this.stall = None;
+                this.stalled = false;
                 Poll::Ready(written)
             }
             Poll::Pending => this.poll_stall(cx).map(Err),
@@ -452,7 +483,7 @@ impl<IO: AsyncWrite + Unpin> AsyncWrite for LimitedIo<IO> {
         let this = self.get_mut();
         match Pin::new(&mut this.inner).poll_flush(cx) {
             Poll::Ready(flushed) => {
-                this.stall = None;
+                this.stalled = false;
                 Poll::Ready(flushed)
             }
             Poll::Pending => this.poll_stall(cx).map(Err),
