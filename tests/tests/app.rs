@@ -610,18 +610,24 @@ fn a_user_the_socket_mode_leaves_out_cannot_attach() {
         .mode()
         & 0o777;
     assert_eq!(mode, 0o660);
-    let mut command = program(Client::Rust, &socket, "monitor", Some(1));
+    // The socket's directory must be reachable for the refusal to be the socket's own.
+    let dir = socket.parent().unwrap();
+    std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o755)).expect("chmod");
+    // The program runs as nobody, who may not reach the build directory (a checkout in a
+    // private directory, as `mktemp -d` makes): it runs from a copy beside the socket.
+    let copy = dir.join("app_program");
+    std::fs::copy(env!("CARGO_BIN_EXE_app_program"), &copy).expect("copy the program");
+    std::fs::set_permissions(&copy, std::fs::Permissions::from_mode(0o755)).expect("chmod");
+    let mut command = Command::new(&copy);
+    command
+        .arg(&socket)
+        .args(["monitor", "1"])
+        .stdin(Stdio::null());
     {
         use std::os::unix::process::CommandExt;
         // nobody, in no group of root's: neither owner nor group of the socket.
         command.uid(65534).gid(65534);
     }
-    // The socket's directory must be reachable for the refusal to be the socket's own.
-    std::fs::set_permissions(
-        socket.parent().unwrap(),
-        std::fs::Permissions::from_mode(0o755),
-    )
-    .expect("chmod");
     let output = command.stdout(Stdio::piped()).output().expect("runs");
     assert!(!output.status.success());
     let stdout = String::from_utf8_lossy(&output.stdout);
