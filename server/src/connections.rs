@@ -414,6 +414,22 @@ impl<IO> LimitedIo<IO> {
             Poll::Pending => Poll::Pending,
         }
     }
+
+    /// A write that made progress ends a stall; one that could not starts (or continues)
+    /// the stall's clock.
+    fn after_write(
+        &mut self,
+        cx: &mut Context<'_>,
+        written: Poll<io::Result<usize>>,
+    ) -> Poll<io::Result<usize>> {
+        match written {
+            Poll::Ready(written) => {
+                self.stalled = false;
+                Poll::Ready(written)
+            }
+            Poll::Pending => self.poll_stall(cx).map(Err),
+        }
+    }
 }
 
 impl<IO: AsyncRead + Unpin> AsyncRead for LimitedIo<IO> {
@@ -451,13 +467,8 @@ impl<IO: AsyncWrite + Unpin> AsyncWrite for LimitedIo<IO> {
         buf: &[u8],
     ) -> Poll<io::Result<usize>> {
         let this = self.get_mut();
-        match Pin::new(&mut this.inner).poll_write(cx, buf) {
-            Poll::Ready(written) => {
-                this.stalled = false;
-                Poll::Ready(written)
-            }
-            Poll::Pending => this.poll_stall(cx).map(Err),
-        }
+        let written = Pin::new(&mut this.inner).poll_write(cx, buf);
+        this.after_write(cx, written)
     }
 
     fn poll_write_vectored(
@@ -466,13 +477,8 @@ impl<IO: AsyncWrite + Unpin> AsyncWrite for LimitedIo<IO> {
         bufs: &[io::IoSlice<'_>],
     ) -> Poll<io::Result<usize>> {
         let this = self.get_mut();
-        match Pin::new(&mut this.inner).poll_write_vectored(cx, bufs) {
-            Poll::Ready(written) => {
-                this.stalled = false;
-                Poll::Ready(written)
-            }
-            Poll::Pending => this.poll_stall(cx).map(Err),
-        }
+        let written = Pin::new(&mut this.inner).poll_write_vectored(cx, bufs);
+        this.after_write(cx, written)
     }
 
     fn is_write_vectored(&self) -> bool {
