@@ -27,22 +27,107 @@ pub struct Write {
     pub value: Option<(usize, String)>,
 }
 
-type Slot = Arc<Mutex<Option<Write>>>;
+/// Who makes a call, and what it is: for the log lines of a call that failed.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Call {
+    /// Token name of the caller (`anonymous` on loopback without tokens).
+    pub caller: String,
+    /// The call (`GET /slaves/0/foe/fw.bin`, `/ecat.v1.FoeService/Read`, ...).
+    pub operation: String,
+}
+
+/// What one call notes: its caller once authenticated, and the write it made.
+#[derive(Debug, Default)]
+struct Notes {
+    caller: Option<Call>,
+    write: Option<Write>,
+}
+
+type Slot = Arc<Mutex<Notes>>;
 
 tokio::task_local! {
     static CALL: Slot;
 }
 
+/// What a finished call noted.
+#[derive(Debug, Default)]
+pub struct Noted {
+    /// Its caller, once authenticated.
+    pub caller: Option<Call>,
+    /// The write it made.
+    pub write: Option<Write>,
+}
+
 /// Runs `call` with a slot for the write it may note; returns its output and the write.
 pub async fn scoped<F: Future>(call: F) -> (F::Output, Option<Write>) {
-    let slot = Slot::default();
-    let output = CALL.scope(Arc::clone(&slot), call).await;
-    let write = slot.lock().unwrap_or_else(|e| e.into_inner()).take();
-    (output, write)
+    let (output, noted) = Scope::default().run(call).await;
+    (output, noted.write)
+}
+
+/// The slot of one call, opened before the call is made: a tower service that
+/// authenticates in `call` itself (tonic's interceptors) notes its caller while the call's
+/// future is made ([`Scope::make`]), before it runs ([`Scope::run`]).
+#[derive(Debug, Default)]
+pub struct Scope(Slot);
+
+impl Scope {
+    /// Runs `make`, which makes the call's future, inside the slot.
+    pub fn make<F>(&self, make: impl FnOnce() -> F) -> F {
+        CALL.sync_scope(Arc::clone(&self.0), make)
+    }
+
+    /// Runs `call` inside the slot; its output and all it noted.
+    pub async fn run<F: Future>(self, call: F) -> (F::Output, Noted) {
+        let output = CALL.scope(Arc::clone(&self.0), call).await;
+        let notes = std::mem::take(&mut *self.0.lock().unwrap_or_else(|e| e.into_inner()));
+        (
+            output,
+            Noted {
+                caller: notes.caller,
+                write: notes.write,
+            },
+        )
+    }
+}
+
+/// `task` with the current call's caller, for a task the call spawns (a streamed answer):
+/// task-locals do not cross `tokio::spawn`. Writes it notes stay its own.
+pub fn carry<F: Future>(task: F) -> impl Future<Output = F::Output> {
+    let notes = Notes {
+        caller: caller(),
+        write: None,
+    };
+    CALL.scope(Arc::new(Mutex::new(notes)), task)
+}
+
+fn with_notes(update: impl FnOnce(&mut Notes)) {
+    let _ = CALL.try_with(|slot| update(&mut slot.lock().unwrap_or_else(|e| e.into_inner())));
 }
 
 fn with_slot(update: impl FnOnce(&mut Option<Write>)) {
-    let _ = CALL.try_with(|slot| update(&mut slot.lock().unwrap_or_else(|e| e.into_inner())));
+    with_notes(|notes| update(&mut notes.write));
+}
+
+/// Notes who makes the current call (the authentication layers, once they know).
+pub fn note_caller(name: &str, operation: &str) {
+    with_notes(|notes| {
+        notes.caller = Some(Call {
+            caller: name.into(),
+            operation: operation.into(),
+        });
+    });
+}
+
+/// Who makes the current call, if a transport noted it.
+pub fn caller() -> Option<Call> {
+    CALL.try_with(|slot| {
+        slot.lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .caller
+            .clone()
+    })
+    .ok()
+    .flatten()
 }
 
 /// Notes an authorised write in the current call's slot (no slot: nothing to do).
@@ -123,5 +208,27 @@ mod tests {
         assert!(none.is_none());
         // Outside a call, noting is harmless.
         note("eng", "x", "y");
+        note_caller("eng", "x");
+        assert_eq!(caller(), None);
+    }
+
+    #[tokio::test]
+    async fn a_call_knows_its_caller_even_noted_while_the_call_is_made() {
+        let scope = Scope::default();
+        let call = scope.make(|| {
+            // As an interceptor does, before the call's future runs.
+            note_caller("scada", "/ecat.v1.FoeService/Read");
+            async { caller() }
+        });
+        let (seen, noted) = scope.run(call).await;
+        assert_eq!(
+            seen,
+            Some(Call {
+                caller: "scada".into(),
+                operation: "/ecat.v1.FoeService/Read".into()
+            })
+        );
+        assert_eq!(noted.caller, seen);
+        assert!(noted.write.is_none());
     }
 }

@@ -3,6 +3,10 @@
 //! one JSON audit line with the caller, the operation, the target, the value's size and
 //! SHA-256 prefix and the outcome (`done` or the error); `--audit-log FILE` sends them to a
 //! file instead.
+//!
+//! Issue 35, item 4: a failed FoE transfer leaves a line at `info` naming who started it
+//! (the token over REST and gRPC, the client's address through the gateway), and every
+//! failed REST call, gRPC call and gateway request one at `debug`.
 
 mod server_support;
 
@@ -11,6 +15,9 @@ use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use master_core::wire::Emit;
+use master_core::wire::foe::FoeRepr;
+use master_core::wire::mailbox::MailboxType;
 use serde_json::Value;
 use server_support::gateway_client::GatewayClient;
 use server_support::{b64, bin_dir, call, curl};
@@ -47,6 +54,11 @@ fn free_udp() -> u16 {
 
 impl Quiet {
     fn start(extra: &[&str]) -> Quiet {
+        Quiet::start_at("warn", extra)
+    }
+
+    /// ecatd with `--log level`.
+    fn start_at(level: &str, extra: &[&str]) -> Quiet {
         let config = std::env::temp_dir().join(format!(
             "ecatd-audit-{}-{:?}.toml",
             std::process::id(),
@@ -59,7 +71,7 @@ impl Quiet {
         .unwrap();
         let (http, grpc, gateway) = (free_tcp(), free_tcp(), free_udp());
         let mut child = Command::new(bin_dir().join("ecatd"))
-            .args(["--simulate", "--log", "warn", "--log-format", "json"])
+            .args(["--simulate", "--log", level, "--log-format", "json"])
             .args(["--config", config.to_str().unwrap()])
             .args(["--http-listen", &format!("127.0.0.1:{http}")])
             .args(["--grpc-listen", &format!("127.0.0.1:{grpc}")])
@@ -305,4 +317,112 @@ fn audit_log_file_takes_the_lines() {
     );
     drop(ecatd);
     std::fs::remove_file(file).unwrap();
+}
+
+#[test]
+fn a_failed_transfer_names_who_started_it_at_info_and_every_failed_call_is_at_debug() {
+    // `debug` is ecatd's own crates' (the logging scope), so the level of each line shows.
+    let ecatd = Quiet::start_at("debug", &[]);
+    let lines = || ecatd.stderr();
+
+    // REST: a read of a file the slave does not have.
+    let url = format!("{}/api/v1/slaves/0/foe/missing-rest.bin", ecatd.http);
+    let (status, _) = curl(&["-s", "-o", "/dev/null", "-H", AUTH, &url]);
+    assert!(status >= 400, "{status}");
+    // The path within the API, as the audit lines write it.
+    let rest = "GET /slaves/0/foe/missing-rest.bin";
+    let transfer = wait_for(lines, |v| {
+        v["fields"]["message"] == "transfer failed" && v["fields"]["file"] == "missing-rest.bin"
+    })
+    .unwrap_or_else(|| panic!("no transfer line:\n{:#?}", lines()));
+    assert_eq!(transfer["level"], "INFO");
+    assert_eq!(transfer["fields"]["caller"], "engineer");
+    assert_eq!(transfer["fields"]["operation"], rest);
+    assert_eq!(transfer["fields"]["direction"], "read");
+    assert_eq!(transfer["fields"]["slave"], "0");
+    let failed = wait_for(lines, |v| {
+        v["fields"]["message"] == "REST call failed" && v["fields"]["operation"] == rest
+    })
+    .unwrap_or_else(|| panic!("no REST failure line:\n{:#?}", lines()));
+    assert_eq!(failed["level"], "DEBUG");
+    assert_eq!(failed["fields"]["caller"], "engineer");
+    assert_eq!(failed["fields"]["status"], status);
+    assert!(
+        failed["fields"]["error"]
+            .as_str()
+            .unwrap()
+            .contains("\"reason\""),
+        "the problem document: {failed}"
+    );
+
+    // gRPC: the same through the read stream (its transfer runs in a task of its own).
+    let grpc = call(
+        &ecatd.grpc,
+        &[AUTH],
+        "ecat.v1.FoeService/Read",
+        r#"{"slave":"0","name":"missing-grpc.bin"}"#,
+    );
+    assert!(grpc.is_err(), "{grpc:?}");
+    let transfer = wait_for(lines, |v| {
+        v["fields"]["message"] == "transfer failed" && v["fields"]["file"] == "missing-grpc.bin"
+    })
+    .unwrap_or_else(|| panic!("no gRPC transfer line:\n{:#?}", lines()));
+    assert_eq!(transfer["level"], "INFO");
+    assert_eq!(transfer["fields"]["caller"], "engineer");
+    assert_eq!(transfer["fields"]["operation"], "/ecat.v1.FoeService/Read");
+    // A unary call that fails: its line at debug, with the caller.
+    let upload = call(
+        &ecatd.grpc,
+        &[AUTH],
+        "ecat.v1.CoeService/Upload",
+        r#"{"slave":"3","index":30583,"subindex":0}"#,
+    );
+    assert!(upload.is_err(), "{upload:?}");
+    let failed = wait_for(lines, |v| {
+        v["fields"]["message"] == "gRPC call failed"
+            && v["fields"]["operation"] == "/ecat.v1.CoeService/Upload"
+    })
+    .unwrap_or_else(|| panic!("no gRPC failure line:\n{:#?}", lines()));
+    assert_eq!(failed["level"], "DEBUG");
+    assert_eq!(failed["fields"]["caller"], "engineer");
+
+    // The gateway: a file read that fails names the client at info; a failed SDO upload is
+    // at debug.
+    let mut client = GatewayClient::new(ecatd.gateway);
+    let request = FoeRepr::ReadRequest {
+        password: 0,
+        file_name: b"missing-gateway.bin",
+    }
+    .to_vec()
+    .unwrap();
+    client.exchange(1001, MailboxType::Foe, &request);
+    let client_address = client.socket.local_addr().unwrap().to_string();
+    let transfer = wait_for(lines, |v| {
+        v["fields"]["message"] == "gateway transfer failed"
+            && v["fields"]["client"] == client_address.as_str()
+    })
+    .unwrap_or_else(|| panic!("no gateway transfer line:\n{:#?}", lines()));
+    assert_eq!(transfer["level"], "INFO");
+    assert!(
+        transfer["fields"]["error"]
+            .as_str()
+            .unwrap()
+            .starts_with("FoE error"),
+        "{transfer}"
+    );
+    assert!(client.sdo_upload(1004, 0x7777, 0).is_err());
+    let failed = wait_for(lines, |v| {
+        v["fields"]["message"] == "gateway request failed" && v["fields"]["object"] == "0x7777:00"
+    })
+    .unwrap_or_else(|| panic!("no gateway failure line:\n{:#?}", lines()));
+    assert_eq!(failed["level"], "DEBUG");
+    assert_eq!(failed["fields"]["client"], client_address.as_str());
+    // Nothing that succeeded is logged as failed.
+    let all = lines();
+    assert!(
+        !all.iter()
+            .any(|v| v["fields"]["message"] == "REST call failed"
+                && v["fields"]["status"].as_u64().is_some_and(|s| s < 400)),
+        "{all:#?}"
+    );
 }

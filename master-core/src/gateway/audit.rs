@@ -29,11 +29,18 @@ impl Outcome {
     fn describe(&self) -> String {
         match self {
             Outcome::Sent => "sent".into(),
-            Outcome::Failed(fault) => format!("failed: {}", fault.reason().name()),
-            Outcome::Answered(ty, data) => match error_of(*ty, data) {
-                Some(error) => error,
-                None => "done".into(),
-            },
+            Outcome::Answered(_, _) | Outcome::Failed(_) => {
+                self.error().unwrap_or_else(|| "done".into())
+            }
+        }
+    }
+
+    /// The error, if the request failed: the gateway's own fault or an error answer.
+    fn error(&self) -> Option<String> {
+        match self {
+            Outcome::Sent => None,
+            Outcome::Failed(fault) => Some(format!("failed: {}", fault.reason().name())),
+            Outcome::Answered(ty, data) => error_of(*ty, data),
         }
     }
 }
@@ -119,4 +126,38 @@ pub(crate) fn refused(client: SocketAddr, address: u16, ty: MailboxType, data: &
         outcome = "refused: read role",
         "gateway write refused"
     );
+}
+
+/// Logs a request that failed, read or write: at `info` for FoE (a file transfer that broke,
+/// a firmware download say, is a fault an operator looks for, with the client that ran
+/// it), at `debug` for every other protocol (a client's failed read is the client's
+/// business, and a busy tool would fill the log).
+pub(crate) fn failure(
+    client: SocketAddr,
+    address: u16,
+    ty: MailboxType,
+    data: &[u8],
+    outcome: &Outcome,
+) {
+    let Some(error) = outcome.error() else {
+        return;
+    };
+    if ty == MailboxType::Foe {
+        tracing::info!(
+            client = %client,
+            slave = %slave(address),
+            object = %access::object(ty, data),
+            error = %error,
+            "gateway transfer failed"
+        );
+    } else {
+        tracing::debug!(
+            client = %client,
+            slave = %slave(address),
+            object = %access::object(ty, data),
+            protocol = ty.name(),
+            error = %error,
+            "gateway request failed"
+        );
+    }
 }

@@ -265,6 +265,7 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Request, _ticket: Ticket
         }
         outcome
     };
+    audit::failure(request.client, address, ty, &request.data, &outcome);
     if let Some(ticket) = ticket {
         // "Busy" and "no answer in time" are no final answer: a repeat may run.
         let final_answer = !matches!(outcome, Outcome::Failed(Fault::Busy | Fault::Timeout));

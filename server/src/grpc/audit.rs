@@ -44,17 +44,25 @@ where
     }
 
     fn call(&mut self, request: http::Request<B>) -> Self::Future {
-        let call = self.inner.call(request);
+        let path = request.uri().path().to_owned();
+        // The interceptor authenticates while the call is made: the slot must exist then.
+        let scope = audit::Scope::default();
+        let call = scope.make(|| self.inner.call(request));
         Box::pin(async move {
-            let (result, write) = audit::scoped(call).await;
-            if let Some(write) = write.filter(|w| !w.caller.is_empty()) {
-                match &result {
-                    Ok(response) => match error_of(response.headers()) {
-                        None => audit::outcome(&write, Ok(())),
-                        Some(err) => audit::outcome(&write, Err(&err)),
-                    },
-                    Err(err) => audit::outcome(&write, Err(&err.to_string())),
-                }
+            let (result, noted) = scope.run(call).await;
+            let error = match &result {
+                Ok(response) => error_of(response.headers()),
+                Err(err) => Some(err.to_string()),
+            };
+            if let Some(error) = &error {
+                // Every failed call, at debug: what failed for whom is in the log when asked
+                // for, and only then. (A streamed answer carries its status in its
+                // trailers, past this layer.)
+                let caller = noted.caller.as_ref().map(|c| c.caller.as_str());
+                tracing::debug!(caller, operation = %path, error = %error, "gRPC call failed");
+            }
+            if let Some(write) = noted.write.filter(|w| !w.caller.is_empty()) {
+                audit::outcome(&write, error.as_deref().map_or(Ok(()), Err));
             }
             result
         })

@@ -55,6 +55,7 @@ pub fn grpc_interceptor(
             // audit line of an allowed write with the slave it names.
             authorize_write(Some(&caller), path, "").map_err(status)?;
         }
+        crate::audit::note_caller(&caller.name, path);
         request.extensions_mut().insert(caller);
         Ok(request)
     }

@@ -53,7 +53,7 @@ impl FoeService for Foe {
             }
         });
         let core = self.core.clone();
-        tokio::spawn(async move {
+        tokio::spawn(crate::audit::carry(async move {
             // The client leaving closes the stream's receiver: the read is dropped then,
             // which ends the transfer towards the slave.
             let read = tokio::select! {
@@ -80,7 +80,7 @@ impl FoeService for Foe {
                     let _ = tx.send(Err(status(err))).await;
                 }
             }
-        });
+        }));
         Ok(Response::new(Box::pin(ReceiverStream::new(rx))))
     }
 
@@ -142,7 +142,7 @@ impl FoeService for Foe {
             }));
         });
         let core = self.core.clone();
-        tokio::spawn(async move {
+        tokio::spawn(crate::audit::carry(async move {
             // The client leaving closes the stream's receiver: the write is dropped then,
             // which ends the transfer towards the slave with an FoE ERROR.
             let written = tokio::select! {
@@ -158,7 +158,7 @@ impl FoeService for Foe {
                 Err(err) => Err(status(err)),
             };
             let _ = tx.send(last).await;
-        });
+        }));
         Ok(Response::new(Box::pin(ReceiverStream::new(rx))))
     }
 }

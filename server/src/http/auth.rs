@@ -48,6 +48,10 @@ pub async fn authenticate(
             return err.into_response();
         }
     }
+    crate::audit::note_caller(
+        &caller.name,
+        &format!("{} {}", request.method(), request.uri().path()),
+    );
     request.extensions_mut().insert(caller);
     next.run(request).await
 }

@@ -582,22 +582,27 @@ impl Core {
         password: u32,
         progress: Option<transfer::ProgressFn>,
     ) -> Result<Vec<u8>> {
-        self.call(slave, Protocol::Foe, |m| async move {
-            let report = self.foe_reporter(&m, name, None, progress);
-            let options = FoeOptions {
-                password,
-                progress: Some(Arc::clone(&report)),
-            };
-            let m = transfer::with_progress_deadlines(&m, transfer::READ_CAP_SIZE);
-            let data = m.foe_read(name, options).await?;
-            // The size is known now: the last report says the read is complete.
-            report(FoeProgress::Transferred {
-                bytes: data.len(),
-                total: Some(data.len()),
-            });
-            Ok(data)
-        })
-        .await
+        let read = self
+            .call(slave, Protocol::Foe, |m| async move {
+                let report = self.foe_reporter(&m, name, None, progress);
+                let options = FoeOptions {
+                    password,
+                    progress: Some(Arc::clone(&report)),
+                };
+                let m = transfer::with_progress_deadlines(&m, transfer::READ_CAP_SIZE);
+                let data = m.foe_read(name, options).await?;
+                // The size is known now: the last report says the read is complete.
+                report(FoeProgress::Transferred {
+                    bytes: data.len(),
+                    total: Some(data.len()),
+                });
+                Ok(data)
+            })
+            .await;
+        if let Err(err) = &read {
+            transfer::log_failure("read", slave, name, err);
+        }
+        read
     }
 
     /// Writes file `name`; `progress` hears the bytes the slave acknowledged so far, and so
@@ -612,16 +617,21 @@ impl Core {
         data: &[u8],
         progress: Option<transfer::ProgressFn>,
     ) -> Result<()> {
-        self.call(slave, Protocol::Foe, |m| async move {
-            let report = self.foe_reporter(&m, name, Some(data.len()), progress);
-            let options = FoeOptions {
-                password,
-                progress: Some(report),
-            };
-            let m = transfer::with_progress_deadlines(&m, data.len());
-            m.foe_write(name, data, options).await
-        })
-        .await
+        let written = self
+            .call(slave, Protocol::Foe, |m| async move {
+                let report = self.foe_reporter(&m, name, Some(data.len()), progress);
+                let options = FoeOptions {
+                    password,
+                    progress: Some(report),
+                };
+                let m = transfer::with_progress_deadlines(&m, data.len());
+                m.foe_write(name, data, options).await
+            })
+            .await;
+        if let Err(err) = &written {
+            transfer::log_failure("write", slave, name, err);
+        }
+        written
     }
 
     /// The progress reporter of an FoE transfer on `mailbox` (events only once somebody
