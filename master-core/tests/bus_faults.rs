@@ -63,7 +63,7 @@ fn bus_ignores_foreign_frames_and_duplicate_replies() {
 }
 
 /// Holds the first frame; when the retry arrives, sends the first frame's reply (with its
-/// data spoiled, so delivering it would show) and then answers the retry.
+/// data marked, so that which reply was delivered shows) and then answers the retry.
 #[derive(Default)]
 struct LateFirstReply {
     held: Option<Vec<u8>>,
@@ -89,7 +89,7 @@ impl Script for LateFirstReply {
 }
 
 #[test]
-fn bus_ignores_a_late_reply_to_a_frame_it_already_sent_again() {
+fn a_late_reply_to_the_first_attempt_completes_a_frame_sent_again() {
     let bus = start(
         SLAVES,
         LateFirstReply::default(),
@@ -99,15 +99,60 @@ fn bus_ignores_a_late_reply_to_a_frame_it_already_sent_again() {
         },
     );
     let reply = finish(bus.handle.fprd(FakeSegment::station(2), 0x0140, 2)).unwrap();
-    assert_eq!(reply.data.as_slice(), pattern(2, 0x0140, 2));
+    // The retry went out under the same index, so the first attempt's reply, which came
+    // first, is its answer; the retry's own reply then finds nothing in flight.
+    assert_eq!(reply.data.as_slice(), [0xEE, 0xEE]);
     let (stats, _, report) = bus.stop();
     assert_eq!(report.frames, 2);
     assert_eq!(stats.frames_lost, 1);
     assert_eq!(stats.retries, 1);
-    assert_eq!(stats.frames_stale, 1, "the late reply was not ignored");
+    assert_eq!(stats.frames_stale, 1, "the retry's reply was not ignored");
     assert_eq!(stats.frames_received, 1);
     assert_eq!(stats.datagrams_sent, 2);
     assert_eq!(stats.datagrams_completed, 1);
+    // Karn's rule: a frame sent twice gives no round-trip sample.
+    assert_eq!(stats.round_trip.count(), 0);
+}
+
+/// A segment that answers every frame just too late: each reply goes out only when the
+/// next frame arrives, that is after the master's timeout sent the frame again.
+#[derive(Default)]
+struct AlwaysLate {
+    held: Option<Vec<u8>>,
+}
+
+impl Script for AlwaysLate {
+    fn on_frame(&mut self, frame: &mut [u8], segment: &mut FakeSegment, link: &mut dyn Link) {
+        if let Some(mut late) = self.held.take() {
+            assert!(segment.process(&mut late));
+            link.send(&late).unwrap();
+        }
+        self.held = Some(frame.to_vec());
+    }
+}
+
+#[test]
+fn a_segment_that_always_answers_after_the_timeout_still_completes_every_request() {
+    // Each reply arrives right after the next attempt went out. Had each attempt its own
+    // indices, every reply would be stale and each request would fail after its retries.
+    let bus = start(
+        SLAVES,
+        AlwaysLate::default(),
+        BusConfig {
+            response_timeout: Duration::from_millis(20),
+            retries: 3,
+            ..config()
+        },
+    );
+    for n in 0..10u16 {
+        let ado = 0x0300 + n * 2;
+        let reply = finish(bus.handle.fprd(FakeSegment::station(1), ado, 2)).unwrap();
+        assert_eq!(reply.data.as_slice(), pattern(1, ado, 2), "request {n}");
+    }
+    let (stats, _, _) = bus.stop();
+    assert_eq!(stats.frames_received, 10);
+    assert_eq!(stats.datagrams_completed, 10);
+    assert_eq!(stats.datagrams_failed, 0);
 }
 
 #[test]

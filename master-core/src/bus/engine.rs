@@ -335,33 +335,21 @@ impl<L: Link> Engine<L> {
         self.shared.stats.datagrams_failed.add(failed);
     }
 
-    /// Sends the datagrams of a lost acyclic frame again, together, under new indices, so
-    /// that a late reply to the lost attempt is recognised as stale.
+    /// Sends the datagrams of a lost acyclic frame again, together, under the same indices,
+    /// as SOEM does: the request is byte for byte the one already sent, so a late reply to
+    /// any attempt is a true answer to it and completes the frame. With new indices per
+    /// attempt a segment that answers just slower than the timeout (a loaded simulator, a
+    /// slave's slow firmware) would have every reply discarded as stale, each one arriving
+    /// just after the next attempt went out, until the retries ran out.
     fn resend(&mut self, id: usize) {
         let record = &mut self.records[id];
-        let count = record.datagrams.len();
-        // Fresh indices while enough are free, so the old ones stay recognisably stale;
-        // otherwise reuse is harmless, as the frame carries exactly the same datagrams.
-        let fresh = INDICES - self.indices.in_use() >= count;
-        if !fresh {
-            for sent in &record.datagrams {
-                self.indices.release(sent.index);
-            }
-        }
         let mut builder = new_builder(&mut self.tx);
         for (sent, entry) in record.datagrams.iter_mut().zip(&record.entries) {
-            let old = sent.index;
-            // At least `count` indices are free (checked or released above).
-            let index = self.indices.take(id as u16).unwrap_or(old);
-            if fresh {
-                self.indices.release(old);
-            }
-            sent.index = index;
             let request = &entry.request;
             // The same datagrams fitted this buffer before, so the offsets come out equal.
             if let Ok(offset) = builder.push(&DatagramRepr::request(
                 request.command,
-                index,
+                sent.index,
                 request.address,
                 &request.data,
             )) {
@@ -541,7 +529,12 @@ impl<L: Link> Engine<L> {
         stats.frames_received.inc();
         let record = &mut self.records[id];
         let round_trip = received_at.saturating_duration_since(record.sent_at);
-        stats.round_trip.record(round_trip);
+        // Only a frame sent once times the segment (Karn's rule): the reply to a frame sent
+        // again may answer any of its attempts, and timing it from the last would understate.
+        let timed = record.attempts == 1;
+        if timed {
+            stats.round_trip.record(round_trip);
+        }
         let kind = record.kind;
         match kind {
             RecordKind::Acyclic => {
@@ -570,7 +563,7 @@ impl<L: Link> Engine<L> {
             }
         }
         self.release_record(id);
-        if kind == RecordKind::Acyclic {
+        if kind == RecordKind::Acyclic && timed {
             self.learn_acyclic_cost(round_trip);
         }
     }

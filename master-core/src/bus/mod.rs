@@ -13,7 +13,8 @@
 //!   address and length of every datagram, so a late, duplicated or foreign frame is
 //!   counted and ignored, never delivered to the wrong caller (see `matching`);
 //! - sends a frame again when no reply came before [`BusConfig::response_timeout`], up to
-//!   [`BusConfig::retries`] times, then fails its datagrams with [`BusError::Timeout`];
+//!   [`BusConfig::retries`] times, under the same indices (a late reply to an earlier
+//!   attempt completes it), then fails its datagrams with [`BusError::Timeout`];
 //! - checks the working counter against what the caller expected ([`WkcCheck`]);
 //! - runs a [`CyclicTask`] at a fixed period, its frame going ahead of acyclic traffic;
 //! - keeps lock-free statistics ([`BusStatsSnapshot`]), including round-trip times.

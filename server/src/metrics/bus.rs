@@ -151,7 +151,7 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
     ];
     out.push(histogram(
         "ecat_bus_round_trip_seconds",
-        "Frame round-trip time, send to receive on the bus thread.",
+        "Frame round-trip time, send to receive on the bus thread, of frames answered at their first attempt.",
         &s.round_trip,
     ));
     out.push(histogram(
