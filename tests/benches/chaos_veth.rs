@@ -284,7 +284,8 @@ fn grpc_client(ns: &NetNs, tally: &Tally, stop: &AtomicBool) {
             subindex: 1,
             ..UploadRequest::default()
         };
-        let call = tokio::time::timeout(ANSWER_DEADLINE, client.upload(request));
+        // The timer is the runtime's: the timeout is made inside it.
+        let call = async { tokio::time::timeout(ANSWER_DEADLINE, client.upload(request)).await };
         match runtime.block_on(call) {
             Ok(Ok(answer)) if answer.get_ref().data == SIM_VENDOR_ID.to_le_bytes() => {
                 tally.answered()
