@@ -225,10 +225,14 @@ impl Segment {
             _ => return false,
         };
         let count = self.reachable();
+        let now = self.time.now_ns();
+        // Slaves behind a cut see no frame, but their watchdogs keep counting.
+        for slave in &mut self.slaves[count..] {
+            slave.esc.idle(now, slave.device.as_mut());
+        }
         if count == 0 {
             return false;
         }
-        let now = self.time.now_ns();
         let hop = |slave: &Slave| u64::from(slave.esc.config().dc.hop_delay_ns);
         let last = self.slaves[..count]
             .iter()
@@ -255,6 +259,17 @@ impl Segment {
             ethernet.set_source(source);
         }
         true
+    }
+
+    /// Lets time pass without a frame (a silent or cut wire): every slave's process-data
+    /// watchdog runs out on time, as an ESC's hardware counter does, so a slave in OP that
+    /// hears nothing more falls back to SAFEOP and its outputs to their safe state
+    /// (spec-notes §esc.watchdog).
+    pub fn idle(&mut self) {
+        let now = self.time.now_ns();
+        for slave in &mut self.slaves {
+            slave.esc.idle(now, slave.device.as_mut());
+        }
     }
 
     /// Sets every ESC's port links from the plug states: slave *i*'s port 0 is up when it

@@ -99,6 +99,74 @@ fn the_built_in_di8_reads_the_do8_s_outputs_in_the_same_frame() {
     assert_eq!(exchange(&mut bench, 0x00), 0x00);
 }
 
+/// The default process-data watchdog: 1000 ticks of 100 µs.
+const WATCHDOG_NS: u64 = 100_000_000;
+/// More than a frame takes from the master to the DO8 (the watchdog restarts at arrival).
+const PAST: u64 = 10_000;
+
+#[test]
+fn a_do8_behind_a_cut_cable_switches_its_outputs_off_when_its_watchdog_runs_out() {
+    let (mut bench, handles) = in_op(&Topology::default_segment(), DO8, DI8);
+    let probe = handles[DO8].outputs.clone().unwrap();
+    exchange(&mut bench, 0b1100_0011);
+    assert_eq!(probe.image(), [0b1100_0011]);
+    // The cable into the DO8 is cut: frames still reach the coupler in front of it.
+    bench.segment.set_plugged(DO8, false);
+    bench.time.advance(WATCHDOG_NS);
+    bench.one(b(Command::Brd, 0x0130, &[0, 0]));
+    assert_eq!(
+        probe.image(),
+        [0b1100_0011],
+        "exactly the watchdog time: still on"
+    );
+    bench.time.advance(PAST);
+    let back = bench.one(b(Command::Brd, 0x0130, &[0, 0]));
+    assert_eq!(back.wkc, 1, "only the coupler answers");
+    assert_eq!(
+        probe.image(),
+        [0],
+        "the safe state, with no frame reaching the DO8"
+    );
+    bench.segment.set_plugged(DO8, true);
+    let s = station(DO8);
+    assert_eq!(
+        bench.one(fp(Command::Fprd, s, 0x0130, &[0, 0])).data,
+        [0x14, 0]
+    );
+    assert_eq!(
+        bench.one(fp(Command::Fprd, s, 0x0134, &[0, 0])).data,
+        [0x1B, 0]
+    );
+    assert_eq!(bench.one(fp(Command::Fprd, s, 0x0442, &[0])).data, [1]);
+}
+
+#[test]
+fn a_silent_wire_lets_every_watchdog_run_out() {
+    let (mut bench, handles) = in_op(&Topology::default_segment(), DO8, DI8);
+    let probe = handles[DO8].outputs.clone().unwrap();
+    exchange(&mut bench, 0xFF);
+    bench.time.advance(WATCHDOG_NS);
+    bench.segment.idle();
+    assert_eq!(probe.image(), [0xFF]);
+    bench.time.advance(PAST);
+    bench.segment.idle();
+    assert_eq!(probe.image(), [0], "off without any frame");
+    let s = station(DO8);
+    assert_eq!(
+        bench.one(fp(Command::Fprd, s, 0x0130, &[0, 0])).data,
+        [0x14, 0]
+    );
+    // Outputs written in SAFEOP are not driven; back in OP they are.
+    exchange(&mut bench, 0x0F);
+    assert_eq!(probe.image(), [0]);
+    assert_eq!(
+        bench.request(s, 0x0018),
+        (0x0008, 0),
+        "acknowledged into OP"
+    );
+    assert_eq!(probe.image(), [0x0F]);
+}
+
 #[test]
 fn without_the_wire_the_di8_is_independent_of_the_do8() {
     let topology = unwired(Topology::default_segment());

@@ -15,8 +15,9 @@
 //! - a REST client and a gRPC client, the same upload from the drive;
 //! - an FoE loop over REST: 64 KiB written to the drive and read back;
 //! - iperf3 TCP for 5 s at a time through the drive's EoE (after a power loss the device
-//!   has lost its IP settings: the loop sets them again through the API, as an operator's
-//!   script would, and counts it);
+//!   has lost its IP settings: the bench sets them again through the API once the slaves
+//!   are back, as an operator's script would, and so does the loop after a failed run; both
+//!   are counted);
 //! - an application-interface owner (`ecat-app`) writing a pattern to the DO8 every cycle,
 //!   claiming the outputs again whenever it lost them.
 //!
@@ -339,6 +340,7 @@ fn eoe_client(ns: &NetNs, tally: &Tally, set_ip: &AtomicU64, stop: &AtomicBool) 
             .args(["netns", "exec", ns.name(), "timeout", "40"])
             .args(["iperf3", "-c", DEVICE_IP, "-t", "5", "-J"])
             .args(["--connect-timeout", "3000", "--snd-timeout", "10000"])
+            .args(["--rcv-timeout", "10000"])
             .output()
             .expect("iperf3 runs");
         let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
@@ -355,13 +357,19 @@ fn eoe_client(ns: &NetNs, tally: &Tally, set_ip: &AtomicU64, stop: &AtomicBool) 
             (code, None) => tally.lost(&format!("iperf3 exit {code:?} without an error")),
         }
         // The device may have lost its settings: set them again (not counted as a request).
-        let put = agent
-            .put(format!("{HTTP}/api/v1/slaves/0/eoe/ip"))
-            .header("content-type", "application/json")
-            .send(SET_IP);
-        if put.is_ok_and(|r| r.status() == 200) {
-            set_ip.fetch_add(1, Ordering::Relaxed);
-        }
+        set_device_ip(&agent, set_ip);
+    }
+}
+
+/// Gives the drive's EoE device its IP settings through the API (a device that lost power
+/// lost them), counting each time it was done.
+fn set_device_ip(agent: &ureq::Agent, set_ip: &AtomicU64) {
+    let put = agent
+        .put(format!("{HTTP}/api/v1/slaves/0/eoe/ip"))
+        .header("content-type", "application/json")
+        .send(SET_IP);
+    if put.is_ok_and(|r| r.status() == 200) {
+        set_ip.fetch_add(1, Ordering::Relaxed);
     }
 }
 
@@ -710,6 +718,9 @@ fn main() {
                         &sim_args(),
                     ));
                     let (seen, recovered) = recover(&agent, count, events);
+                    // As an operator's script would at once, so that a TCP connection of
+                    // the running iperf3 can go on instead of waiting for its own timeout.
+                    set_device_ip(&agent, &set_ip);
                     Fault {
                         at,
                         kind,

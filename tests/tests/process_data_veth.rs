@@ -2,8 +2,9 @@
 //! in-process versions are master-core's `master_pd_*` and `master_dc` tests): the output
 //! terminal follows the API, the input terminal's inputs appear, the drive's PDO mapping
 //! read through CoE is the topology's, a configured PDO assignment is written and taken,
-//! an emergency is noticed through the mailbox-status bit instead of polling, and the DC
-//! delays are the simulated hops. Expected values come from `Topology::default_segment`.
+//! an emergency is noticed through the mailbox-status bit instead of polling, the DC
+//! delays are the simulated hops, and a silent wire leaves the outputs in their safe state.
+//! Expected values come from `Topology::default_segment`.
 //!
 //! The simulator runs with `--control`: it reports its digital outputs and takes input
 //! and emergency commands on its standard streams. Needs root; see tests/README.md.
@@ -119,6 +120,16 @@ fn the_output_terminal_follows_the_api_and_the_input_terminal_s_inputs_appear() 
     assert!(wait_until(|| on() == expected), "inputs {:?}", on());
     let snapshot = m.snapshot();
     assert_eq!(snapshot.wkc, snapshot.expected_wkc);
+
+    // The master stops without a word (a crash, a cut cable): no frame reaches the DO8
+    // any more, its SyncManager watchdog runs out anyway and the outputs go to their safe
+    // state, as a real terminal's do.
+    drop(master);
+    let line = format!("ecat-sim: outputs {DO8} 00");
+    assert!(
+        sim.wait_line(PATIENCE, |l| l == line).is_some(),
+        "the DO8 kept its outputs on a silent wire"
+    );
 }
 
 #[test]

@@ -5,6 +5,11 @@
 //! device itself is owned by the emulated ESC while a test runs: the test keeps the handle
 //! to look at the "physical" outputs or to drive the inputs.
 //!
+//! An output terminal drives its outputs only in OP; in any other state they are in their
+//! safe state, off (ETG.1000.6 §6.4.1: SAFEOP keeps outputs safe), so a slave that falls
+//! back from OP, by request or through its SyncManager watchdog, switches its outputs off.
+//! What the master writes meanwhile is kept and driven when OP is entered again.
+//!
 //! An input terminal can also be wired to an output terminal ([`DigitalInputs::wired`]), as
 //! a test bench has its outputs wired back to its inputs: it then reads the output
 //! terminal's shared state itself, so its inputs show what the outputs were last written
@@ -12,7 +17,10 @@
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use crate::device::{Device, ProcessDataSizes};
+use master_core::wire::register::al::AlState;
+use master_core::wire::register::al_status_code::AlStatusCode;
+
+use crate::device::{Device, DeviceContext, ProcessDataSizes};
 
 /// Bytes needed for `channels` bits.
 fn image_len(channels: u16) -> u16 {
@@ -32,11 +40,16 @@ fn bit(image: &[u8], channel: u16) -> bool {
         .is_some_and(|b| b & (1 << (channel % 8)) != 0)
 }
 
-/// A digital output terminal: remembers the last outputs the master wrote.
+/// A digital output terminal: drives the last outputs the master wrote while in OP.
 #[derive(Debug)]
 pub struct DigitalOutputs {
     channels: u16,
+    /// The physical outputs (what a probe and a wired input terminal see).
     state: Arc<Mutex<Vec<u8>>>,
+    /// The last complete output image written by the master, whatever the state.
+    written: Vec<u8>,
+    /// Whether the terminal is in OP (outputs driven) rather than in their safe state.
+    operational: bool,
 }
 
 /// Reads the physical output state of a [`DigitalOutputs`] from outside the segment.
@@ -49,9 +62,12 @@ pub struct OutputProbe {
 impl DigitalOutputs {
     /// A terminal with `channels` outputs, all off.
     pub fn new(channels: u16) -> Self {
+        let len = usize::from(image_len(channels));
         DigitalOutputs {
             channels,
-            state: Arc::new(Mutex::new(vec![0; usize::from(image_len(channels))])),
+            state: Arc::new(Mutex::new(vec![0; len])),
+            written: vec![0; len],
+            operational: false,
         }
     }
 
@@ -90,16 +106,34 @@ impl Device for DigitalOutputs {
     }
 
     fn outputs_written(&mut self, outputs: &[u8]) {
-        let mut state = lock(&self.state);
-        let n = state.len().min(outputs.len());
-        state[..n].copy_from_slice(&outputs[..n]);
+        let n = self.written.len().min(outputs.len());
+        self.written[..n].copy_from_slice(&outputs[..n]);
         // Bits beyond the last channel do not exist on the terminal.
-        if let Some(last) = state.last_mut() {
+        if let Some(last) = self.written.last_mut() {
             let used = self.channels % 8;
             if used != 0 {
                 *last &= (1u8 << used) - 1;
             }
         }
+        if self.operational {
+            lock(&self.state).copy_from_slice(&self.written);
+        }
+    }
+
+    fn state_change(
+        &mut self,
+        _from: AlState,
+        to: AlState,
+        _ctx: &DeviceContext,
+    ) -> Result<(), AlStatusCode> {
+        self.operational = to == AlState::Op;
+        let mut state = lock(&self.state);
+        if self.operational {
+            state.copy_from_slice(&self.written);
+        } else {
+            state.fill(0);
+        }
+        Ok(())
     }
 }
 
@@ -260,9 +294,28 @@ impl Device for DigitalInputs {
 mod tests {
     use super::*;
 
+    /// What the ESC tells a terminal without a mailbox in SAFEOP.
+    fn ctx() -> DeviceContext {
+        DeviceContext {
+            station_address: 0x1001,
+            al_state: AlState::SafeOp,
+            rx_mailbox_size: 0,
+            tx_mailbox_size: 0,
+        }
+    }
+
+    /// An output terminal of `channels` outputs, in OP.
+    fn operational(channels: u16) -> DigitalOutputs {
+        let mut terminal = DigitalOutputs::new(channels);
+        terminal
+            .state_change(AlState::SafeOp, AlState::Op, &ctx())
+            .unwrap();
+        terminal
+    }
+
     #[test]
     fn outputs_are_remembered_per_channel() {
-        let mut terminal = DigitalOutputs::new(12);
+        let mut terminal = operational(12);
         let probe = terminal.probe();
         assert_eq!(terminal.process_data_sizes().outputs, 2);
         terminal.outputs_written(&[0b0000_0101, 0xFF]);
@@ -295,7 +348,7 @@ mod tests {
 
     #[test]
     fn wired_inputs_follow_the_outputs_with_the_driver_in_parallel() {
-        let mut outputs = DigitalOutputs::new(8);
+        let mut outputs = operational(8);
         let mut inputs = DigitalInputs::wired(8, &outputs.probe());
         let driver = inputs.driver();
         assert!(inputs.is_wired() && driver.is_wired());
@@ -318,7 +371,7 @@ mod tests {
 
     #[test]
     fn a_narrower_input_terminal_takes_only_its_channels_from_the_wire() {
-        let mut outputs = DigitalOutputs::new(16);
+        let mut outputs = operational(16);
         let mut inputs = DigitalInputs::wired(4, &outputs.probe());
         assert_eq!(inputs.process_data_sizes().inputs, 1);
         outputs.outputs_written(&[0xFF, 0xFF]);
@@ -326,5 +379,26 @@ mod tests {
         inputs.read_inputs(&mut image);
         assert_eq!(image, [0x0F]);
         assert!(!inputs.driver().input(4));
+    }
+
+    #[test]
+    fn outputs_are_off_outside_op_and_come_back_with_it() {
+        let mut terminal = DigitalOutputs::new(8);
+        let probe = terminal.probe();
+        let ctx = ctx();
+        terminal.outputs_written(&[0x5A]);
+        assert_eq!(probe.image(), [0], "SAFEOP: written, not driven");
+        terminal
+            .state_change(AlState::SafeOp, AlState::Op, &ctx)
+            .unwrap();
+        assert_eq!(probe.image(), [0x5A], "OP drives what was written");
+        terminal.outputs_written(&[0x81]);
+        assert_eq!(probe.image(), [0x81]);
+        terminal
+            .state_change(AlState::Op, AlState::SafeOp, &ctx)
+            .unwrap();
+        assert_eq!(probe.image(), [0], "back in SAFEOP: the safe state");
+        terminal.outputs_written(&[0xFF]);
+        assert_eq!(probe.image(), [0]);
     }
 }

@@ -186,7 +186,7 @@ impl Esc {
         timing: FrameTiming,
     ) {
         self.frame = timing;
-        self.check_watchdog(device);
+        self.check_watchdog(timing.port0_ns, device);
         // The firmware runs between frames, not only when one passes: a reply that came due
         // since the last frame is in SM1 for this frame's first read, as on a real slave
         // whose application writes SM1 over the PDI at its own time (spec-notes

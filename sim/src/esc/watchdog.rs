@@ -3,8 +3,9 @@
 //! OP, the slave falls back to SAFEOP with error 0x001B, 0x0440 bit 0 drops to 0 and the
 //! expiry counter 0x0442 counts up.
 //!
-//! Expiry is noticed when the next frame passes (the emulation only runs with frames), with
-//! the time base instant of that frame.
+//! Expiry is noticed when a frame passes, at that frame's time-base instant, and also
+//! between frames ([`Esc::idle`]): a real ESC counts its watchdog in hardware, so a slave
+//! behind a cut cable, which sees no frame at all, still falls back to SAFEOP on time.
 
 use master_core::wire::register::address as reg;
 use master_core::wire::register::al::AlState;
@@ -38,15 +39,22 @@ impl Esc {
         (ticks > 0).then(|| (divider + 2) * TICK_BASE_NS * ticks)
     }
 
-    /// At the start of a frame: has the watchdog run out?
-    pub(crate) fn check_watchdog(&mut self, device: &mut dyn Device) {
+    /// Time passes at `now_ns` without a frame: the watchdog runs out as it would in the
+    /// ESC's hardware. The segment calls this for slaves no frame reaches, and the
+    /// simulator's frame loop when the wire is silent.
+    pub fn idle(&mut self, now_ns: u64, device: &mut dyn Device) {
+        self.check_watchdog(now_ns, device);
+    }
+
+    /// At `now_ns` (a frame's arrival, or an idle instant): has the watchdog run out?
+    pub(crate) fn check_watchdog(&mut self, now_ns: u64, device: &mut dyn Device) {
         let Some(timeout) = self.watchdog_timeout_ns() else {
             return;
         };
         let Some(last) = self.watchdog_trigger else {
             return;
         };
-        if self.frame.port0_ns.saturating_sub(last) <= timeout {
+        if now_ns.saturating_sub(last) <= timeout {
             return;
         }
         self.watchdog_trigger = None;
@@ -110,5 +118,24 @@ mod tests {
         request(&mut esc, &mut dev, 0x0008);
         at(&mut esc, &mut dev, u64::MAX);
         assert_eq!(esc.read_u16(0x0130), 0x0008);
+    }
+
+    #[test]
+    fn the_watchdog_runs_out_without_a_frame() {
+        let (mut esc, mut dev) = slave();
+        dev.sizes.outputs = 1;
+        bring_to_preop(&mut esc, &mut dev);
+        configure_process_data(&mut esc, &mut dev, 1, 0);
+        request(&mut esc, &mut dev, 0x0004);
+        exec(&mut esc, &mut dev, Command::Apwr, 0, 0x1100, &[1]);
+        request(&mut esc, &mut dev, 0x0008);
+        esc.idle(100_000_000, &mut dev);
+        assert_eq!(esc.read_u16(0x0130), 0x0008, "exactly 100 ms: still fine");
+        esc.idle(100_000_001, &mut dev);
+        assert_eq!(esc.read_u16(0x0130), 0x0014);
+        assert_eq!(esc.read_u16(0x0134), 0x001B);
+        assert_eq!(esc.read_u8(0x0442), 1);
+        esc.idle(200_000_000, &mut dev);
+        assert_eq!(esc.read_u8(0x0442), 1, "an expired watchdog counts once");
     }
 }

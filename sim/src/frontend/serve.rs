@@ -1,8 +1,9 @@
 //! The frame loop: receive a frame, run it through the segment, send it back.
 //!
 //! One thread, one buffer, no allocation per frame. The loop wakes at least every
-//! [`TICK`] to look at the stop flag and print the rate line, so a signal ends it promptly
-//! even on a silent wire.
+//! [`IDLE`] on a silent wire: to let the slaves' watchdogs run out on time, as an ESC's
+//! hardware does without frames (a slave in OP whose master went quiet switches its outputs
+//! off), to look at the stop flag and to print the rate line.
 
 use std::io::{self, ErrorKind, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -14,8 +15,9 @@ use sim::segment::Segment;
 
 use super::counter::FrameCounter;
 
-/// Longest wait for a frame before the loop looks at its stop flag again.
-pub const TICK: Duration = Duration::from_millis(100);
+/// Longest wait for a frame before the loop lets time pass in the segment and looks at its
+/// stop flag again: a watchdog runs out at most this late (10 % of the default 100 ms).
+pub const IDLE: Duration = Duration::from_millis(10);
 
 /// Power cycles asked for from another thread (`--control`), carried out by the frame
 /// loop between two frames (it owns the segment).
@@ -85,23 +87,25 @@ pub fn serve(
             // A closed stderr must not stop the simulator.
             let _ = counter.write_line(rate, report);
         }
-        let received = match link.recv(&mut buf, Wait::Until(now + TICK)) {
+        let elapsed = || u64::try_from(origin.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        let received = match link.recv(&mut buf, Wait::Until(now + IDLE)) {
             Ok(received) => received,
-            // The interface went down (a cut cable): the slaves keep their state and answer
-            // again once it is back up. Polled at the tick, not spun on.
+            // The interface went down (a cut cable): the slaves keep their AL state, apart
+            // from their watchdogs, and answer again once it is back up. Polled, not spun on.
             Err(err) if err.kind() == ErrorKind::NetworkDown => {
-                std::thread::sleep(TICK);
-                continue;
+                std::thread::sleep(IDLE);
+                None
             }
             Err(err) => return Err(err),
         };
         let Some(len) = received else {
+            time.set(elapsed());
+            segment.idle();
             continue;
         };
         counter.frames_in += 1;
         power.apply(segment);
-        let elapsed = u64::try_from(origin.elapsed().as_nanos()).unwrap_or(u64::MAX);
-        time.set(elapsed);
+        time.set(elapsed());
         let frame = &mut buf[..len];
         if !segment.process(frame) {
             counter.not_returned += 1;
