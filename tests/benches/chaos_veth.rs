@@ -340,7 +340,6 @@ fn eoe_client(ns: &NetNs, tally: &Tally, set_ip: &AtomicU64, stop: &AtomicBool) 
             .args(["netns", "exec", ns.name(), "timeout", "40"])
             .args(["iperf3", "-c", DEVICE_IP, "-t", "5", "-J"])
             .args(["--connect-timeout", "3000", "--snd-timeout", "10000"])
-            .args(["--rcv-timeout", "10000"])
             .output()
             .expect("iperf3 runs");
         let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
@@ -354,7 +353,11 @@ fn eoe_client(ns: &NetNs, tally: &Tally, set_ip: &AtomicU64, stop: &AtomicBool) 
             }
             (Some(124), _) => tally.lost("iperf3 did not end (killed after 40 s)"),
             (_, Some(error)) => tally.failed(&format!("iperf3: {error}")),
-            (code, None) => tally.lost(&format!("iperf3 exit {code:?} without an error")),
+            (code, None) => {
+                let said = String::from_utf8_lossy(&out.stderr);
+                let said = said.lines().next().unwrap_or("");
+                tally.lost(&format!("iperf3 exit {code:?} without a report: {said}"))
+            }
         }
         // The device may have lost its settings: set them again (not counted as a request).
         set_device_ip(&agent, set_ip);

@@ -586,3 +586,119 @@ fn hex_decode(text: &str) -> Vec<u8> {
         .map(|i| u8::from_str_radix(&text[i..i + 2], 16).unwrap())
         .collect()
 }
+
+/// curl with `extra` arguments: the status, the content type and the body as JSON.
+fn answer(ecatd: &Ecatd, method: &str, path: &str, extra: &[&str]) -> (u16, String, Value) {
+    let url = format!("{}{path}", ecatd.http);
+    let output = Command::new("curl")
+        .args(["-s", "-X", method, "-H", "X-Ecat-Client: tests"])
+        .args(extra)
+        .arg(&url)
+        .args(["-w", "\n%{content_type}\n%{http_code}"])
+        .output()
+        .expect("curl runs");
+    let text = String::from_utf8_lossy(&output.stdout).into_owned();
+    let mut lines = text.rsplitn(3, '\n');
+    let status = lines.next().unwrap_or("0").trim().parse().unwrap_or(0);
+    let content_type = lines.next().unwrap_or("").to_owned();
+    let body = lines.next().unwrap_or("");
+    let json = serde_json::from_str(body).unwrap_or(Value::String(body.to_owned()));
+    (status, content_type, json)
+}
+
+#[test]
+fn every_malformed_request_is_answered_with_problem_json_and_changes_nothing() {
+    let ecatd = Ecatd::start(&[]);
+    let json = ["-H", "Content-Type: application/json", "-d"];
+    let with = |body: &'static str| -> Vec<&'static str> {
+        let mut args = json.to_vec();
+        args.push(body);
+        args
+    };
+    let state = "/api/v1/slaves/0/state";
+    let cases: Vec<(&str, &str, Vec<&str>, u16, &str)> = vec![
+        // A number where a string is expected.
+        ("PUT", state, with(r#"{"state": 6}"#), 422, "invalid_body"),
+        // Not JSON at all.
+        ("PUT", state, with(r#"{"state": "#), 400, "invalid_json"),
+        // A field the body does not have.
+        (
+            "PUT",
+            state,
+            with(r#"{"state": "INIT", "force": true}"#),
+            422,
+            "invalid_body",
+        ),
+        // A required field missing.
+        ("PUT", state, with("{}"), 422, "invalid_body"),
+        // No content type (curl's -d says urlencoded unless told; remove the header).
+        (
+            "PUT",
+            state,
+            vec!["-H", "Content-Type:", "-d", r#"{"state":"INIT"}"#],
+            415,
+            "unsupported_media_type",
+        ),
+        // A query parameter the route does not have, on a read and on a write.
+        (
+            "GET",
+            "/api/v1/slaves?verbose=1",
+            vec![],
+            400,
+            "unknown_query_parameter",
+        ),
+        (
+            "PUT",
+            "/api/v1/slaves/0/state?force=1",
+            with(r#"{"state":"INIT"}"#),
+            400,
+            "unknown_query_parameter",
+        ),
+        // A declared query parameter of the wrong form.
+        (
+            "GET",
+            "/api/v1/slaves/0/coe/sdo/0x1018/1?complete_access=maybe",
+            vec![],
+            400,
+            "invalid_query",
+        ),
+        // A route that does not exist, inside the API and outside it.
+        ("GET", "/api/v1/nothing-here", vec![], 404, "unknown_route"),
+        ("GET", "/nothing-here", vec![], 404, "unknown_route"),
+        // A route that exists, with a method it does not take.
+        (
+            "DELETE",
+            "/api/v1/slaves",
+            vec![],
+            405,
+            "method_not_allowed",
+        ),
+    ];
+    for (method, path, extra, want_status, want_type) in &cases {
+        let (status, content_type, body) = answer(&ecatd, method, path, extra);
+        let case = format!("{method} {path} {extra:?}: {status} {content_type} {body}");
+        assert_eq!(status, *want_status, "{case}");
+        assert_eq!(content_type, "application/problem+json", "{case}");
+        assert_eq!(
+            body["type"],
+            format!("urn:ecat:error:{want_type}"),
+            "{case}"
+        );
+        assert_eq!(body["status"], *want_status, "{case}");
+        assert!(
+            body["detail"].as_str().is_some_and(|d| !d.is_empty()),
+            "{case}"
+        );
+    }
+    // Every refused state change changed nothing: the slave is still in OP.
+    let (_, slave) = get(&ecatd, "/api/v1/slaves/0");
+    assert_eq!(slave["state"], "OP", "{slave}");
+    // Declared parameters still pass.
+    let (status, _, body) = answer(
+        &ecatd,
+        "GET",
+        "/api/v1/slaves/0/coe/sdo/0x1018/1?complete_access=false",
+        &[],
+    );
+    assert_eq!(status, 200, "{body}");
+}

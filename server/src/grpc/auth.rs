@@ -5,7 +5,6 @@
 
 use tonic::{Request, Status};
 
-use super::status::status;
 use crate::roles::{self, Access};
 use crate::security::{Caller, Role, Tokens, authorize_write};
 
@@ -31,7 +30,7 @@ pub fn require_write<T: SlaveField>(request: &Request<T>, operation: &str) -> Re
         operation,
         request.get_ref().slave_field(),
     )
-    .map_err(status)
+    .map_err(Status::from)
 }
 
 /// The interceptor in front of every `ecat.v1` service: authenticates and attaches the
@@ -44,7 +43,7 @@ pub fn grpc_interceptor(
             .metadata()
             .get("authorization")
             .and_then(|v| v.to_str().ok());
-        let caller = tokens.authenticate(header).map_err(status)?;
+        let caller = tokens.authenticate(header)?;
         let path = request
             .extensions()
             .get::<GrpcPath>()
@@ -53,7 +52,7 @@ pub fn grpc_interceptor(
         if access == Access::Write && caller.role < Role::Write {
             // Refused here for every write method alike; the handlers' own check logs the
             // audit line of an allowed write with the slave it names.
-            authorize_write(Some(&caller), path, "").map_err(status)?;
+            authorize_write(Some(&caller), path, "")?;
         }
         crate::audit::note_caller(&caller.name, path);
         request.extensions_mut().insert(caller);

@@ -12,7 +12,7 @@ use tonic::{Request, Response, Status};
 
 use super::auth::require_write;
 use super::convert::{event, slave, state_name};
-use super::status::{narrow, status};
+use super::status::narrow;
 use crate::security::Caller;
 use crate::service::{Core, EventView};
 
@@ -40,10 +40,7 @@ impl BusService for Bus {
     }
 
     async fn get_slave(&self, request: Request<pb::GetSlaveRequest>) -> Reply<pb::Slave> {
-        let view = self
-            .core
-            .get_slave(&request.get_ref().slave)
-            .map_err(status)?;
+        let view = self.core.get_slave(&request.get_ref().slave)?;
         Ok(Response::new(slave(&view)))
     }
 
@@ -54,11 +51,7 @@ impl BusService for Bus {
         require_write(&request, "request_state")?;
         let r = request.get_ref();
         let state = state_name(r.state)?;
-        let view = self
-            .core
-            .request_state(&r.slave, state)
-            .await
-            .map_err(status)?;
+        let view = self.core.request_state(&r.slave, state).await?;
         Ok(Response::new(pb::RequestStateResponse {
             slave: Some(slave(&view)),
         }))
@@ -66,7 +59,7 @@ impl BusService for Bus {
 
     async fn rescan(&self, request: Request<pb::RescanRequest>) -> Reply<pb::RescanResponse> {
         require_write(&request, "rescan")?;
-        let (slaves, failures) = self.core.rescan().await.map_err(status)?;
+        let (slaves, failures) = self.core.rescan().await?;
         Ok(Response::new(pb::RescanResponse {
             slaves: slaves.iter().map(slave).collect(),
             failures,
@@ -103,8 +96,7 @@ impl BusService for Bus {
                 narrow(r.address, "address")?,
                 narrow(r.length, "length")?,
             )
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::ReadRegisterResponse { data }))
     }
 
@@ -117,17 +109,12 @@ impl BusService for Bus {
         crate::audit::note_value(&r.data);
         self.core
             .write_register(&r.slave, narrow(r.address, "address")?, &r.data)
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::WriteRegisterResponse {}))
     }
 
     async fn read_sii(&self, request: Request<pb::ReadSiiRequest>) -> Reply<pb::ReadSiiResponse> {
-        let data = self
-            .core
-            .read_sii(&request.get_ref().slave)
-            .await
-            .map_err(status)?;
+        let data = self.core.read_sii(&request.get_ref().slave).await?;
         Ok(Response::new(pb::ReadSiiResponse { data }))
     }
 
@@ -140,8 +127,7 @@ impl BusService for Bus {
         crate::audit::note_value(&r.data);
         self.core
             .write_sii(&r.slave, narrow(r.word, "word")?, &r.data, r.force)
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::WriteSiiResponse {}))
     }
 
@@ -154,8 +140,7 @@ impl BusService for Bus {
         let alias = self
             .core
             .set_alias(&r.slave, narrow(r.alias, "alias")?)
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::SetAliasResponse {
             alias: u32::from(alias),
         }))
@@ -189,8 +174,7 @@ impl BusService for Bus {
         let data = self
             .core
             .read_write_register(&r.slave, narrow(r.address, "address")?, &r.data)
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::ReadWriteRegisterResponse { data }))
     }
 
@@ -198,13 +182,7 @@ impl BusService for Bus {
         &self,
         _: Request<pb::ListDomainsRequest>,
     ) -> Reply<pb::ListDomainsResponse> {
-        let domains = self
-            .core
-            .domains()
-            .map_err(status)?
-            .into_iter()
-            .map(domain)
-            .collect();
+        let domains = self.core.domains()?.into_iter().map(domain).collect();
         Ok(Response::new(pb::ListDomainsResponse { domains }))
     }
 
@@ -212,7 +190,7 @@ impl BusService for Bus {
         &self,
         _: Request<pb::GetLogFilterRequest>,
     ) -> Reply<pb::GetLogFilterResponse> {
-        let filter = self.core.log_filter().map_err(status)?;
+        let filter = self.core.log_filter()?;
         Ok(Response::new(pb::GetLogFilterResponse { filter }))
     }
 
@@ -222,10 +200,7 @@ impl BusService for Bus {
     ) -> Reply<pb::SetLogFilterResponse> {
         require_write(&request, "set_log_filter")?;
         crate::audit::note_value(request.get_ref().filter.as_bytes());
-        let filter = self
-            .core
-            .set_log_filter(&request.get_ref().filter)
-            .map_err(status)?;
+        let filter = self.core.set_log_filter(&request.get_ref().filter)?;
         Ok(Response::new(pb::SetLogFilterResponse { filter }))
     }
 
@@ -243,8 +218,7 @@ impl BusService for Bus {
                     std::time::Duration::from_millis(u64::from(r.duration_ms)),
                 )
                 .await
-        }
-        .map_err(status)?;
+        }?;
         let pieces: Vec<Vec<u8>> = done
             .pcapng
             .chunks(CAPTURE_CHUNK)

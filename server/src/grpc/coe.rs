@@ -5,7 +5,7 @@ use proto::v1::coe_service_server::CoeService;
 use tonic::{Request, Response, Status};
 
 use super::auth::require_write;
-use super::status::{narrow, status};
+use super::status::narrow;
 use crate::service::Core;
 
 /// The CoE service over the core.
@@ -26,12 +26,11 @@ impl CoeService for Coe {
                 .core
                 .coe_upload(&r.slave, index, subindex, r.complete_access)
                 .await;
-            (data.map_err(status)?, String::new())
+            (data?, String::new())
         } else {
             self.core
                 .coe_upload_value(&r.slave, index, subindex, r.complete_access, &r.value_type)
-                .await
-                .map_err(status)?
+                .await?
         };
         Ok(Response::new(pb::UploadResponse { data, value }))
     }
@@ -54,7 +53,7 @@ impl CoeService for Coe {
                 .coe_download_value(&r.slave, index, subindex, &r.value, &r.value_type)
                 .await
         };
-        done.map_err(status)?;
+        done?;
         Ok(Response::new(pb::DownloadResponse {}))
     }
 
@@ -68,11 +67,7 @@ impl CoeService for Coe {
         } else {
             narrow(r.list, "list")?
         };
-        let indices = self
-            .core
-            .coe_object_list(&r.slave, list)
-            .await
-            .map_err(status)?;
+        let indices = self.core.coe_object_list(&r.slave, list).await?;
         Ok(Response::new(pb::ObjectListResponse {
             indices: indices.into_iter().map(u32::from).collect(),
         }))
@@ -86,8 +81,7 @@ impl CoeService for Coe {
         let o = self
             .core
             .coe_object(&r.slave, narrow(r.index, "index")?)
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::ObjectDescriptionResponse {
             index: u32::from(o.index),
             data_type: u32::from(o.data_type),
@@ -110,8 +104,7 @@ impl CoeService for Coe {
                 narrow(r.index, "index")?,
                 narrow(r.subindex, "subindex")?,
             )
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::EntryDescriptionResponse {
             index: u32::from(e.index),
             subindex: u32::from(e.subindex),

@@ -3,7 +3,6 @@
 use proto::v1 as pb;
 use tonic::Status;
 
-use super::status::status;
 use crate::service::{ApiError, EventView, IdentityView, SlaveView};
 
 /// The protobuf enum for a state name.
@@ -26,7 +25,9 @@ pub fn state_name(value: i32) -> Result<&'static str, Status> {
         Ok(pb::AlState::Boot) => Ok("BOOT"),
         Ok(pb::AlState::Safeop) => Ok("SAFEOP"),
         Ok(pb::AlState::Op) => Ok("OP"),
-        _ => Err(status(ApiError::invalid(format!("no AL state {value}")))),
+        _ => Err(Status::from(ApiError::invalid(format!(
+            "no AL state {value}"
+        )))),
     }
 }
 

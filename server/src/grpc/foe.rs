@@ -14,7 +14,6 @@ use tokio_stream::wrappers::ReceiverStream;
 use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 
-use super::status::status;
 use crate::security::{Caller, authorize_write};
 use crate::service::transfer::PROGRESS_PERIOD;
 use crate::service::{ApiError, Core};
@@ -77,7 +76,7 @@ impl FoeService for Foe {
                     }
                 }
                 Err(err) => {
-                    let _ = tx.send(Err(status(err))).await;
+                    let _ = tx.send(Err(Status::from(err))).await;
                 }
             }
         }));
@@ -93,8 +92,7 @@ impl FoeService for Foe {
             receive_file(caller.as_ref(), request.into_inner()).await?;
         self.core
             .foe_write(&slave, &name, password, &data, None)
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::FoeWriteResponse {
             written: data.len() as u64,
         }))
@@ -155,7 +153,7 @@ impl FoeService for Foe {
                     total: data.len() as u64,
                     done: true,
                 }),
-                Err(err) => Err(status(err)),
+                Err(err) => Err(Status::from(err)),
             };
             let _ = tx.send(last).await;
         }));
@@ -179,12 +177,11 @@ async fn receive_file(
                 caller,
                 "foe_write",
                 &format!("{} {}", chunk.slave, chunk.name),
-            )
-            .map_err(status)?;
+            )?;
             target = Some((chunk.slave, chunk.name, chunk.password));
         }
         if data.len() + chunk.data.len() > MAX_FOE_WRITE {
-            return Err(status(ApiError::too_large(format!(
+            return Err(Status::from(ApiError::too_large(format!(
                 "FoE write above {MAX_FOE_WRITE} bytes"
             ))));
         }
@@ -192,10 +189,10 @@ async fn receive_file(
     }
     if target.is_none() {
         // Nothing to write, but the caller still needs the right to try.
-        authorize_write(caller, "foe_write", "").map_err(status)?;
+        authorize_write(caller, "foe_write", "")?;
     }
     let (slave, name, password) =
-        target.ok_or_else(|| status(ApiError::invalid("empty FoE write stream")))?;
+        target.ok_or_else(|| Status::from(ApiError::invalid("empty FoE write stream")))?;
     crate::audit::note_value(&data);
     Ok((slave, name, password, data))
 }

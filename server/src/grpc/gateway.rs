@@ -4,7 +4,6 @@ use proto::v1 as pb;
 use proto::v1::gateway_service_server::GatewayService;
 use tonic::{Request, Response, Status};
 
-use super::status::status;
 use crate::security::{Caller, authorize_write};
 use crate::service::Core;
 use crate::service::gateway::{
@@ -115,7 +114,8 @@ fn stats(s: &GatewayStatsView) -> pb::GatewayStats {
 }
 
 fn require_write<T>(request: &Request<T>, operation: &str) -> Result<(), Status> {
-    authorize_write(request.extensions().get::<Caller>(), operation, "gateway").map_err(status)
+    authorize_write(request.extensions().get::<Caller>(), operation, "gateway")
+        .map_err(Status::from)
 }
 
 #[tonic::async_trait]
@@ -129,7 +129,7 @@ impl GatewayService for Gateway {
         request: Request<pb::StartGatewayRequest>,
     ) -> Reply<pb::GatewayStatus> {
         require_write(&request, "start_gateway")?;
-        let view = self.core.start_gateway().await.map_err(status)?;
+        let view = self.core.start_gateway().await?;
         Ok(Response::new(gateway_status(&view)))
     }
 
@@ -138,7 +138,7 @@ impl GatewayService for Gateway {
         request: Request<pb::StopGatewayRequest>,
     ) -> Reply<pb::GatewayStatus> {
         require_write(&request, "stop_gateway")?;
-        let view = self.core.stop_gateway().await.map_err(status)?;
+        let view = self.core.stop_gateway().await?;
         Ok(Response::new(gateway_status(&view)))
     }
 }

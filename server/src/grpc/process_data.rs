@@ -12,7 +12,7 @@ use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status};
 
 use super::auth::{SlaveField, require_write};
-use super::status::{narrow, status};
+use super::status::narrow;
 use crate::security::Caller;
 use crate::service::pd_stream::PdChanges;
 use crate::service::pdos::SlavePdosView;
@@ -156,7 +156,7 @@ fn input(value: Option<pb::force_request::Value>) -> Result<PdInput, Status> {
         Some(Value::IntValue(v)) => Ok(PdInput::Int(v)),
         Some(Value::RealValue(v)) => Ok(PdInput::Real(v)),
         Some(Value::BoolValue(b)) => Ok(PdInput::Int(i64::from(b))),
-        None => Err(status(ApiError::invalid_field(
+        None => Err(Status::from(ApiError::invalid_field(
             "value",
             "a value is needed: int_value, real_value or bool_value",
         ))),
@@ -182,8 +182,8 @@ impl ProcessDataService for ProcessData {
         request: Request<pb::GetLayoutRequest>,
     ) -> Reply<pb::GetLayoutResponse> {
         let slave = slave_of(&request.get_ref().slave);
-        let layout = self.core.process_data_layout(slave).map_err(status)?;
-        let slaves = self.core.pdo_layout(slave).map_err(status)?;
+        let layout = self.core.process_data_layout(slave)?;
+        let slaves = self.core.pdo_layout(slave)?;
         Ok(Response::new(pb::GetLayoutResponse {
             generation: layout.generation,
             image_len: layout.image_len as u64,
@@ -197,10 +197,7 @@ impl ProcessDataService for ProcessData {
         &self,
         request: Request<pb::ProcessDataReadRequest>,
     ) -> Reply<pb::ProcessDataReadResponse> {
-        let view = self
-            .core
-            .process_data(slave_of(&request.get_ref().slave))
-            .map_err(status)?;
+        let view = self.core.process_data(slave_of(&request.get_ref().slave))?;
         Ok(Response::new(read_response(&view)))
     }
 
@@ -214,10 +211,10 @@ impl ProcessDataService for ProcessData {
         let r = request.into_inner();
         let requested =
             (r.interval_ms != 0).then(|| Duration::from_millis(u64::from(r.interval_ms)));
-        let interval = self.core.pd_stream_interval(requested).map_err(status)?;
+        let interval = self.core.pd_stream_interval(requested)?;
         let slave = slave_of(&r.slave).map(str::to_owned);
         // The slave must exist now; the stream then follows it.
-        self.core.process_data(slave.as_deref()).map_err(status)?;
+        self.core.process_data(slave.as_deref())?;
         let ticks = tokio_stream::wrappers::IntervalStream::new({
             let mut ticks = tokio::time::interval(interval);
             // A client that reads slowly gets the newest values, not a backlog of ticks.
@@ -244,10 +241,9 @@ impl ProcessDataService for ProcessData {
         let index = narrow(r.index, "index")?;
         let subindex = narrow(r.subindex, "subindex")?;
         let value = input(r.value)?;
-        let view = self
-            .core
-            .force_output(&caller, &r.slave, index, subindex, value, r.r#override)
-            .map_err(status)?;
+        let view =
+            self.core
+                .force_output(&caller, &r.slave, index, subindex, value, r.r#override)?;
         Ok(Response::new(pb::ForceResponse {
             force: Some(force(&view)),
         }))
@@ -260,14 +256,12 @@ impl ProcessDataService for ProcessData {
         require_write(&request, "release_output")?;
         let caller = caller_name(&request);
         let r = request.get_ref();
-        self.core
-            .release_output(
-                &caller,
-                &r.slave,
-                narrow(r.index, "index")?,
-                narrow(r.subindex, "subindex")?,
-            )
-            .map_err(status)?;
+        self.core.release_output(
+            &caller,
+            &r.slave,
+            narrow(r.index, "index")?,
+            narrow(r.subindex, "subindex")?,
+        )?;
         Ok(Response::new(pb::ReleaseForceResponse {}))
     }
 

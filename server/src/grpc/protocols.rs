@@ -7,7 +7,7 @@ use proto::v1::voe_service_server::VoeService;
 use tonic::{Request, Response, Status};
 
 use super::auth::require_write;
-use super::status::{narrow, status};
+use super::status::narrow;
 use crate::service::{Core, IpView};
 
 /// The SoE, VoE and EoE services over the core.
@@ -30,8 +30,7 @@ impl SoeService for Protocols {
                 narrow(r.idn, "idn")?,
                 narrow(r.elements, "elements")?,
             )
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::SoeReadResponse { data }))
     }
 
@@ -47,8 +46,7 @@ impl SoeService for Protocols {
                 narrow(r.elements, "elements")?,
                 &r.data,
             )
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::SoeWriteResponse {}))
     }
 }
@@ -67,8 +65,7 @@ impl VoeService for Protocols {
                 narrow(r.vendor_type, "vendor_type")?,
                 &r.data,
             )
-            .await
-            .map_err(status)?;
+            .await?;
         Ok(Response::new(pb::VoeResponse {
             vendor_id: answer.vendor_id,
             vendor_type: u32::from(answer.vendor_type),
@@ -95,10 +92,7 @@ impl EoeService for Protocols {
             dns_server: some(&s.dns_server),
             dns_name: some(&s.dns_name),
         };
-        self.core
-            .eoe_set_ip(&r.slave, &view)
-            .await
-            .map_err(status)?;
+        self.core.eoe_set_ip(&r.slave, &view).await?;
         Ok(Response::new(pb::SetIpResponse {}))
     }
 
@@ -130,11 +124,7 @@ impl EoeService for Protocols {
     }
 
     async fn get_ip(&self, request: Request<pb::GetIpRequest>) -> Reply<pb::IpSettings> {
-        let v = self
-            .core
-            .eoe_get_ip(&request.get_ref().slave)
-            .await
-            .map_err(status)?;
+        let v = self.core.eoe_get_ip(&request.get_ref().slave).await?;
         Ok(Response::new(pb::IpSettings {
             mac: v.mac.unwrap_or_default(),
             ip: v.ip.unwrap_or_default(),

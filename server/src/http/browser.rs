@@ -15,7 +15,10 @@ use std::sync::Arc;
 use axum::extract::{Request, State};
 use axum::http::{Method, StatusCode, header};
 use axum::middleware::Next;
-use axum::response::{IntoResponse, Response};
+use axum::response::Response;
+
+use super::error::problem;
+use crate::service::ApiError;
 
 /// The custom header a non-browser client may send instead of a JSON content type.
 pub const CLIENT_HEADER: &str = "x-ecat-client";
@@ -61,16 +64,13 @@ fn host_name(host: &str) -> &str {
     }
 }
 
-fn refuse(status: StatusCode, message: String) -> Response {
-    (
-        status,
-        axum::Json(serde_json::json!({ "error": "forbidden", "message": message })),
-    )
-        .into_response()
+/// Refuses with `status` and problem+json of type `tag`.
+fn refuse(status: StatusCode, tag: &'static str, message: String) -> Response {
+    problem(ApiError::cross_site(tag, message), status)
 }
 
-/// The middleware: refuses with 421 (foreign Host) or 403 (cross-origin, or a body a web
-/// form could send) and a JSON body saying why.
+/// The middleware: refuses with 421 (foreign Host, `foreign_host`) or 403 (cross-origin, or
+/// a body a web form could send: `cross_site`) and problem+json saying why.
 pub async fn guard(State(hosts): State<AllowedHosts>, request: Request, next: Next) -> Response {
     let headers = request.headers();
     let host = headers
@@ -81,6 +81,7 @@ pub async fn guard(State(hosts): State<AllowedHosts>, request: Request, next: Ne
     if !hosts.allows(host) {
         return refuse(
             StatusCode::MISDIRECTED_REQUEST,
+            "foreign_host",
             format!("Host {host:?} is not a name of this server; add it with --allowed-host"),
         );
     }
@@ -90,6 +91,7 @@ pub async fn guard(State(hosts): State<AllowedHosts>, request: Request, next: Ne
         if !host_name(origin_host).eq_ignore_ascii_case(host_name(host)) {
             return refuse(
                 StatusCode::FORBIDDEN,
+                "cross_site",
                 format!("cross-origin request from {origin:?} refused"),
             );
         }
@@ -110,6 +112,7 @@ pub async fn guard(State(hosts): State<AllowedHosts>, request: Request, next: Ne
         if !typed && !marked {
             return refuse(
                 StatusCode::FORBIDDEN,
+                "cross_site",
                 format!(
                     "{} needs Content-Type: application/json or an X-Ecat-Client header \
                      (browser cross-site request protection)",

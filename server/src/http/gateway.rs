@@ -1,9 +1,9 @@
 //! REST handlers of the mailbox gateway: `GET /api/v1/gateway`, `POST /api/v1/gateway/start`,
 //! `POST /api/v1/gateway/stop` (writes: write role, audit line, as every POST).
 
-use axum::Json;
 use axum::extract::State;
 
+use crate::http::extract::Json;
 use crate::service::{ApiError, Core, GatewayView};
 
 #[utoipa::path(get, path = "/gateway", tag = "gateway",

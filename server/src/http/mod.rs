@@ -2,7 +2,9 @@
 //! `/healthz`, `/readyz`.
 //!
 //! Files: `rest` (handlers, one file per resource), `gateway` (the gateway's handlers),
-//! `openapi` (the document's frame), `error` (errors as JSON), `auth` (tokens), `health`,
+//! `openapi` (the document's frame), `error` (errors as JSON), `extract` (the handlers'
+//! extractors, refusing as JSON), `unknown` (unknown routes, methods and query parameters),
+//! `deadline` (the request time limit), `auth` (tokens), `health`,
 //! `sim` (the simulator's debug route, `--simulate` only), `web` (the dashboard at `/`),
 //! `body_limit` (the request body limit), `connections` (`[limits]`: connection caps and
 //! deadlines, shared with gRPC) and `serve` (the accept loop).
@@ -11,13 +13,16 @@ pub mod audit;
 pub mod auth;
 pub mod body_limit;
 pub mod browser;
+pub mod deadline;
 pub mod error;
+pub mod extract;
 pub mod gateway;
 pub mod health;
 pub mod openapi;
 pub mod rest;
 mod serve;
 pub mod sim;
+pub mod unknown;
 pub mod web;
 
 use std::future::Future;
@@ -28,7 +33,6 @@ use axum::Router;
 use axum::extract::DefaultBodyLimit;
 use axum::http::{StatusCode, header};
 use axum::routing::get;
-use tower_http::timeout::TimeoutLayer;
 use utoipa::OpenApi;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
@@ -65,9 +69,9 @@ pub fn router(
         .routes(routes!(gateway::stop_gateway))
         // Not documented: it does not exist on a real segment.
         .merge(OpenApiRouter::from(sim::routes(core.clone(), sim)))
-        .layer(TimeoutLayer::with_status_code(
-            StatusCode::GATEWAY_TIMEOUT,
+        .layer(axum::middleware::from_fn_with_state(
             TIMEOUT,
+            deadline::limit,
         ))
         .merge(rest::transfer_routes())
         .merge(rest::stream_routes())
@@ -81,8 +85,13 @@ pub fn router(
     let (router, document) = OpenApiRouter::with_openapi(openapi::ApiDoc::openapi())
         .nest("/api/v1", api)
         .split_for_parts();
+    let names = Arc::new(unknown::QueryNames::from_document(&document, ""));
     let document = openapi::json(&document);
     router
+        .layer(axum::middleware::from_fn_with_state(
+            names,
+            unknown::known_query,
+        ))
         .route(
             "/api/v1/openapi.json",
             get(|| async { ([(header::CONTENT_TYPE, "application/json")], document) }),
@@ -104,6 +113,8 @@ pub fn router(
         )
         .merge(health::routes(core))
         .merge(web::routes())
+        .fallback(unknown::route)
+        .method_not_allowed_fallback(unknown::method)
         // Outside every other layer, the audit's included: see `body_limit`.
         .layer(axum::middleware::from_fn_with_state(
             MAX_BODY,

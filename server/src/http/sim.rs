@@ -5,12 +5,13 @@
 //! physical outputs (`{"outputs": "hex"}`), what a probe on its terminals would show. Not part of the
 //! OpenAPI document: it does not exist on a real segment.
 
-use axum::extract::{Path, State};
+use axum::Router;
+use axum::extract::State;
 use axum::routing::{get, post};
-use axum::{Json, Router};
 use serde::Deserialize;
 
 use super::rest::Done;
+use crate::http::extract::{Json, Path};
 use crate::service::{ApiError, Core};
 use crate::sim_hooks::SimHooks;
 

@@ -16,6 +16,8 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use sha2::{Digest, Sha256};
 
+use crate::service::ApiError;
+
 /// The policy: own origin only, no inline script or style element, no framing.
 pub const CSP: &str = "default-src 'none'; script-src 'self'; style-src 'self'; \
     img-src 'self' data:; connect-src 'self'; font-src 'self'; manifest-src 'self'; \
@@ -92,7 +94,8 @@ pub fn routes() -> Router {
 
 fn serve(path: &str, request: &HeaderMap) -> Response {
     let Some(i) = ASSETS.iter().position(|a| a.path == path) else {
-        return (StatusCode::NOT_FOUND, "no such file in the dashboard").into_response();
+        let message = format!("no file {path:?} in the dashboard");
+        return ApiError::unknown_route("unknown_route", message).into_response();
     };
     let (asset, etag) = (&ASSETS[i], &etags()[i]);
     let fresh = request

@@ -140,6 +140,23 @@ impl ApiError {
         ApiError::new(ErrorKind::NotFound, "unknown_slave", message)
     }
 
+    /// A request refused before it reached the core, for its form (a body, path or query
+    /// that does not parse, a route or parameter the API does not have, a cross-site or
+    /// foreign-Host request): `tag` says which (docs/call-it.md, "Errors").
+    pub fn invalid_request(tag: &'static str, message: impl Into<String>) -> ApiError {
+        ApiError::new(ErrorKind::InvalidArgument, tag, message)
+    }
+
+    /// A route (or a method on it) the API does not have.
+    pub fn unknown_route(tag: &'static str, message: impl Into<String>) -> ApiError {
+        ApiError::new(ErrorKind::NotFound, tag, message)
+    }
+
+    /// A request a browser page could have sent behind the operator's back.
+    pub fn cross_site(tag: &'static str, message: impl Into<String>) -> ApiError {
+        ApiError::new(ErrorKind::PermissionDenied, tag, message)
+    }
+
     /// A malformed request.
     pub fn invalid(message: impl Into<String>) -> ApiError {
         ApiError::new(ErrorKind::InvalidArgument, "invalid_argument", message)
@@ -163,6 +180,11 @@ impl ApiError {
     /// A fault of ecatd itself (a task that died), not of the request.
     pub fn internal(message: impl Into<String>) -> ApiError {
         ApiError::new(ErrorKind::Internal, "internal", message)
+    }
+
+    /// A request that ran past its time limit in ecatd.
+    pub fn timeout(message: impl Into<String>) -> ApiError {
+        ApiError::new(ErrorKind::DeadlineExceeded, "timeout", message)
     }
 
     /// A request too large.

@@ -321,6 +321,7 @@ impl From<&MasterEvent> for EventView {
 
 /// IP parameters of a slave's EoE port; absent fields are left as they are.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct IpView {
     /// MAC address, `aa:bb:cc:dd:ee:ff`.
     pub mac: Option<String>,

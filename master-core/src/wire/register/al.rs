@@ -32,7 +32,9 @@ enum_with_unknown! {
     /// EtherCAT state machine state (spec-notes §al), the low nibble of AL control/status.
     ///
     /// A BRD of 0x0130 returns the OR of several slaves' states, which is why values like
-    /// 0x3 (INIT | PREOP) or 0x6 appear as `Unknown`.
+    /// 0x6 (PREOP | SAFEOP) or 0xC appear as `Unknown`, and why INIT | PREOP (0x3) reads as
+    /// BOOT: the OR is a hint that not every slave is in one state, never a state itself;
+    /// only a slave's own AL status says which state it is in.
     pub enum AlState(u8) {
         /// INIT.
         Init = 0x1,

@@ -1,13 +1,14 @@
 //! The bus's counters and timing, and who the caller is (the dashboard hides write controls
 //! from a read token).
 
+use axum::Extension;
 use axum::extract::State;
-use axum::{Extension, Json};
 use serde::Serialize;
 use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+use crate::http::extract::Json;
 use crate::security::{Caller, Role};
 use crate::service::{BusView, Core};
 

@@ -1,7 +1,7 @@
 //! `GET /api/v1/capture?frames=N&seconds=S`: the live bus as a pcapng file;
 //! `?rolling=true`: the rolling capture's window instead.
 
-use axum::extract::{Query, State};
+use axum::extract::State;
 use axum::http::header::{CONTENT_TYPE, HeaderName};
 use axum::response::IntoResponse;
 use serde::Deserialize;
@@ -10,6 +10,7 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{Result, num};
+use crate::http::extract::Query;
 use crate::service::Core;
 
 /// The routes.

@@ -1,13 +1,13 @@
 //! CoE: SDO upload and download (bytes or typed values) and SDO Information.
 
-use axum::Json;
-use axum::extract::{Path, Query, State};
+use axum::extract::State;
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Done, Result, num, unhex};
+use crate::http::extract::{Json, Path, Query};
 use crate::service::{Core, EntryView, ObjectView};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
@@ -21,6 +21,7 @@ pub(super) fn routes() -> OpenApiRouter<Core> {
 
 /// What to write: bytes as hex, or a value as text with its type.
 #[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct SdoWrite {
     /// The bytes, hex (when no `type` is given).
     #[serde(default)]

@@ -1,12 +1,12 @@
 //! `GET /config`: the effective configuration (IgH's `ethercat config`).
 
-use axum::Json;
 use axum::extract::State;
 use serde::Serialize;
 use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+use crate::http::extract::Json;
 use crate::service::Core;
 
 pub(super) fn routes() -> OpenApiRouter<Core> {

@@ -1,7 +1,6 @@
 //! `GET /api/v1/domains`: the process image by domain (slave group), as `ecat domains` and
 //! `ecat data` show it.
 
-use axum::Json;
 use axum::extract::State;
 use serde::Serialize;
 use utoipa::ToSchema;
@@ -9,6 +8,7 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::Result;
+use crate::http::extract::Json;
 use crate::service::Core;
 use crate::service::domains::DomainView;
 

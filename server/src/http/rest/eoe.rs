@@ -1,12 +1,12 @@
 //! EoE: the IP parameters of a slave's EoE port, and the interfaces ecatd made.
 
-use axum::Json;
-use axum::extract::{Path, State};
+use axum::extract::State;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Done, Result};
 use crate::eoe::InterfaceView;
+use crate::http::extract::{Json, Path};
 use crate::service::{Core, IpView};
 
 /// The routes, each declared once (method and path come from the handler's annotation).

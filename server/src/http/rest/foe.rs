@@ -2,15 +2,15 @@
 //! the transfer's own deadlines follow its progress (`service::transfer`), and a client
 //! that disconnects drops the call, which ends the transfer towards the slave.
 
-use axum::Json;
 use axum::body::Bytes;
-use axum::extract::{Path, Query, State};
+use axum::extract::State;
 use serde::Deserialize;
 use utoipa::IntoParams;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Done, Result};
+use crate::http::extract::{Json, Path, Query};
 use crate::service::Core;
 
 /// The routes, each declared once (method and path come from the handler's annotation).

@@ -1,6 +1,5 @@
 //! `GET`/`PUT /api/v1/log-filter`: ecatd's runtime log filter (`ecat debug`).
 
-use axum::Json;
 use axum::extract::State;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
@@ -8,6 +7,7 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::Result;
+use crate::http::extract::Json;
 use crate::service::Core;
 
 /// The routes.
@@ -17,6 +17,7 @@ pub(super) fn routes() -> OpenApiRouter<Core> {
 
 /// A log filter in tracing's `EnvFilter` syntax.
 #[derive(Debug, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct LogFilter {
     /// `"info"`, `"debug"`, `"info,master_core::bus=trace"`.
     pub filter: String,

@@ -24,11 +24,11 @@ pub mod slaves;
 pub mod soe;
 pub mod voe;
 
-use axum::Json;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
 
+use crate::http::extract::Json;
 use crate::service::value::parse_number;
 use crate::service::{ApiError, Core};
 
@@ -44,6 +44,7 @@ fn unhex(text: &str) -> Result<Vec<u8>> {
 
 /// Bytes as hex.
 #[derive(Debug, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct Data {
     /// The bytes, hex (`"0100e0"`).
     pub data: String,

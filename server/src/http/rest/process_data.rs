@@ -4,9 +4,9 @@
 //! `override`), and a server-sent stream of changed values. Values come from the cycle's
 //! snapshot: reading them sends no frame.
 
-use axum::extract::{Path, Query, State};
+use axum::Extension;
+use axum::extract::State;
 use axum::response::sse::{Event, KeepAlive, Sse};
-use axum::{Extension, Json};
 use futures_util::Stream;
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
@@ -14,6 +14,7 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Done, Result, num};
+use crate::http::extract::{Json, Path, Query};
 use crate::security::Caller;
 use crate::service::pd_stream::PdChanges;
 use crate::service::process_data::{

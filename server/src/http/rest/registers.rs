@@ -1,13 +1,14 @@
 //! ESC register access.
 
-use axum::extract::{Path, Query, State};
-use axum::{Extension, Json};
+use axum::Extension;
+use axum::extract::State;
 use serde::Deserialize;
 use utoipa::IntoParams;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Data, Done, Result, data, num, unhex};
+use crate::http::extract::{Json, Path, Query};
 use crate::security::Caller;
 use crate::service::Core;
 

@@ -1,13 +1,13 @@
 //! The SII (EEPROM) image and the station alias.
 
-use axum::Json;
-use axum::extract::{Path, Query, State};
+use axum::extract::State;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Data, Done, Result, data, num, unhex};
+use crate::http::extract::{Json, Path, Query};
 use crate::service::Core;
 
 /// The routes, each declared once (method and path come from the handler's annotation).
@@ -20,6 +20,7 @@ pub(super) fn routes() -> OpenApiRouter<Core> {
 
 /// A station alias.
 #[derive(Debug, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct AliasBody {
     /// The alias (the answer: the alias register read back).
     pub alias: u16,

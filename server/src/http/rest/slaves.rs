@@ -1,7 +1,6 @@
 //! The slaves and the segment: list, one slave, AL state, rescan, and the event stream.
 
-use axum::Json;
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::response::sse::{Event, KeepAlive, Sse};
 use futures_util::Stream;
 use serde::{Deserialize, Serialize};
@@ -13,6 +12,7 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::Result;
+use crate::http::extract::{Json, Path};
 use crate::service::{Core, EventView, MasterView, SlaveView};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
@@ -39,6 +39,7 @@ pub(super) fn stream_routes() -> OpenApiRouter<Core> {
 
 /// A requested AL state.
 #[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct StateBody {
     /// `INIT`, `PREOP`, `BOOT`, `SAFEOP` or `OP`.
     pub state: String,

@@ -1,13 +1,13 @@
 //! SoE: reading and writing IDNs.
 
-use axum::Json;
-use axum::extract::{Path, Query, State};
+use axum::extract::State;
 use serde::Deserialize;
 use utoipa::IntoParams;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Data, Done, Result, data, num, unhex};
+use crate::http::extract::{Json, Path, Query};
 use crate::service::Core;
 
 /// The routes, each declared once (method and path come from the handler's annotation).

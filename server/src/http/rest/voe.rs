@@ -1,13 +1,13 @@
 //! VoE: one vendor message and its answer.
 
-use axum::Json;
-use axum::extract::{Path, State};
+use axum::extract::State;
 use serde::Deserialize;
 use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{Result, unhex};
+use crate::http::extract::{Json, Path};
 use crate::service::{Core, VoeView};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
@@ -17,6 +17,7 @@ pub(super) fn routes() -> OpenApiRouter<Core> {
 
 /// A VoE message to send.
 #[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct VoeBody {
     /// Vendor id.
     pub vendor_id: u32,
