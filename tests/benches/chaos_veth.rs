@@ -445,6 +445,13 @@ impl IperfServer {
             .expect("iperf3 -s starts");
         IperfServer(child)
     }
+
+    /// Ends this server (its port free again), then starts a fresh one.
+    fn restart(&mut self, ns: &NetNs) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+        *self = IperfServer::start(ns);
+    }
 }
 
 impl Drop for IperfServer {
@@ -632,7 +639,7 @@ fn main() {
         SIM_IFACE,
         &sim_args(),
     ));
-    let _iperf = IperfServer::start(&sim_ns);
+    let mut iperf = IperfServer::start(&sim_ns);
     let socket = std::env::temp_dir().join(format!("ecatd-chaos-{}.sock", std::process::id()));
     let config_path = std::env::temp_dir().join(format!("ecatd-chaos-{}.toml", std::process::id()));
     std::fs::write(&config_path, config(&socket)).expect("config written");
@@ -766,6 +773,10 @@ fn main() {
                     ))
             );
             faults.push(fault);
+            // iperf3's server serves one test at a time and keeps a test whose client lost
+            // its connection until its idle timeout ("the server is busy"): a fresh one after
+            // each fault lets the next run measure the EoE path rather than that timeout.
+            iperf.restart(&sim_ns);
             rss_first.get_or_insert_with(|| rss_kib(pid));
         }
         std::thread::sleep(length.saturating_sub(start.elapsed()));
