@@ -12,13 +12,69 @@ use crate::service::ApiError;
 
 /// The middleware: runs the request for at most `limit`.
 pub async fn limit(State(limit): State<Duration>, request: Request, next: Next) -> Response {
-    let what = format!("{} {}", request.method(), request.uri().path());
+    // Kept for the message only (cheap clones: the URI shares its bytes).
+    let (method, uri) = (request.method().clone(), request.uri().clone());
     match tokio::time::timeout(limit, next.run(request)).await {
         Ok(response) => response,
         Err(_) => ApiError::timeout(format!(
-            "{what} took longer than ecatd's {} s limit",
+            "{method} {} took longer than ecatd's {} s limit",
+            uri.path(),
             limit.as_secs()
         ))
         .into_response(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::http::error::PROBLEM_JSON;
+    use axum::Router;
+    use axum::body::Body;
+    use axum::http::StatusCode;
+    use axum::http::header::CONTENT_TYPE;
+    use axum::routing::get;
+    use tower::ServiceExt;
+
+    fn app(time: Duration) -> Router {
+        Router::new()
+            .route("/never", get(std::future::pending::<&'static str>))
+            .route("/at-once", get(|| async { "done" }))
+            .layer(axum::middleware::from_fn_with_state(time, limit))
+    }
+
+    async fn get_path(path: &str, time: Duration) -> (StatusCode, Option<String>, String) {
+        let request = axum::http::Request::get(path).body(Body::empty()).unwrap();
+        let response = app(time).oneshot(request).await.unwrap();
+        let status = response.status();
+        let kind = response
+            .headers()
+            .get(CONTENT_TYPE)
+            .map(|v| v.to_str().unwrap().to_owned());
+        let body = axum::body::to_bytes(response.into_body(), 1 << 16)
+            .await
+            .unwrap();
+        (status, kind, String::from_utf8_lossy(&body).into_owned())
+    }
+
+    #[tokio::test]
+    async fn a_request_past_the_limit_gets_504_problem_json() {
+        let (status, kind, body) = get_path("/never", Duration::from_millis(20)).await;
+        assert_eq!(status, StatusCode::GATEWAY_TIMEOUT);
+        assert_eq!(kind.as_deref(), Some(PROBLEM_JSON));
+        assert!(body.contains("urn:ecat:error:timeout"), "{body}");
+        assert!(body.contains("GET /never took longer"), "{body}");
+    }
+
+    #[tokio::test]
+    async fn a_request_within_the_limit_is_untouched() {
+        assert_eq!(
+            get_path("/at-once", Duration::from_secs(60)).await,
+            (
+                StatusCode::OK,
+                Some("text/plain; charset=utf-8".to_owned()),
+                "done".to_owned()
+            )
+        );
     }
 }
