@@ -8,7 +8,7 @@
 //! ```
 //!
 //! The rig is the EoE one (`tests/tests/eoe_support/rig.rs`): ecatd `--iface` in its own
-//! namespace, `ecat-sim --eoe-tap --control` in another, `iperf3 -s` on the simulator's
+//! namespace, `ecat-sim --eoe-tap --control` in another, `iperf3 -s -1` on the simulator's
 //! side behind the drive's EoE. For `CHAOS_SECONDS` (default 600) these run without pause:
 //! - two ETG.8200 gateway clients, SDO uploads of 0x1018:01 (the drive, and the segment's
 //!   other CoE slave);
@@ -17,7 +17,8 @@
 //! - iperf3 TCP for 5 s at a time through the drive's EoE (after a power loss the device
 //!   has lost its IP settings: the bench sets them again through the API once the slaves
 //!   are back, as an operator's script would, and so does the loop after a failed run; both
-//!   are counted);
+//!   are counted; each run has an `iperf3 -s -1` of its own, since iperf3's server serves
+//!   one test at a time and would hold a test broken by a fault until an idle timeout);
 //! - an application-interface owner (`ecat-app`) writing a pattern to the DO8 every cycle,
 //!   claiming the outputs again whenever it lost them.
 //!
@@ -332,16 +333,23 @@ fn foe_client(ns: &NetNs, tally: &Tally, stop: &AtomicBool) {
 
 /// iperf3 TCP through the drive's EoE, 5 s at a time; sets the device's IP again when a
 /// run could not reach it (a device that lost power lost its settings).
-fn eoe_client(ns: &NetNs, tally: &Tally, set_ip: &AtomicU64, stop: &AtomicBool) {
+fn eoe_client(ns: &NetNs, sim_ns: &NetNs, tally: &Tally, set_ip: &AtomicU64, stop: &AtomicBool) {
     ns.enter_current_thread();
     let agent = rest_agent();
     while !stop.load(Ordering::Relaxed) {
+        // A server of its own for each run: a test broken by a fault ends with its server.
+        let server = IperfServer::start(sim_ns);
+        if !server.listening(sim_ns) {
+            tally.failed("iperf3 -s did not listen within 5 s");
+            continue;
+        }
         let out = Command::new("ip")
             .args(["netns", "exec", ns.name(), "timeout", "40"])
             .args(["iperf3", "-c", DEVICE_IP, "-t", "5", "-J"])
             .args(["--connect-timeout", "3000", "--snd-timeout", "10000"])
             .output()
             .expect("iperf3 runs");
+        drop(server);
         let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
         let bits = report["end"]["sum_received"]["bits_per_second"]
             .as_f64()
@@ -352,6 +360,8 @@ fn eoe_client(ns: &NetNs, tally: &Tally, set_ip: &AtomicU64, stop: &AtomicBool) 
                 continue;
             }
             (Some(124), _) => tally.lost("iperf3 did not end (killed after 40 s)"),
+            // It ended and reported: nothing came through (the fault cut the whole run).
+            (Some(0), None) => tally.failed("iperf3: the run ended with 0 bits received"),
             (_, Some(error)) => tally.failed(&format!("iperf3: {error}")),
             (code, None) => {
                 let said = String::from_utf8_lossy(&out.stderr);
@@ -423,22 +433,14 @@ fn sim_args() -> Vec<&'static str> {
     vec!["--eoe-tap", TAP]
 }
 
-/// `iperf3 -s` in the simulator's namespace on every address (so a TAP made anew by a
-/// restarted simulator is served too), killed on drop.
+/// `iperf3 -s -1` (one test) in the simulator's namespace on every address (the device's
+/// TAP is made anew by a restarted simulator), killed on drop.
 struct IperfServer(Child);
 
 impl IperfServer {
     fn start(ns: &NetNs) -> IperfServer {
         let child = Command::new("ip")
-            .args([
-                "netns",
-                "exec",
-                ns.name(),
-                "iperf3",
-                "-s",
-                "--idle-timeout",
-                "20",
-            ])
+            .args(["netns", "exec", ns.name(), "iperf3", "-s", "-1"])
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
@@ -446,11 +448,21 @@ impl IperfServer {
         IperfServer(child)
     }
 
-    /// Ends this server (its port free again), then starts a fresh one.
-    fn restart(&mut self, ns: &NetNs) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-        *self = IperfServer::start(ns);
+    /// Whether it listens on iperf3's port within 5 s (asked of `ss`).
+    fn listening(&self, ns: &NetNs) -> bool {
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline {
+            let out = Command::new("ip")
+                .args(["netns", "exec", ns.name(), "ss", "-Hltn", "sport = :5201"])
+                .output()
+                .expect("ss runs");
+            if !out.stdout.is_empty() {
+                return true;
+            }
+            // The check's poll interval (the loop ends on the condition or the deadline).
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        false
     }
 }
 
@@ -639,7 +651,6 @@ fn main() {
         SIM_IFACE,
         &sim_args(),
     ));
-    let mut iperf = IperfServer::start(&sim_ns);
     let socket = std::env::temp_dir().join(format!("ecatd-chaos-{}.sock", std::process::id()));
     let config_path = std::env::temp_dir().join(format!("ecatd-chaos-{}.toml", std::process::id()));
     std::fs::write(&config_path, config(&socket)).expect("config written");
@@ -708,7 +719,7 @@ fn main() {
         clients.push(("REST", scope.spawn(|| rest_client(ns, &rest, &stop))));
         clients.push(("gRPC", scope.spawn(|| grpc_client(ns, &grpc, &stop))));
         clients.push(("FoE", scope.spawn(|| foe_client(ns, &foe, &stop))));
-        let eoe_loop = || eoe_client(ns, &eoe, &set_ip, &stop);
+        let eoe_loop = || eoe_client(ns, &sim_ns, &eoe, &set_ip, &stop);
         clients.push(("EoE", scope.spawn(eoe_loop)));
         clients.push(("owner", scope.spawn(|| owner(&socket, &owner_tally, &stop))));
 
@@ -773,10 +784,6 @@ fn main() {
                     ))
             );
             faults.push(fault);
-            // iperf3's server serves one test at a time and keeps a test whose client lost
-            // its connection until its idle timeout ("the server is busy"): a fresh one after
-            // each fault lets the next run measure the EoE path rather than that timeout.
-            iperf.restart(&sim_ns);
             rss_first.get_or_insert_with(|| rss_kib(pid));
         }
         std::thread::sleep(length.saturating_sub(start.elapsed()));
