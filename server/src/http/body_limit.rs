@@ -124,10 +124,9 @@ impl HttpBody for Capped {
 mod tests {
     use super::*;
     use crate::http::error::PROBLEM_JSON;
+    use crate::http::test_support::answer;
     use axum::Router;
-    use axum::http::header::CONTENT_TYPE;
     use axum::routing::put;
-    use tower::ServiceExt;
 
     fn app() -> Router {
         Router::new()
@@ -139,16 +138,7 @@ mod tests {
     }
 
     async fn send(request: axum::http::Request<Body>) -> (StatusCode, String, Option<String>) {
-        let response = app().oneshot(request).await.unwrap();
-        let status = response.status();
-        let kind = response
-            .headers()
-            .get(CONTENT_TYPE)
-            .map(|v| v.to_str().unwrap().to_owned());
-        let body = axum::body::to_bytes(response.into_body(), 1 << 16)
-            .await
-            .unwrap();
-        (status, String::from_utf8_lossy(&body).into_owned(), kind)
+        answer(app(), request).await
     }
 
     #[tokio::test]

@@ -29,12 +29,11 @@ pub async fn limit(State(limit): State<Duration>, request: Request, next: Next) 
 mod tests {
     use super::*;
     use crate::http::error::PROBLEM_JSON;
+    use crate::http::test_support::answer;
     use axum::Router;
     use axum::body::Body;
     use axum::http::StatusCode;
-    use axum::http::header::CONTENT_TYPE;
     use axum::routing::get;
-    use tower::ServiceExt;
 
     fn app(time: Duration) -> Router {
         Router::new()
@@ -43,23 +42,14 @@ mod tests {
             .layer(axum::middleware::from_fn_with_state(time, limit))
     }
 
-    async fn get_path(path: &str, time: Duration) -> (StatusCode, Option<String>, String) {
+    async fn get_path(path: &str, time: Duration) -> (StatusCode, String, Option<String>) {
         let request = axum::http::Request::get(path).body(Body::empty()).unwrap();
-        let response = app(time).oneshot(request).await.unwrap();
-        let status = response.status();
-        let kind = response
-            .headers()
-            .get(CONTENT_TYPE)
-            .map(|v| v.to_str().unwrap().to_owned());
-        let body = axum::body::to_bytes(response.into_body(), 1 << 16)
-            .await
-            .unwrap();
-        (status, kind, String::from_utf8_lossy(&body).into_owned())
+        answer(app(time), request).await
     }
 
     #[tokio::test]
     async fn a_request_past_the_limit_gets_504_problem_json() {
-        let (status, kind, body) = get_path("/never", Duration::from_millis(20)).await;
+        let (status, body, kind) = get_path("/never", Duration::from_millis(20)).await;
         assert_eq!(status, StatusCode::GATEWAY_TIMEOUT);
         assert_eq!(kind.as_deref(), Some(PROBLEM_JSON));
         assert!(body.contains("urn:ecat:error:timeout"), "{body}");
@@ -72,8 +62,8 @@ mod tests {
             get_path("/at-once", Duration::from_secs(60)).await,
             (
                 StatusCode::OK,
-                Some("text/plain; charset=utf-8".to_owned()),
-                "done".to_owned()
+                "done".to_owned(),
+                Some("text/plain; charset=utf-8".to_owned())
             )
         );
     }

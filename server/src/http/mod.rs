@@ -22,6 +22,8 @@ pub mod openapi;
 pub mod rest;
 mod serve;
 pub mod sim;
+#[cfg(test)]
+mod test_support;
 pub mod unknown;
 pub mod web;
 
