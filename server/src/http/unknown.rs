@@ -19,16 +19,17 @@ use utoipa::openapi::path::{Operation, ParameterIn};
 use super::error::problem;
 use crate::service::ApiError;
 
-/// Each documented route's query parameter names, by method and path template (as axum's
-/// [`MatchedPath`] spells it: `/api/v1/slaves/{slave}`).
+/// Each documented route's query parameter names, by path template (as axum's
+/// [`MatchedPath`] spells it: `/api/v1/slaves/{slave}`), then method. Keyed by path first so
+/// that a request's lookup borrows its path instead of allocating a key.
 #[derive(Debug, Default)]
-pub struct QueryNames(HashMap<(Method, String), HashSet<String>>);
+pub struct QueryNames(HashMap<String, HashMap<Method, HashSet<String>>>);
 
 impl QueryNames {
     /// The names `document` declares, under `prefix` (where the document's paths are
     /// nested).
     pub fn from_document(document: &OpenApi, prefix: &str) -> QueryNames {
-        let mut names = HashMap::new();
+        let mut names: HashMap<String, HashMap<Method, HashSet<String>>> = HashMap::new();
         for (path, item) in &document.paths.paths {
             let shared = item.parameters.iter().flatten();
             let operations: [(Method, &Option<Operation>); 5] = [
@@ -46,7 +47,10 @@ impl QueryNames {
                     .filter(|p| matches!(p.parameter_in, ParameterIn::Query))
                     .map(|p| p.name.clone())
                     .collect();
-                names.insert((method, format!("{prefix}{path}")), declared);
+                names
+                    .entry(format!("{prefix}{path}"))
+                    .or_default()
+                    .insert(method, declared);
             }
         }
         QueryNames(names)
@@ -57,11 +61,11 @@ impl QueryNames {
     fn unknown<'q>(&self, method: &Method, path: &str, query: &'q str) -> Option<&'q str> {
         // HEAD is answered by the GET route.
         let method = if method == Method::HEAD {
-            Method::GET
+            &Method::GET
         } else {
-            method.clone()
+            method
         };
-        let declared = self.0.get(&(method, path.to_owned()))?;
+        let declared = self.0.get(path)?.get(method)?;
         query
             .split('&')
             .filter(|pair| !pair.is_empty())
