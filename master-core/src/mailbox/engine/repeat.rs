@@ -9,7 +9,7 @@
 
 use std::time::{Duration, Instant};
 
-use crate::bus::{BusError, BusHandle};
+use crate::bus::{BusError, BusHandle, DatagramResponse};
 use crate::mailbox::error::{MailboxError, Result};
 use crate::wire::register::sync_manager::{SmActivate, SmPdiControl};
 
@@ -31,17 +31,14 @@ pub(crate) async fn request_repeat(
     interval: Duration,
     timer: &Timer,
 ) -> Result<()> {
-    let registers = checked(bus.fprd(station, SM1_STATUS, 2).await, station)?;
+    let registers = checked(bus.fprd(station, SM1_STATUS, 2).await)?;
     let raw = registers.get(1).copied().unwrap_or(0);
     let mut activate = SmActivate::decode(raw);
     activate.repeat_request = !activate.repeat_request;
     // An absolute value, so a bus retry of this write cannot toggle twice.
-    checked(
-        bus.fpwr(station, SM1_ACTIVATE, [activate.encode()]).await,
-        station,
-    )?;
+    checked(bus.fpwr(station, SM1_ACTIVATE, [activate.encode()]).await)?;
     loop {
-        let pdi = checked(bus.fprd(station, SM1_PDI_CONTROL, 1).await, station)?;
+        let pdi = checked(bus.fprd(station, SM1_PDI_CONTROL, 1).await)?;
         let ack = SmPdiControl::decode(pdi.first().copied().unwrap_or(0)).repeat_ack;
         if ack == activate.repeat_request {
             return Ok(());
@@ -57,16 +54,55 @@ pub(crate) async fn request_repeat(
 }
 
 /// The data of a register access that the slave answered (working counter 1).
-fn checked(
-    result: core::result::Result<crate::bus::DatagramResponse, BusError>,
-    station: u16,
-) -> Result<Vec<u8>> {
+///
+/// Any other working counter means no slave with this station address processed the
+/// access: the slave is gone from the segment (power, cable) or was renumbered. That is
+/// the bus's fault to report, not a protocol violation by the slave.
+fn checked(result: core::result::Result<DatagramResponse, BusError>) -> Result<Vec<u8>> {
     let response = result?;
     if response.wkc != 1 {
-        return Err(MailboxError::Protocol {
-            station,
-            reason: "the slave did not answer a SyncManager register access",
-        });
+        return Err(MailboxError::Bus(BusError::WorkingCounter {
+            expected: 1,
+            got: response.wkc,
+            response,
+        }));
     }
     Ok(response.data.to_vec())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::DatagramData;
+    use crate::wire::command::DatagramAddress;
+
+    fn answer(wkc: u16) -> core::result::Result<DatagramResponse, BusError> {
+        Ok(DatagramResponse {
+            data: DatagramData::from_slice(&[0x08, 0x01]),
+            wkc,
+            address: DatagramAddress::Node {
+                station: 0x03E9,
+                ado: SM1_STATUS,
+            },
+            irq: 0,
+        })
+    }
+
+    #[test]
+    fn an_access_no_slave_answered_is_a_bus_fault_not_a_protocol_violation() {
+        assert_eq!(checked(answer(1)).expect("answered"), [0x08, 0x01]);
+        let err = checked(answer(0)).expect_err("nobody answered");
+        assert!(
+            matches!(
+                err,
+                MailboxError::Bus(BusError::WorkingCounter {
+                    expected: 1,
+                    got: 0,
+                    ..
+                })
+            ),
+            "{err:?}"
+        );
+        assert_eq!(err.to_string(), "bus: working counter 0, expected 1");
+    }
 }
