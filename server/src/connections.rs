@@ -28,12 +28,10 @@ use std::time::Duration;
 use axum::body::{Bytes, HttpBody};
 use axum::http;
 use futures_util::task::AtomicWaker;
-use prometheus::proto::{MetricFamily, MetricType};
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::time::{Instant, Sleep};
 
 use crate::config::limits::LimitSettings;
-use crate::metrics::family::Family;
 
 /// Why a connection was refused at its accept.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -102,6 +100,36 @@ impl ConnectionStats {
     pub fn open(&self) -> u64 {
         self.open.load(Ordering::Relaxed)
     }
+
+    /// Every counter now.
+    pub fn counts(&self) -> ConnectionCounts {
+        let load = |n: &AtomicU64| n.load(Ordering::Relaxed);
+        ConnectionCounts {
+            open: load(&self.open),
+            refused_total: load(&self.refused_total),
+            refused_peer: load(&self.refused_peer),
+            header_read: load(&self.header_read),
+            idle: load(&self.idle),
+            write_stall: load(&self.write_stall),
+        }
+    }
+}
+
+/// One server's counters as [`ConnectionStats::counts`] reads them.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct ConnectionCounts {
+    /// Open now.
+    pub open: u64,
+    /// Refused by `max_connections`.
+    pub refused_total: u64,
+    /// Refused by `max_connections_per_peer`.
+    pub refused_peer: u64,
+    /// Closed without a whole request head within `header_read_timeout`.
+    pub header_read: u64,
+    /// Closed after `idle_timeout` without a request.
+    pub idle: u64,
+    /// Closed after a write made no progress for `idle_timeout`.
+    pub write_stall: u64,
 }
 
 /// The counters of both servers, kept with the metrics (`metrics::Store`).
@@ -111,47 +139,6 @@ pub struct ServerStats {
     pub http: Arc<ConnectionStats>,
     /// The gRPC server.
     pub grpc: Arc<ConnectionStats>,
-}
-
-impl ServerStats {
-    /// `ecat_api_connections`, `ecat_api_connections_refused_total` and
-    /// `ecat_api_connections_timed_out_total`, by server.
-    pub fn collect(&self) -> Vec<Option<MetricFamily>> {
-        let servers = [("http", &self.http), ("grpc", &self.grpc)];
-        let mut open = Family::new(
-            "ecat_api_connections",
-            "Connections open to the API server.",
-            MetricType::GAUGE,
-        );
-        let mut refused = Family::new(
-            "ecat_api_connections_refused_total",
-            "Connections refused at accept by a [limits] connection limit.",
-            MetricType::COUNTER,
-        );
-        let mut timed_out = Family::new(
-            "ecat_api_connections_timed_out_total",
-            "Connections the server closed: no request head in time, idle, or a stalled write.",
-            MetricType::COUNTER,
-        );
-        for (server, stats) in servers {
-            let load = |n: &AtomicU64| n.load(Ordering::Relaxed) as f64;
-            open = open.gauge(&[("server", server)], load(&stats.open));
-            for (reason, n) in [
-                ("max_connections", &stats.refused_total),
-                ("max_connections_per_peer", &stats.refused_peer),
-            ] {
-                refused = refused.counter(&[("server", server), ("reason", reason)], load(n));
-            }
-            for (reason, n) in [
-                ("header_read", &stats.header_read),
-                ("idle", &stats.idle),
-                ("write_stall", &stats.write_stall),
-            ] {
-                timed_out = timed_out.counter(&[("server", server), ("reason", reason)], load(n));
-            }
-        }
-        vec![open.done(), refused.done(), timed_out.done()]
-    }
 }
 
 /// Counts open connections, in total and per client address, against `[limits]`, and

@@ -451,7 +451,7 @@ fn bind_app(
     }
     let mut safe = Vec::new();
     for value in &config.app.safe_output {
-        let address = crate::service::address::parse_slave(&value.slave).map_err(|err| {
+        let address = crate::input::address::parse_slave(&value.slave).map_err(|err| {
             format!(
                 "[[app.safe_output]] slave {:?}: {}",
                 value.slave, err.message

@@ -8,12 +8,12 @@ use std::net::SocketAddr;
 
 use master_core::master::SlaveAddress;
 
+use crate::config::watch::Number;
 use crate::http::browser::AllowedHosts;
-use crate::service::ip::{from_settings, to_settings};
-use crate::service::value::{ValueType, decode, encode, parse_number};
+use crate::input::ip::{from_settings, to_settings};
+use crate::input::value::{ValueType, decode, encode, parse_number};
 use crate::service::view::{parse_state, state_name};
 use crate::service::{IpView, parse_slave};
-use crate::watch::spec::Number;
 use crate::watch::{Target, WatchSpec};
 
 const TYPES: [ValueType; 13] = [

@@ -12,11 +12,13 @@ pub mod connections;
 pub mod daemon;
 pub mod embed;
 pub mod eoe;
+pub mod error;
 /// The input parsers driven by arbitrary bytes, for the fuzz target `server_input`.
 #[doc(hidden)]
 pub mod fuzzing;
 pub mod grpc;
 pub mod http;
+pub mod input;
 pub mod logging;
 pub mod metrics;
 pub mod roles;

@@ -15,7 +15,7 @@ mod hooks {
     use sim::device::dio::OutputProbe;
     use sim::topology::SlaveHandles;
 
-    use crate::service::ApiError;
+    use crate::error::ApiError;
 
     /// Hooks into the simulated slaves, by ring position.
     #[derive(Debug, Clone, Default)]
@@ -78,7 +78,7 @@ mod hooks {
 
 #[cfg(not(feature = "simulate"))]
 mod none {
-    use crate::service::ApiError;
+    use crate::error::ApiError;
 
     /// Hooks into simulated slaves: none exist in an ecatd built without the simulator.
     #[derive(Debug, Clone)]

@@ -2,7 +2,7 @@
 //! names, value types (IgH's names too) and IDNs (`S-0-0011`, `P-0-0100` or a number).
 
 use proto::v1 as pb;
-use server::service::value::{ValueType, parse_number};
+use server::input::value::{ValueType, parse_number};
 use tonic::Status;
 
 /// A failed call as the command line reports it: code name and message.
@@ -27,7 +27,7 @@ pub fn unhex(text: &str) -> Result<Vec<u8>, String> {
 
 /// An SoE IDN: `S-0-0011`, `P-0-0100` or a number (`0x8064`).
 pub fn idn(text: &str) -> Result<u32, String> {
-    server::service::value::parse_idn(text, "IDN")
+    server::input::value::parse_idn(text, "IDN")
         .map(u32::from)
         .map_err(|e| e.message)
 }

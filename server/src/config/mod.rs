@@ -11,9 +11,12 @@ pub mod bus;
 pub mod capture;
 pub mod duration;
 pub mod eni;
+pub mod eoe;
 pub mod groups;
 pub mod limits;
 pub mod slaves;
+pub mod tokens;
+pub mod watch;
 
 use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
@@ -24,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use master_core::gateway::{AllowedNet, ClientNet, GatewayConfig, GatewayRole};
 
-use crate::security::Token;
+use tokens::Token;
 
 /// Command-line flags; each also reads its `ECATD_*` environment variable.
 #[derive(Debug, Parser)]
@@ -416,7 +419,7 @@ pub struct Config {
     /// TLS for gRPC and HTTP; absent: plain TCP.
     pub tls: Option<TlsSettings>,
     /// Watched values (`[[watch]]` tables), exported as gauges.
-    pub watch: Vec<crate::watch::WatchSpec>,
+    pub watch: Vec<watch::WatchSpec>,
     /// The state the slaves are left in on SIGINT/SIGTERM.
     pub safe_state: SafeState,
     /// The whole shutdown's time limit, signal to exit, in milliseconds.
@@ -446,8 +449,8 @@ pub struct Config {
     /// Slave groups with periods of their own.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub group: Vec<groups::GroupEntry>,
-    /// EoE interfaces (`[eoe]`, see `server/src/eoe/config.rs`).
-    pub eoe: crate::eoe::config::EoeSettings,
+    /// EoE interfaces (`[eoe]`, see [`eoe`]).
+    pub eoe: eoe::EoeSettings,
     /// The rolling capture (`[capture]`).
     pub capture: capture::CaptureSettings,
     /// The application interface (`[app]`, docs/application.md).
@@ -689,15 +692,15 @@ impl Config {
         if let Some(gateway) = &self.gateway {
             gateway.check(self.insecure)?;
         }
-        crate::watch::spec::check_all(&self.watch)?;
+        watch::check_all(&self.watch)?;
         self.limits.check()?;
         for token in &self.tokens {
             // `load` resolved them; a configuration built otherwise is checked here too.
-            if token.token.chars().count() < crate::security::MIN_SECRET_LEN {
+            if token.token.chars().count() < tokens::MIN_SECRET_LEN {
                 return Err(format!(
                     "token {:?} is empty or shorter than {} characters",
                     token.name,
-                    crate::security::MIN_SECRET_LEN
+                    tokens::MIN_SECRET_LEN
                 ));
             }
         }
@@ -816,7 +819,7 @@ mod tests {
             token: "s".repeat(16),
             secret_file: None,
             secret_env: None,
-            role: crate::security::Role::Read,
+            role: tokens::Role::Read,
         });
         let err = tokened.check().unwrap_err();
         assert!(

@@ -1,7 +1,8 @@
 //! EoE interfaces: one TAP interface per slave that speaks EoE (spec-notes §eoe), so
 //! ordinary IP traffic reaches the device behind the slave.
 //!
-//! - [`config`]: the `[eoe]` section (names, per-slave Set IP, host address or bridge);
+//! - the `[eoe]` section (names, per-slave Set IP, host address or bridge) is read in
+//!   [`crate::config::eoe`];
 //! - [`tap`]: the TAP interface itself;
 //! - `link`: the two tasks that carry frames between a TAP and a slave's mailbox;
 //! - here: the manager, which follows the master's slaves and events: an interface is made
@@ -9,7 +10,6 @@
 //!   settings applied again), its carrier is on only while the slave is present and in
 //!   PREOP or higher, and it is removed when the slave is gone from the segment.
 
-pub mod config;
 mod link;
 pub mod tap;
 
@@ -26,7 +26,7 @@ use serde::Serialize;
 use tokio::sync::broadcast::error::{RecvError, TryRecvError};
 use tokio::task::JoinHandle;
 
-use config::{EoeSettings, NameScheme, SlavePlan};
+use crate::config::eoe::{EoeSettings, NameScheme, SlavePlan};
 use tap::Tap;
 
 /// How often the manager looks at the slaves besides reacting to the master's events.

@@ -106,5 +106,5 @@ impl Tap {
 /// The MAC address of interface `name` from sysfs, if it has one.
 pub fn mac_of(name: &str) -> Option<[u8; 6]> {
     let text = std::fs::read_to_string(format!("/sys/class/net/{name}/address")).ok()?;
-    crate::eoe::config::parse_mac(text.trim()).ok()
+    crate::input::ip::parse_mac(text.trim()).ok()
 }

@@ -7,13 +7,15 @@
 //! ESC error counters, read in the background), `events` (events by kind, counted in the
 //! background), `state` (ready and link up), `process` (the process' CPU, memory, files),
 //! `config` (what the segment's configuration found: mismatches and failed start-up commands),
-//! `eoe` (the EoE interfaces), `app` (the application interface).
+//! `eoe` (the EoE interfaces), `app` (the application interface), `watch` (the watched
+//! values), `connections` (the API servers' connections).
 
 mod app;
 mod bus;
 pub mod calls;
 mod capture;
 pub mod config;
+mod connections;
 mod eoe;
 pub mod esc;
 pub mod events;
@@ -23,6 +25,7 @@ mod mailbox;
 mod process;
 mod slaves;
 pub mod state;
+mod watch;
 
 use std::sync::Arc;
 
@@ -41,16 +44,16 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     families.extend(slaves::collect(core));
     families.extend(mailbox::collect(core));
     families.extend(eoe::collect(core));
-    families.extend(store.calls.collect());
+    families.extend(calls::collect(&store.calls));
     families.extend(store.esc.collect());
     crate::watch::refresh_pdo(core, &store.watch);
-    families.extend(store.watch.collect());
+    families.extend(watch::collect(&store.watch));
     families.extend(store.events.collect());
     families.extend(store.config.collect());
     families.extend(gateway::collect(core));
     families.extend(capture::collect(core));
     families.extend(app::collect(core));
-    families.extend(store.connections.collect());
+    families.extend(connections::collect(&store.connections));
     families.extend(process::collect());
     families.into_iter().flatten().collect()
 }
@@ -60,7 +63,7 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
 #[derive(Debug, Default)]
 pub struct Store {
     /// Mailbox requests per slave and protocol (the core records them: hand it this).
-    pub calls: Arc<calls::MailboxCalls>,
+    pub calls: Arc<crate::service::calls::MailboxCalls>,
     /// The ESC error counters last read.
     pub esc: Arc<esc::EscCounters>,
     /// The watched values (`[[watch]]`).

@@ -1,8 +1,7 @@
 //! The service layer both APIs call: one method per operation, each one call into the
 //! master or a slave's mailbox, errors as [`ApiError`].
 //!
-//! Files: `address` (slave names), `error` (the one error type), `view` (what the APIs
-//! serialise), `ip` (EoE IP parameter text forms), `gateway` (the mailbox gateway's state,
+//! Files: `view` (what the APIs serialise), `calls` (the mailbox requests it made, counted), `gateway` (the mailbox gateway's state,
 //! start and stop), `bus` (frame and cycle counters), `read_effects` (register reads that
 //! need the write role), `transfer` (deadlines and progress of FoE and SDO transfers),
 //! `capture` (live captures), `rolling` (the rolling capture's ring of files), `domains`
@@ -10,14 +9,12 @@
 //! `process_data` (the layout, values and forced outputs), `pd_stream` (the interval and
 //! changes of a process-data stream), `pdos` (each slave's SyncManagers and PDOs).
 
-pub mod address;
 pub mod bus;
+pub mod calls;
 pub mod capture;
 pub mod domains;
-pub mod error;
 pub mod events;
 pub mod gateway;
-pub mod ip;
 pub mod log_filter;
 pub mod master_view;
 pub mod pd_stream;
@@ -27,7 +24,6 @@ pub mod read_effects;
 pub mod rolling;
 mod sii_checksum;
 pub mod transfer;
-pub mod value;
 pub mod view;
 
 use std::sync::Arc;
@@ -39,14 +35,15 @@ use master_core::wire::coe::info::OdListType;
 use master_core::wire::soe::{ElementFlags, Idn};
 use tokio::sync::broadcast;
 
-use crate::metrics::calls::{MailboxCalls, Outcome, Protocol};
+pub use crate::error::{ApiError, ErrorKind};
+pub use crate::input::address::{SlaveName, parse_name, parse_slave};
+use crate::input::ip;
+use crate::input::value::{self, ValueType};
 use crate::security::{Caller, authorize_write};
-pub use address::{SlaveName, parse_name, parse_slave};
 pub use bus::BusView;
-pub use error::{ApiError, ErrorKind};
+use calls::{MailboxCalls, Outcome, Protocol};
 pub use gateway::GatewayView;
 pub use master_view::MasterView;
-use value::ValueType;
 pub use view::{
     EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
 };

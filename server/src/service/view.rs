@@ -319,23 +319,7 @@ impl From<&MasterEvent> for EventView {
     }
 }
 
-/// IP parameters of a slave's EoE port; absent fields are left as they are.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct IpView {
-    /// MAC address, `aa:bb:cc:dd:ee:ff`.
-    pub mac: Option<String>,
-    /// IPv4 address.
-    pub ip: Option<String>,
-    /// Subnet mask.
-    pub subnet_mask: Option<String>,
-    /// Default gateway.
-    pub default_gateway: Option<String>,
-    /// DNS server.
-    pub dns_server: Option<String>,
-    /// DNS name.
-    pub dns_name: Option<String>,
-}
+pub use crate::input::ip::IpView;
 
 /// An object of the CoE dictionary (SDO Information).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]

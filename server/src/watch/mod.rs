@@ -3,15 +3,15 @@
 //! parameters without a script; process-data entries (`pdo`) are read from the last cycle's
 //! image when Prometheus scrapes, with no mailbox traffic.
 //!
-//! One task per watch (at most [`spec::MAX_WATCHES`]); each reads through the core (so the
-//! reads also count in the per-protocol mailbox metrics), one read at a time, a late tick
+//! One task per watch (at most [`crate::config::watch::MAX_WATCHES`]); each reads through
+//! the core (so the reads also count in the per-protocol mailbox metrics), one read at a time, a late tick
 //! delayed rather than piled up. A failed read counts in `ecat_watch_read_errors_total` and
 //! leaves the last value. No lock is held across an `.await`: the store is updated after
 //! each read.
 //!
-//! Files: `spec` (the configuration entry), `values` (the store and its metric families).
+//! Files: `values` (the store and its metric families); the configuration entry is read in
+//! [`crate::config::watch`].
 
-pub mod spec;
 pub mod values;
 
 use std::sync::Arc;
@@ -19,9 +19,9 @@ use std::time::Duration;
 
 use tokio::task::JoinHandle;
 
-use crate::service::value::{self, ValueType};
+pub use crate::config::watch::{Target, WatchSpec};
+use crate::input::value::{self, ValueType};
 use crate::service::{ApiError, Core};
-pub use spec::{Target, WatchSpec};
 pub use values::{WatchLabels, WatchValues};
 
 /// A watch ready to run.
@@ -35,7 +35,7 @@ struct Watch {
 }
 
 /// Starts one task per watch, recording into `values`; the configuration was checked
-/// ([`spec::check_all`]). Abort the handles to stop.
+/// ([`crate::config::watch::check_all`]). Abort the handles to stop.
 pub fn start(core: &Core, specs: &[WatchSpec], values: &Arc<WatchValues>) -> Vec<JoinHandle<()>> {
     specs
         .iter()

@@ -1,11 +1,7 @@
-//! The last value and the error count of every watch, exported at scrape time as
-//! `ecat_watch_value` and `ecat_watch_read_errors_total`.
+//! The last value and the error count of every watch, which `crate::metrics::watch`
+//! exports at scrape time as `ecat_watch_value` and `ecat_watch_read_errors_total`.
 
 use std::sync::{Mutex, MutexGuard, PoisonError};
-
-use prometheus::proto::{MetricFamily, MetricType};
-
-use crate::metrics::family::Family;
 
 /// The labels of one watch.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -16,6 +12,17 @@ pub struct WatchLabels {
     pub object: String,
     /// The configured name (may be empty).
     pub name: String,
+}
+
+/// One watch as [`WatchValues::samples`] reads it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WatchSample {
+    /// Its labels.
+    pub labels: WatchLabels,
+    /// The last value read, if one ever was.
+    pub value: Option<f64>,
+    /// Failed reads.
+    pub errors: u64,
 }
 
 #[derive(Debug, Clone)]
@@ -88,31 +95,16 @@ impl WatchValues {
         }
     }
 
-    /// The families (a watch never read successfully has no value sample).
-    pub fn collect(&self) -> Vec<Option<MetricFamily>> {
-        let slots = self.lock().clone();
-        let mut values = Family::new(
-            "ecat_watch_value",
-            "Last value read of each watched object or IDN ([[watch]] in the configuration).",
-            MetricType::GAUGE,
-        );
-        let mut errors = Family::new(
-            "ecat_watch_read_errors_total",
-            "Failed reads of each watched object or IDN (the last value stays).",
-            MetricType::COUNTER,
-        );
-        for slot in &slots {
-            let l = &slot.labels;
-            let labels = [
-                ("slave", l.slave.as_str()),
-                ("object", l.object.as_str()),
-                ("name", l.name.as_str()),
-            ];
-            if let Some(value) = slot.value {
-                values = values.gauge(&labels, value);
-            }
-            errors = errors.counter(&labels, slot.errors as f64);
-        }
-        vec![values.done(), errors.done()]
+    /// Every watch's labels, last value (`None`: never read successfully) and error count,
+    /// in configuration order.
+    pub fn samples(&self) -> Vec<WatchSample> {
+        self.lock()
+            .iter()
+            .map(|slot| WatchSample {
+                labels: slot.labels.clone(),
+                value: slot.value,
+                errors: slot.errors,
+            })
+            .collect()
     }
 }

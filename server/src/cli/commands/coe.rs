@@ -134,7 +134,7 @@ async fn resolve_type(c: &mut Clients, slave: &str, index: u32, subindex: u32, t
 
 /// IgH's upload line: `0x002a 42` for an integer, the value alone otherwise.
 fn igh_value(ty: &str, data: &[u8], value: &str) -> String {
-    use server::service::value::ValueType::*;
+    use server::input::value::ValueType::*;
     match typed(ty) {
         Ok(Bool | U8 | U16 | U32 | U64 | I8 | I16 | I32 | I64) if !data.is_empty() => {
             let hex: std::string::String = data.iter().rev().map(|b| format!("{b:02x}")).collect();

@@ -7,7 +7,7 @@
 use master_core::wire::register::error_counters::{ERROR_COUNTERS_LEN, ErrorCounters};
 use proto::v1 as pb;
 use serde_json::{Value, json};
-use server::service::value::ValueType;
+use server::input::value::ValueType;
 
 use crate::Run;
 use crate::out::{Out, out};
@@ -64,7 +64,7 @@ pub struct RegRdwr {
 /// Register data from the command line: a value of `ty`, or hex bytes.
 fn register_data(data: &str, ty: Option<&str>) -> Result<Vec<u8>, String> {
     match ty {
-        Some(ty) => server::service::value::encode(typed(ty)?, data).map_err(|e| e.message),
+        Some(ty) => server::input::value::encode(typed(ty)?, data).map_err(|e| e.message),
         None => unhex(data),
     }
 }
@@ -86,7 +86,7 @@ fn show(data: &[u8], ty: Option<&str>) -> Result<(serde_json::Value, String), St
     match ty {
         Some(ty) => {
             let ty = typed(ty)?;
-            let value = server::service::value::decode(ty, data).map_err(|e| e.message)?;
+            let value = server::input::value::decode(ty, data).map_err(|e| e.message)?;
             Ok((json!({"data": hex::encode(data), "value": value}), value))
         }
         None => Ok((

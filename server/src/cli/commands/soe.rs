@@ -2,7 +2,7 @@
 
 use proto::v1 as pb;
 use serde_json::json;
-use server::service::value::{decode, encode};
+use server::input::value::{decode, encode};
 
 use crate::Run;
 use crate::out::{Out, out};

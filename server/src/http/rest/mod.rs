@@ -29,7 +29,7 @@ use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
 
 use crate::http::extract::Json;
-use crate::service::value::parse_number;
+use crate::input::value::parse_number;
 use crate::service::{ApiError, Core};
 
 type Result<T> = std::result::Result<T, ApiError>;

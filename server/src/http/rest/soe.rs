@@ -34,7 +34,7 @@ pub async fn soe_read(
     core.soe_read(
         &slave,
         num(&drive, "drive")?,
-        crate::service::value::parse_idn(&idn, "idn")?,
+        crate::input::value::parse_idn(&idn, "idn")?,
         q.elements.unwrap_or(0),
     )
     .await
@@ -54,7 +54,7 @@ pub async fn soe_write(
     core.soe_write(
         &slave,
         num(&drive, "drive")?,
-        crate::service::value::parse_idn(&idn, "idn")?,
+        crate::input::value::parse_idn(&idn, "idn")?,
         q.elements.unwrap_or(0),
         &unhex(&body.data)?,
     )

@@ -4,9 +4,28 @@
 use std::net::Ipv4Addr;
 
 use master_core::mailbox::IpSettings;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
 
-use super::error::ApiError;
-use super::view::IpView;
+use crate::error::ApiError;
+
+/// IP parameters of a slave's EoE port; absent fields are left as they are.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct IpView {
+    /// MAC address, `aa:bb:cc:dd:ee:ff`.
+    pub mac: Option<String>,
+    /// IPv4 address.
+    pub ip: Option<String>,
+    /// Subnet mask.
+    pub subnet_mask: Option<String>,
+    /// Default gateway.
+    pub default_gateway: Option<String>,
+    /// DNS server.
+    pub dns_server: Option<String>,
+    /// DNS name.
+    pub dns_name: Option<String>,
+}
 
 /// Parses the text forms; empty strings count as absent.
 pub fn to_settings(view: &IpView) -> Result<IpSettings, ApiError> {

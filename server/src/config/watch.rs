@@ -3,8 +3,8 @@
 use master_core::wire::soe::Idn;
 use serde::{Deserialize, Serialize};
 
-use crate::service::parse_name;
-use crate::service::value::ValueType;
+use crate::input::address::parse_name;
+use crate::input::value::ValueType;
 
 /// The most watches one configuration may list (one task each).
 pub const MAX_WATCHES: usize = 256;
@@ -80,7 +80,7 @@ impl Number {
             Number::Int(n) => {
                 T::try_from(*n).map_err(|_| format!("watch {field} {n} out of range"))
             }
-            Number::Text(text) => crate::service::value::parse_number(text, field)
+            Number::Text(text) => crate::input::value::parse_number(text, field)
                 .map_err(|err| format!("watch {field}: {err}")),
         }
     }

@@ -21,8 +21,8 @@ use master_core::mailbox::IpSettings;
 use master_core::master::SlaveAddress;
 use serde::{Deserialize, Serialize};
 
-use crate::service::ip::to_settings;
-use crate::service::{IpView, parse_slave};
+use crate::input::address::parse_slave;
+use crate::input::ip::{IpView, to_settings};
 
 /// How interfaces are named (as IgH's master names them).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -153,7 +153,7 @@ impl EoeSlaveSettings {
             return Err(what("host_address and bridge exclude each other".into()));
         }
         if let Some(bridge) = &self.bridge
-            && (bridge.is_empty() || bridge.len() > super::tap::MAX_NAME_LEN)
+            && (bridge.is_empty() || bridge.len() > master_core::link::netdev::MAX_NAME_LEN)
         {
             return Err(what(format!("bad bridge name {bridge:?}")));
         }
@@ -167,7 +167,7 @@ impl EoeSlaveSettings {
     }
 }
 
-pub use crate::service::ip::parse_mac;
+pub use crate::input::ip::parse_mac;
 
 fn parse_cidr(text: &str) -> Result<(Ipv4Addr, u8), String> {
     let bad = || format!("bad host address {text:?}: use a.b.c.d/prefix");

@@ -12,7 +12,7 @@
 
 use master_core::master::{SlaveAddress, SlaveInfo};
 
-use super::error::ApiError;
+use crate::error::ApiError;
 
 /// A parsed slave name: an address the master resolves itself, or IgH's `alias:relpos`,
 /// resolved against the last scan ([`SlaveName::resolve`]).
@@ -119,7 +119,7 @@ pub fn parse_slave(text: &str) -> Result<SlaveAddress, ApiError> {
 }
 
 fn parse_u16(digits: &str) -> Option<u16> {
-    super::value::parse_number::<u16>(digits, "slave").ok()
+    crate::input::value::parse_number::<u16>(digits, "slave").ok()
 }
 
 #[cfg(test)]
@@ -184,6 +184,6 @@ mod tests {
             assert!(parse_name(bad).is_err(), "{bad:?} accepted");
         }
         let err = parse_name("foo:3").unwrap_err();
-        assert_eq!(err.kind, crate::service::ErrorKind::InvalidArgument);
+        assert_eq!(err.kind, crate::error::ErrorKind::InvalidArgument);
     }
 }

@@ -3,7 +3,7 @@
 
 use master_core::wire::coe::DataType;
 
-use super::error::ApiError;
+use crate::error::ApiError;
 
 /// A value type a caller can name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
