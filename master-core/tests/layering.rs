@@ -1,7 +1,8 @@
 //! Dependencies point down (docs/architecture.md, "Rules"): every source file of a layer
-//! may name only the layers below it. The check reads each file's `crate::` paths (and
-//! `super::` chains that climb out of the layer) outside comments, so a new upward arrow
-//! fails here instead of waiting for a reviewer.
+//! may name only the layers below it. Each file is read by the shared `layering` crate with
+//! Rust's grammar: `crate::` paths in `use` items (grouped ones too) and in code, `super::`
+//! chains, macro bodies; comments and doc links do not count. A new upward arrow fails here
+//! instead of waiting for a reviewer.
 
 use std::collections::BTreeSet;
 use std::fs;
@@ -54,113 +55,28 @@ struct Arrow {
     line: usize,
 }
 
-/// The code of a line without its `//` comment (doc comments included). A `//` inside a
-/// string literal ends the scan early, which can only hide a path, never invent one.
-fn code_of(line: &str) -> &str {
-    match line.find("//") {
-        Some(at) => &line[..at],
-        None => line,
-    }
+/// Every path `source` names, for a file whose module path is `path` (e.g.
+/// `["mailbox", "engine", "demux"]`), read with Rust's grammar by the shared `layering`
+/// crate: grouped imports, `super::` chains and macro bodies included, comments not.
+fn paths(path: &[String], source: &str) -> Vec<layering::Use> {
+    layering::uses(path, source).unwrap_or_else(|err| panic!("{path:?} does not parse: {err}"))
 }
 
-fn ident_at(text: &str) -> &str {
-    let end = text
-        .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
-        .unwrap_or(text.len());
-    &text[..end]
-}
-
-/// Every `super::` chain in `code` that starts a path (not `x::super::`): how many times it
-/// climbs and the name after the last `super::` (non-empty).
-fn super_chains(code: &str) -> Vec<(usize, &str)> {
-    let mut chains = Vec::new();
-    let mut rest = code;
-    while let Some(at) = rest.find("super::") {
-        let before = rest[..at].chars().next_back();
-        let mut tail = &rest[at..];
-        if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_' || c == ':') {
-            rest = &tail["super::".len()..];
-            continue;
-        }
-        let mut climbs = 0;
-        while let Some(next) = tail.strip_prefix("super::") {
-            climbs += 1;
-            tail = next;
-        }
-        let name = ident_at(tail);
-        if !name.is_empty() {
-            chains.push((climbs, name));
-        }
-        rest = tail;
-    }
-    chains
-}
-
-/// The top-level modules `source` names, for a file whose module path is `path` (e.g.
-/// `["mailbox", "engine", "demux"]`), with the line of each use.
+/// The top-level modules `source` names, with the line of each use.
 fn uses(path: &[String], source: &str) -> Vec<(String, usize)> {
-    let mut found = Vec::new();
-    for (number, line) in source.lines().enumerate() {
-        let code = code_of(line);
-        let mut rest = code;
-        while let Some(at) = rest.find("crate::") {
-            // `$crate::` (macros) and `crate::` both name this crate.
-            let before = rest[..at].chars().next_back();
-            let tail = &rest[at + "crate::".len()..];
-            if before.is_none_or(|c| !(c.is_ascii_alphanumeric() || c == '_'))
-                || before == Some('$')
-            {
-                let name = ident_at(tail);
-                if !name.is_empty() {
-                    found.push((name.to_string(), number + 1));
-                }
-            }
-            rest = tail;
-        }
-        // `super` from a file reaches its parent module; from the crate root's child it
-        // reaches the root, where the next name is a top-level module.
-        for (climbs, name) in super_chains(code) {
-            if climbs >= path.len() && name != "super" {
-                found.push((name.to_string(), number + 1));
-            }
-        }
-    }
-    found
-}
-
-/// The module path of a file under `src`: `mailbox/engine/demux.rs` → mailbox, engine,
-/// demux; `mailbox/mod.rs` → mailbox.
-fn module_path(src: &Path, file: &Path) -> Vec<String> {
-    let relative = file.strip_prefix(src).expect("file under src");
-    let mut parts: Vec<String> = relative
+    paths(path, source)
         .iter()
-        .map(|p| p.to_string_lossy().trim_end_matches(".rs").to_string())
-        .collect();
-    if parts.last().is_some_and(|p| p == "mod") {
-        parts.pop();
-    }
-    parts
+        .filter_map(|u| Some((u.top_module()?.to_string(), u.line)))
+        .collect()
 }
 
-fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let mut entries: Vec<_> = fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("directory entry").path())
-        .collect();
-    entries.sort();
-    for path in entries {
-        if path.is_dir() {
-            rust_files(&path, out);
-        } else if path.extension().is_some_and(|e| e == "rs") {
-            out.push(path);
-        }
-    }
+fn module_path(src: &Path, file: &Path) -> Vec<String> {
+    layering::module_path(file.strip_prefix(src).expect("file under src"))
 }
 
 /// Every use of one top-level module by another in the sources under `src`.
 fn arrows(src: &Path) -> Vec<Arrow> {
-    let mut files = Vec::new();
-    rust_files(src, &mut files);
+    let files = layering::source_files(src);
     let mut arrows = Vec::new();
     for file in files {
         let path = module_path(src, &file);
@@ -204,28 +120,13 @@ fn src() -> PathBuf {
 }
 
 /// The mailbox modules `source` names, for a file under `mailbox/` whose module path is
-/// `path`: `crate::mailbox::x` paths, and `super::` chains that climb to the mailbox root.
+/// `path`: `crate::mailbox::x` paths and `super::` chains that climb to the mailbox root,
+/// with the line of each use.
 fn mailbox_uses(path: &[String], source: &str) -> Vec<(String, usize)> {
-    let mut found = Vec::new();
-    for (number, line) in source.lines().enumerate() {
-        let code = code_of(line);
-        let mut rest = code;
-        while let Some(at) = rest.find("crate::mailbox::") {
-            let tail = &rest[at + "crate::mailbox::".len()..];
-            let name = ident_at(tail);
-            if !name.is_empty() {
-                found.push((name.to_string(), number + 1));
-            }
-            rest = tail;
-        }
-        // From `mailbox/a/b.rs` (path mailbox, a, b) two climbs reach the mailbox root.
-        for (climbs, name) in super_chains(code) {
-            if climbs + 1 == path.len() {
-                found.push((name.to_string(), number + 1));
-            }
-        }
-    }
-    found
+    paths(path, source)
+        .iter()
+        .filter_map(|u| Some((u.module_under("mailbox")?.to_string(), u.line)))
+        .collect()
 }
 
 /// Uses of one mailbox module by another that point up or sideways.
@@ -236,8 +137,7 @@ fn mailbox_violations(src: &Path) -> Vec<String> {
             .find(|(m, _)| *m == module)
             .map(|(_, r)| *r)
     };
-    let mut files = Vec::new();
-    rust_files(&src.join("mailbox"), &mut files);
+    let files = layering::source_files(&src.join("mailbox"));
     let mut bad = Vec::new();
     for file in files {
         let path = module_path(src, &file);
@@ -295,6 +195,8 @@ fn an_engine_use_of_eoe_is_reported() {
         vec![
             ("eoe".to_string(), 1),
             ("eoe".to_string(), 2),
+            // Its own module (the check skips it), through `super::`.
+            ("engine".to_string(), 3),
             ("error".to_string(), 4)
         ]
     );
