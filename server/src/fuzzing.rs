@@ -11,8 +11,9 @@ use master_core::master::SlaveAddress;
 use crate::config::watch::Number;
 use crate::http::browser::AllowedHosts;
 use crate::input::ip::{from_settings, to_settings};
+use crate::input::state::parse_state;
 use crate::input::value::{ValueType, decode, encode, parse_number};
-use crate::service::view::{parse_state, state_name};
+use crate::service::view::state_name;
 use crate::service::{IpView, parse_slave};
 use crate::watch::{Target, WatchSpec};
 
@@ -144,8 +145,8 @@ fn number(text: &str) {
 }
 
 fn state(text: &str) {
-    if let Some(s) = parse_state(text) {
-        assert_eq!(parse_state(&state_name(s)), Some(s));
+    if let Ok(s) = parse_state(text) {
+        assert_eq!(parse_state(&state_name(s)).ok(), Some(s));
     }
 }
 

@@ -32,18 +32,12 @@ pub fn idn(text: &str) -> Result<u32, String> {
         .map_err(|e| e.message)
 }
 
-/// An AL state by name (`INIT`, `PREOP`, `BOOT`, `SAFEOP`, `OP`, any case).
+/// An AL state by name (`INIT`, `PREOP`, `BOOT`, `SAFEOP`, `OP`, any case), as ecatd reads
+/// it.
 pub fn state(name: &str) -> Result<pb::AlState, String> {
-    Ok(
-        match name.to_ascii_uppercase().replace(['-', '_'], "").as_str() {
-            "INIT" => pb::AlState::Init,
-            "PREOP" => pb::AlState::Preop,
-            "BOOT" => pb::AlState::Boot,
-            "SAFEOP" => pb::AlState::Safeop,
-            "OP" => pb::AlState::Op,
-            _ => return Err(format!("unknown state {name:?}")),
-        },
-    )
+    server::input::state::parse_state(name)
+        .map(server::grpc::convert::pb_state)
+        .map_err(|err| err.message)
 }
 
 /// A slave's state as the listings print it: its AL state, or `ABSENT` while it does not
@@ -58,12 +52,5 @@ pub fn slave_state_text(slave: &pb::Slave) -> &'static str {
 
 /// The name of an AL state as IgH prints it.
 pub fn state_text(value: i32) -> &'static str {
-    match pb::AlState::try_from(value) {
-        Ok(pb::AlState::Init) => "INIT",
-        Ok(pb::AlState::Preop) => "PREOP",
-        Ok(pb::AlState::Boot) => "BOOT",
-        Ok(pb::AlState::Safeop) => "SAFEOP",
-        Ok(pb::AlState::Op) => "OP",
-        _ => "UNKNOWN",
-    }
+    server::grpc::convert::state_of(value).map_or("UNKNOWN", |state| state.name())
 }

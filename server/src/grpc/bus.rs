@@ -11,7 +11,7 @@ use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 use tonic::{Request, Response, Status};
 
 use super::auth::require_write;
-use super::convert::{event, slave, state_name};
+use super::convert::{event, requested_state, slave};
 use super::status::narrow;
 use crate::security::Caller;
 use crate::service::{Core, EventView};
@@ -50,7 +50,7 @@ impl BusService for Bus {
     ) -> Reply<pb::RequestStateResponse> {
         require_write(&request, "request_state")?;
         let r = request.get_ref();
-        let state = state_name(r.state)?;
+        let state = requested_state(r.state)?;
         let view = self.core.request_state(&r.slave, state).await?;
         Ok(Response::new(pb::RequestStateResponse {
             slave: Some(slave(&view)),

@@ -1,34 +1,39 @@
 //! The core's views as `ecat.v1` messages.
 
+use master_core::wire::register::AlState;
 use proto::v1 as pb;
 use tonic::Status;
 
+use crate::input::state::parse_state;
 use crate::service::{ApiError, EventView, IdentityView, SlaveView};
 
-/// The protobuf enum for a state name.
-pub fn al_state(name: &str) -> pb::AlState {
-    match name {
-        "INIT" => pb::AlState::Init,
-        "PREOP" => pb::AlState::Preop,
-        "BOOT" => pb::AlState::Boot,
-        "SAFEOP" => pb::AlState::Safeop,
-        "OP" => pb::AlState::Op,
-        _ => pb::AlState::Unspecified,
+/// The protobuf enum of an AL state (`Unspecified` for a value outside the state machine).
+pub fn pb_state(state: AlState) -> pb::AlState {
+    match state {
+        AlState::Init => pb::AlState::Init,
+        AlState::PreOp => pb::AlState::Preop,
+        AlState::Boot => pb::AlState::Boot,
+        AlState::SafeOp => pb::AlState::Safeop,
+        AlState::Op => pb::AlState::Op,
+        AlState::Unknown(_) => pb::AlState::Unspecified,
     }
 }
 
-/// The state name of a protobuf enum value.
-pub fn state_name(value: i32) -> Result<&'static str, Status> {
-    match pb::AlState::try_from(value) {
-        Ok(pb::AlState::Init) => Ok("INIT"),
-        Ok(pb::AlState::Preop) => Ok("PREOP"),
-        Ok(pb::AlState::Boot) => Ok("BOOT"),
-        Ok(pb::AlState::Safeop) => Ok("SAFEOP"),
-        Ok(pb::AlState::Op) => Ok("OP"),
-        _ => Err(Status::from(ApiError::invalid(format!(
-            "no AL state {value}"
-        )))),
-    }
+/// The AL state of a protobuf enum value, if it names one.
+pub fn state_of(value: i32) -> Option<AlState> {
+    AlState::ALL
+        .into_iter()
+        .find(|&state| pb_state(state) as i32 == value)
+}
+
+/// The protobuf enum of a view's state name (`ABSENT` and unknown values: `Unspecified`).
+pub fn al_state(name: &str) -> pb::AlState {
+    parse_state(name).map_or(pb::AlState::Unspecified, pb_state)
+}
+
+/// The AL state a request names.
+pub fn requested_state(value: i32) -> Result<AlState, Status> {
+    state_of(value).ok_or_else(|| Status::from(ApiError::invalid(format!("no AL state {value}"))))
 }
 
 fn identity(id: &IdentityView) -> pb::Identity {
@@ -84,5 +89,27 @@ pub fn event(view: &EventView) -> pb::Event {
             total: t.total,
             done: t.done,
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_state_goes_to_its_enum_and_back_and_nothing_else_is_a_state() {
+        for state in AlState::ALL {
+            assert_eq!(state_of(pb_state(state) as i32), Some(state));
+            assert_eq!(al_state(state.name()), pb_state(state));
+            assert_eq!(requested_state(pb_state(state) as i32).unwrap(), state);
+        }
+        assert_eq!(state_of(pb::AlState::Unspecified as i32), None);
+        assert_eq!(state_of(99), None);
+        assert_eq!(
+            requested_state(99).unwrap_err().code(),
+            tonic::Code::InvalidArgument
+        );
+        assert_eq!(al_state("ABSENT"), pb::AlState::Unspecified);
+        assert_eq!(pb_state(AlState::Unknown(0x6)), pb::AlState::Unspecified);
     }
 }

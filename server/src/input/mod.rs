@@ -5,8 +5,9 @@
 //! Below every runtime module: the configuration, the service core and both APIs read these
 //! forms, and none of them is imported here. Files: `address` (slave names: `3`, `#0x1001`,
 //! `@7`, `alias:offset`), `value` (numbers and typed values), `ip` (dotted quads and colon
-//! MACs to [`IpSettings`](master_core::mailbox::IpSettings)).
+//! MACs to [`IpSettings`](master_core::mailbox::IpSettings)), `state` (AL state names).
 
 pub mod address;
 pub mod ip;
+pub mod state;
 pub mod value;

@@ -32,6 +32,7 @@ use master_core::gateway::{MailboxGateway, MailboxGatewayStats};
 use master_core::mailbox::{FoeOptions, FoeProgress, MailboxError, SlaveMailbox, VoeMessage};
 use master_core::master::Master;
 use master_core::wire::coe::info::OdListType;
+use master_core::wire::register::AlState;
 use master_core::wire::soe::{ElementFlags, Idn};
 use tokio::sync::broadcast;
 
@@ -258,11 +259,9 @@ impl Core {
         Ok(SlaveView::from(&self.master.slave(self.address(slave)?)?))
     }
 
-    /// Moves a slave to `state` (a state name) and returns it afterwards.
-    pub async fn request_state(&self, slave: &str, state: &str) -> Result<SlaveView> {
+    /// Moves a slave to `state` and returns it afterwards.
+    pub async fn request_state(&self, slave: &str, state: AlState) -> Result<SlaveView> {
         let address = self.address(slave)?;
-        let state = view::parse_state(state)
-            .ok_or_else(|| ApiError::invalid(format!("unknown AL state {state:?}")))?;
         self.master.request_state(address, state).await?;
         Ok(SlaveView::from(&self.master.slave(address)?))
     }

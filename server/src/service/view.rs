@@ -8,27 +8,12 @@ use utoipa::ToSchema;
 /// The `state` of a slave that did not answer the master's last look.
 pub const ABSENT: &str = "ABSENT";
 
-/// An AL state by its name (`INIT`, `PREOP`, `BOOT`, `SAFEOP`, `OP`).
+/// An AL state by its name ([`AlState::name`]: `INIT`, `PREOP`, `BOOT`, `SAFEOP`, `OP`), and
+/// a value outside the state machine with its raw bits (`UNKNOWN(0x6)`).
 pub fn state_name(state: AlState) -> String {
     match state {
-        AlState::Init => "INIT".into(),
-        AlState::PreOp => "PREOP".into(),
-        AlState::Boot => "BOOT".into(),
-        AlState::SafeOp => "SAFEOP".into(),
-        AlState::Op => "OP".into(),
         AlState::Unknown(raw) => format!("UNKNOWN({raw:#x})"),
-    }
-}
-
-/// Parses a state name (case-insensitive; `PRE-OP`, `SAFE-OP` accepted).
-pub fn parse_state(name: &str) -> Option<AlState> {
-    match name.to_ascii_uppercase().replace(['-', '_'], "").as_str() {
-        "INIT" => Some(AlState::Init),
-        "PREOP" => Some(AlState::PreOp),
-        "BOOT" => Some(AlState::Boot),
-        "SAFEOP" => Some(AlState::SafeOp),
-        "OP" => Some(AlState::Op),
-        _ => None,
+        known => known.name().into(),
     }
 }
 

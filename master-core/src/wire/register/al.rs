@@ -50,6 +50,15 @@ enum_with_unknown! {
 }
 
 impl AlState {
+    /// The five states of the state machine (ETG.1000.6 §6.4.1), from INIT up.
+    pub const ALL: [AlState; 5] = [
+        AlState::Init,
+        AlState::PreOp,
+        AlState::Boot,
+        AlState::SafeOp,
+        AlState::Op,
+    ];
+
     /// The name the standard and Wireshark use ("INIT", "PREOP", "BOOT", "SAFEOP", "OP").
     pub fn name(self) -> &'static str {
         match self {

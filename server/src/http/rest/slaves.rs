@@ -79,7 +79,8 @@ pub async fn request_state(
     Path(slave): Path<String>,
     Json(body): Json<StateBody>,
 ) -> Result<Json<SlaveView>> {
-    core.request_state(&slave, &body.state).await.map(Json)
+    let state = crate::input::state::parse_state(&body.state)?;
+    core.request_state(&slave, state).await.map(Json)
 }
 
 #[utoipa::path(post, path = "/rescan", tag = "bus", responses((status = 200, body = RescanBody)))]
