@@ -148,22 +148,13 @@ impl Reader {
                 self.use_tree(prefix, &path.tree);
                 prefix.pop();
             }
-            syn::UseTree::Name(name) => {
-                let line = name.ident.span().start().line;
-                if name.ident == "self" {
+            syn::UseTree::Name(syn::UseName { ident })
+            | syn::UseTree::Rename(syn::UseRename { ident, .. }) => {
+                let line = ident.span().start().line;
+                if ident == "self" {
                     self.push(&prefix.clone(), line);
                 } else {
-                    prefix.push(name.ident.to_string());
-                    self.push(&prefix.clone(), line);
-                    prefix.pop();
-                }
-            }
-            syn::UseTree::Rename(rename) => {
-                let line = rename.ident.span().start().line;
-                if rename.ident == "self" {
-                    self.push(&prefix.clone(), line);
-                } else {
-                    prefix.push(rename.ident.to_string());
+                    prefix.push(ident.to_string());
                     self.push(&prefix.clone(), line);
                     prefix.pop();
                 }
