@@ -6,7 +6,7 @@ use tonic::{Request, Response, Status};
 
 use super::auth::require_write;
 use super::status::narrow;
-use crate::service::Core;
+use crate::service::{Core, SdoPayload};
 
 /// The CoE service over the core.
 pub struct Coe {
@@ -21,39 +21,37 @@ impl CoeService for Coe {
     async fn upload(&self, request: Request<pb::UploadRequest>) -> Reply<pb::UploadResponse> {
         let r = request.get_ref();
         let (index, subindex) = (narrow(r.index, "index")?, narrow(r.subindex, "subindex")?);
-        let (data, value) = if r.value_type.is_empty() {
-            let data = self
-                .core
-                .coe_upload(&r.slave, index, subindex, r.complete_access)
-                .await;
-            (data?, String::new())
-        } else {
-            self.core
-                .coe_upload_value(&r.slave, index, subindex, r.complete_access, &r.value_type)
-                .await?
-        };
-        Ok(Response::new(pb::UploadResponse { data, value }))
+        // proto3 has no absent string: an empty `value_type` asks for the bytes only.
+        let value_type = (!r.value_type.is_empty()).then_some(r.value_type.as_str());
+        let read = self
+            .core
+            .coe_read(&r.slave, index, subindex, r.complete_access, value_type)
+            .await?;
+        Ok(Response::new(pb::UploadResponse {
+            data: read.data,
+            value: read.value.unwrap_or_default(),
+        }))
     }
 
     async fn download(&self, request: Request<pb::DownloadRequest>) -> Reply<pb::DownloadResponse> {
         require_write(&request, "coe_download")?;
         let r = request.get_ref();
-        crate::audit::note_value(if r.value_type.is_empty() {
-            &r.data
+        let payload = if r.value_type.is_empty() {
+            SdoPayload::Bytes {
+                data: &r.data,
+                complete: r.complete_access,
+            }
         } else {
-            r.value.as_bytes()
-        });
-        let (index, subindex) = (narrow(r.index, "index")?, narrow(r.subindex, "subindex")?);
-        let done = if r.value_type.is_empty() {
-            self.core
-                .coe_download(&r.slave, index, subindex, &r.data, r.complete_access)
-                .await
-        } else {
-            self.core
-                .coe_download_value(&r.slave, index, subindex, &r.value, &r.value_type)
-                .await
+            SdoPayload::Value {
+                text: &r.value,
+                value_type: &r.value_type,
+            }
         };
-        done?;
+        crate::audit::note_value(payload.audited());
+        let (index, subindex) = (narrow(r.index, "index")?, narrow(r.subindex, "subindex")?);
+        self.core
+            .coe_write(&r.slave, index, subindex, payload)
+            .await?;
         Ok(Response::new(pb::DownloadResponse {}))
     }
 

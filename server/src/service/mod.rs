@@ -49,6 +49,46 @@ pub use view::{
     EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
 };
 
+/// What an SDO download writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SdoPayload<'a> {
+    /// Bytes as they are; `complete`: complete access from the subindex on.
+    Bytes {
+        /// The bytes.
+        data: &'a [u8],
+        /// Complete access.
+        complete: bool,
+    },
+    /// A value as text, encoded by its type: `auto` (the type the slave's SDO Information
+    /// names) or a type name (`u8` … `u64`, `i8` … `i64`, `f32`, `f64`, `bool`, `string`,
+    /// `hex`).
+    Value {
+        /// The value as text.
+        text: &'a str,
+        /// `auto` or a type name.
+        value_type: &'a str,
+    },
+}
+
+impl SdoPayload<'_> {
+    /// What the audit log keeps of it: the bytes, or the value's text.
+    pub fn audited(&self) -> &[u8] {
+        match self {
+            SdoPayload::Bytes { data, .. } => data,
+            SdoPayload::Value { text, .. } => text.as_bytes(),
+        }
+    }
+}
+
+/// What an SDO upload read.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Uploaded {
+    /// The bytes.
+    pub data: Vec<u8>,
+    /// The value as text, when a type was asked for.
+    pub value: Option<String>,
+}
+
 /// The largest register access in one request (the ESC's whole register space).
 pub const MAX_REGISTER_LEN: usize = 0x1000;
 
@@ -448,8 +488,55 @@ impl Core {
         }
     }
 
-    /// SDO upload with the value as text, typed by `type_name` (see [`Core::coe_download_value`]).
-    pub async fn coe_upload_value(
+    /// SDO upload as the caller asked: the bytes, and with `value_type` also the value as
+    /// text (`value_type` as in [`SdoPayload::Value`]).
+    pub async fn coe_read(
+        &self,
+        slave: &str,
+        index: u16,
+        subindex: u8,
+        complete: bool,
+        value_type: Option<&str>,
+    ) -> Result<Uploaded> {
+        match value_type {
+            None => Ok(Uploaded {
+                data: self.coe_upload(slave, index, subindex, complete).await?,
+                value: None,
+            }),
+            Some(ty) => {
+                let (data, value) = self
+                    .coe_upload_value(slave, index, subindex, complete, ty)
+                    .await?;
+                Ok(Uploaded {
+                    data,
+                    value: Some(value),
+                })
+            }
+        }
+    }
+
+    /// SDO download of `payload`: bytes as they are, or a value as text with its type.
+    pub async fn coe_write(
+        &self,
+        slave: &str,
+        index: u16,
+        subindex: u8,
+        payload: SdoPayload<'_>,
+    ) -> Result<()> {
+        match payload {
+            SdoPayload::Bytes { data, complete } => {
+                self.coe_download(slave, index, subindex, data, complete)
+                    .await
+            }
+            SdoPayload::Value { text, value_type } => {
+                self.coe_download_value(slave, index, subindex, text, value_type)
+                    .await
+            }
+        }
+    }
+
+    /// SDO upload with the value as text, typed by `type_name` (as in [`SdoPayload::Value`]).
+    async fn coe_upload_value(
         &self,
         slave: &str,
         index: u16,
@@ -474,10 +561,9 @@ impl Core {
         Ok((data, text))
     }
 
-    /// SDO download of a value given as text: `type_name` is `auto` (the type the slave's
-    /// SDO Information names) or a type name (`u8` … `u64`, `i8` … `i64`, `f32`, `f64`,
-    /// `bool`, `string`, `hex`).
-    pub async fn coe_download_value(
+    /// SDO download of a value given as text, typed by `type_name` (as in
+    /// [`SdoPayload::Value`]).
+    async fn coe_download_value(
         &self,
         slave: &str,
         index: u16,

@@ -8,7 +8,7 @@ use utoipa_axum::routes;
 
 use super::{DONE, Done, Result, num, unhex};
 use crate::http::extract::{Json, Path, Query};
-use crate::service::{Core, EntryView, ObjectView};
+use crate::service::{Core, EntryView, ObjectView, SdoPayload};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -83,22 +83,18 @@ pub async fn coe_upload(
     Query(q): Query<UploadQuery>,
 ) -> Result<Json<Upload>> {
     let (index, subindex) = (num(&index, "index")?, num(&subindex, "subindex")?);
-    let (bytes, value) = match &q.value_type {
-        None => (
-            core.coe_upload(&slave, index, subindex, q.complete_access)
-                .await?,
-            None,
-        ),
-        Some(ty) => {
-            let (bytes, value) = core
-                .coe_upload_value(&slave, index, subindex, q.complete_access, ty)
-                .await?;
-            (bytes, Some(value))
-        }
-    };
+    let read = core
+        .coe_read(
+            &slave,
+            index,
+            subindex,
+            q.complete_access,
+            q.value_type.as_deref(),
+        )
+        .await?;
     Ok(Json(Upload {
-        data: hex::encode(bytes),
-        value,
+        data: hex::encode(read.data),
+        value: read.value,
     }))
 }
 
@@ -112,22 +108,21 @@ pub async fn coe_download(
     Json(body): Json<SdoWrite>,
 ) -> Result<Json<Done>> {
     let (index, subindex) = (num(&index, "index")?, num(&subindex, "subindex")?);
-    match &body.value_type {
+    let bytes;
+    let payload = match &body.value_type {
         None => {
-            core.coe_download(
-                &slave,
-                index,
-                subindex,
-                &unhex(&body.data)?,
-                body.complete_access,
-            )
-            .await?
+            bytes = unhex(&body.data)?;
+            SdoPayload::Bytes {
+                data: &bytes,
+                complete: body.complete_access,
+            }
         }
-        Some(ty) => {
-            core.coe_download_value(&slave, index, subindex, &body.value, ty)
-                .await?
-        }
-    }
+        Some(ty) => SdoPayload::Value {
+            text: &body.value,
+            value_type: ty,
+        },
+    };
+    core.coe_write(&slave, index, subindex, payload).await?;
     Ok(DONE)
 }
 
