@@ -3,11 +3,11 @@
 //! bytes.
 //!
 //! Shared by the cargo-fuzz targets (`fuzz_targets/*.rs`) and by master-core's corpus replay
-//! test (`master-core/tests/fuzz_corpus.rs`), so the seed corpus is exercised in every CI run
+//! test (`master-core/tests/checks/fuzz_corpus.rs`), so the seed corpus is exercised in every CI run
 //! and a crash found by the fuzzer stays a regression test once its input is added there.
 //! Each function must return normally for any input: an `Err` is fine, a panic is the bug.
 //! The targets of the simulator and the server call `sim::fuzzing` and `server::fuzzing`
-//! directly (replayed by `sim/tests/fuzz_corpus.rs` and `server/tests/fuzz_corpus.rs`).
+//! directly (replayed by `sim/tests/checks/fuzz_corpus.rs` and `server/tests/checks/fuzz_corpus.rs`).
 
 // Each fuzz target uses one of these functions; the replay test uses them all.
 #![allow(dead_code)]

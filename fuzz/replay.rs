@@ -3,7 +3,7 @@
 //! and a fixed set of mutants of it (bytes flipped, inserted, removed, repeated), so that
 //! each CI run exercises the targets a little even without a fuzzer, and a crash input
 //! added to the corpus stays a regression test. Shared by the replay tests of master-core,
-//! sim and server (`tests/fuzz_corpus.rs`).
+//! sim and server (`tests/checks/fuzz_corpus.rs`).
 
 use std::path::{Path, PathBuf};
 

@@ -1,5 +1,5 @@
 //! Which modules a Rust source file names: the reading behind each crate's import-direction
-//! test (`master-core/tests/layering.rs`, `server/tests/layering.rs`, `sim/tests/layering.rs`;
+//! test (`master-core/tests/checks/layering.rs`, `server/tests/checks/layering.rs`, `sim/tests/checks/layering.rs`;
 //! the ranks themselves are in those tests, docs/architecture.md explains them).
 //!
 //! [`uses`] parses a file with Rust's grammar and returns every path it names, resolved

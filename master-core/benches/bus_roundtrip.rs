@@ -16,7 +16,7 @@
 
 #![allow(missing_docs)]
 
-#[path = "../tests/common/netns.rs"]
+#[path = "../tests/bus_support/netns.rs"]
 #[allow(dead_code)]
 mod netns;
 

@@ -1,7 +1,7 @@
 /*
  * A control program for the application-interface tests, on the C client (clients/c): the
  * twin of tests/src/bin/app_program.rs (same command line, same scenarios, same JSON lines
- * on stdout), so one test body in tests/tests/app.rs checks all three libraries.
+ * on stdout), so one test body in tests/tests/server/app.rs checks all three libraries.
  *
  *     cc -O2 -std=c11 -Wall -Wextra -Werror -pedantic -I clients/c \
  *        -o app_program tests/c/app_program.c clients/c/ecat_app.c

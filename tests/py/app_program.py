@@ -1,6 +1,6 @@
 """A control program for the application-interface tests, on the Python client (ecat_app):
 the twin of tests/src/bin/app_program.rs (same command line, same scenarios, same JSON
-lines on stdout), so one test body in tests/tests/app.rs checks all three libraries.
+lines on stdout), so one test body in tests/tests/server/app.rs checks all three libraries.
 
 ``app_program.py SOCKET SCENARIO [ARG]``:
 

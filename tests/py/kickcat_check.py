@@ -5,7 +5,7 @@ Usage: kickcat_check.py IFACE --sdo SLAVE[,SLAVE...]
 For every listed slave it reads the identity object 0x1018 entry by entry (expedited
 uploads), as one complete-access upload, and the device name 0x1008 (a normal upload).
 Then it maps the process data and takes the bus to SAFE_OP and OP with the cycle running.
-It reports observations only; tests/tests/kickcat.rs compares them with the topology.
+It reports observations only; tests/tests/segment_veth/kickcat.rs compares them with the topology.
 """
 
 import argparse

@@ -2,7 +2,7 @@
 
 Usage: pysoem_check.py IFACE --large SLAVE:INDEX --foe SLAVE:NAME --od SLAVE[,SLAVE...]
 
-It reports observations only; the Rust test (tests/tests/pysoem.rs) compares them with the
+It reports observations only; the Rust test (tests/tests/segment_veth/pysoem.rs) compares them with the
 simulator's topology. Any exception ends the script with a non-zero exit code.
 """
 

@@ -1,6 +1,6 @@
 """Drives ecatd's dashboard in headless Chromium (WebDriver) and reports what it saw.
 
-Called by tests/tests/web_dashboard.rs with one JSON argument (ecatd's addresses, the
+Called by tests/tests/server/web_dashboard.rs with one JSON argument (ecatd's addresses, the
 tokens, the `ecat` binary, the FoE file, the screenshot folder). It acts as a user would
 (keyboard and clicks), waits for each result with a deadline, and prints one JSON object of
 observations; the Rust test decides whether they are right. One browser session for all.

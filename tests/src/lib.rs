@@ -7,9 +7,9 @@
 // The namespace helper was written for master-core's test crates, where `NetNs::new` is
 // the only constructor a test wants; a `Default` would hide that it needs root.
 #[allow(clippy::new_without_default)]
-#[path = "../../master-core/tests/common/netns.rs"]
+#[path = "../../master-core/tests/bus_support/netns.rs"]
 pub mod netns;
-#[path = "../../master-core/tests/wireshark/tshark.rs"]
+#[path = "../../master-core/tests/tshark_support/mod.rs"]
 pub mod tshark;
 
 pub mod pysoem_session;

@@ -5,6 +5,7 @@
 //! Wireshark decodes must equal what we encoded. Wireshark's EtherCAT dissectors are an
 //! authority independent of our master and simulator, which share these codecs.
 
+#[path = "../tshark_support/mod.rs"]
 mod tshark;
 
 use std::collections::BTreeMap;

@@ -18,13 +18,7 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
         "Slaves that answer, by current AL state (absent ones: ecat_slave_present).",
         MetricType::GAUGE,
     );
-    for state in [
-        AlState::Init,
-        AlState::PreOp,
-        AlState::Boot,
-        AlState::SafeOp,
-        AlState::Op,
-    ] {
+    for state in AlState::ALL {
         // An absent slave's last state is not its state now (`ecat_slave_present` counts it).
         let n = slaves
             .iter()

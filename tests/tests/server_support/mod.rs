@@ -73,9 +73,9 @@ pub fn bin_dir() -> &'static Path {
     })
 }
 
-/// Whether this test binary runs ecatd on a real interface: the `*_veth` binaries compile a
-/// server suite again (`#[path]`), and in them ecatd runs `--iface` on a veth pair whose other
-/// end is `ecat-sim` in its own namespace, serving the same topology as `--simulate`.
+/// Whether this test binary runs ecatd on a real interface: the `server_veth` binary compiles
+/// the suites of `server` again (`#[path]`), and in it ecatd runs `--iface` on a veth pair whose
+/// other end is `ecat-sim` in its own namespace, serving the same topology as `--simulate`.
 pub fn on_veth() -> bool {
     env!("CARGO_CRATE_NAME").ends_with("_veth")
 }

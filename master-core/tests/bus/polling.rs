@@ -1,0 +1,98 @@
+//! `BusHandle::submit_once_polling`: the bus thread sends a datagram that came back with
+//! working counter 0 again by itself, at most `again` more times, and completes it once
+//! (the mailbox layer's eager reads of SM1 while an answer is awaited).
+
+use crate::bus_support;
+
+use bus_support::bus::{config, finish, start};
+use bus_support::responder::{Script, answer};
+use bus_support::segment::FakeSegment;
+use master_core::bus::{BusError, DatagramRequest};
+use master_core::link::{FaultConfig, FaultInjector, Link, MemoryLink};
+
+/// Returns the first `empty` frames as they came, as if no slave had counted them (an empty
+/// send mailbox), then answers from the segment.
+struct EmptyFor {
+    empty: usize,
+}
+
+impl Script for EmptyFor {
+    fn on_frame(&mut self, frame: &mut [u8], segment: &mut FakeSegment, link: &mut dyn Link) {
+        if self.empty > 0 {
+            self.empty -= 1;
+            // Unchanged: every working counter stays 0, the data as sent.
+            frame[6] |= 0x02;
+            let _ = link.send(frame);
+        } else {
+            answer(frame, segment, link);
+        }
+    }
+}
+
+fn poll() -> DatagramRequest {
+    DatagramRequest::fprd(FakeSegment::station(0), 0x0180, 4)
+}
+
+fn pattern() -> Vec<u8> {
+    (0..4)
+        .map(|i| FakeSegment::pattern(0, 0x0180 + i))
+        .collect()
+}
+
+#[test]
+fn an_empty_poll_is_sent_again_by_the_bus_until_it_counts() {
+    let bus = start(1, EmptyFor { empty: 2 }, config());
+    let reply = finish(bus.handle.submit_once_polling(poll(), 5)).unwrap();
+    assert_eq!(
+        (reply.wkc, reply.data.as_slice()),
+        (1, pattern().as_slice())
+    );
+    let (stats, _, report) = bus.stop();
+    assert_eq!(report.frames, 3, "two empty tries and the one that counted");
+    assert_eq!(stats.datagrams_sent, 3);
+    assert_eq!(stats.datagrams_polled_again, 2);
+    assert_eq!(stats.datagrams_completed, 1, "the caller hears once");
+}
+
+#[test]
+fn a_poll_that_stays_empty_ends_after_its_tries_with_the_empty_reply() {
+    let bus = start(1, EmptyFor { empty: usize::MAX }, config());
+    let reply = finish(bus.handle.submit_once_polling(poll(), 3)).unwrap();
+    assert_eq!((reply.wkc, reply.data.as_slice()), (0, &[0u8; 4][..]));
+    // A plain submission that comes back empty is not sent again.
+    let plain = finish(bus.handle.submit_once(poll())).unwrap();
+    assert_eq!(plain.wkc, 0);
+    let (stats, _, report) = bus.stop();
+    assert_eq!(report.frames, 5, "one try and three more, then one");
+    assert_eq!(stats.datagrams_sent, 5);
+    assert_eq!(stats.datagrams_polled_again, 3);
+}
+
+#[test]
+fn a_poll_that_counts_at_once_is_sent_once() {
+    let bus = start(1, EmptyFor { empty: 0 }, config());
+    let reply = finish(bus.handle.submit_once_polling(poll(), 3)).unwrap();
+    assert_eq!(reply.wkc, 1);
+    let (stats, _, report) = bus.stop();
+    assert_eq!((report.frames, stats.datagrams_polled_again), (1, 0));
+}
+
+#[test]
+fn a_lost_frame_ends_the_poll_with_a_timeout_and_is_not_sent_again() {
+    let (near, far) = MemoryLink::pair(bus_support::bus::LINK_CAPACITY);
+    let lossy = FaultConfig {
+        drop_tx: 1.0,
+        ..FaultConfig::default()
+    };
+    let near = FaultInjector::new(near, lossy, 1);
+    let fast = master_core::bus::BusConfig {
+        response_timeout: std::time::Duration::from_millis(2),
+        ..config()
+    };
+    let bus = bus_support::bus::start_on(near, far, 1, EmptyFor { empty: 0 }, fast);
+    let result = finish(bus.handle.submit_once_polling(poll(), 3));
+    assert_eq!(result.unwrap_err(), BusError::Timeout { attempts: 1 });
+    let (stats, link, _) = bus.stop();
+    assert_eq!((stats.retries, stats.datagrams_polled_again), (0, 0));
+    assert_eq!(link.counts().tx_dropped, 1, "one try only");
+}

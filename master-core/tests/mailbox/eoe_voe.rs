@@ -1,0 +1,174 @@
+//! EoE and VoE through the mailbox engine against the simulator in-process: IP parameters
+//! round trip, ICMP echo through EoE (small and fragmented frames), the address filter, and
+//! the VoE echo.
+
+use crate::mailbox_support;
+
+use std::net::Ipv4Addr;
+use std::time::Duration;
+
+use etherparse::{Icmpv4Type, NetSlice, PacketBuilder, SlicedPacket, TransportSlice};
+use mailbox_support::{DRIVE, EOE_PORT, Rig, station};
+use master_core::mailbox::{IpSettings, MailboxError, SlaveMailbox};
+use master_core::wire::eoe::{AddressFilter, EoeResult};
+use master_core::wire::mailbox::MailboxErrorCode;
+use sim::device::voe::VoeEcho;
+use sim::topology::Topology;
+
+const MASTER_MAC: [u8; 6] = [0x02, 0x00, 0x00, 0x00, 0x00, 0x01];
+const MASTER_IP: Ipv4Addr = Ipv4Addr::new(192, 168, 100, 1);
+
+fn settings(last: u8) -> IpSettings {
+    IpSettings {
+        mac: Some([0x02, 0xEC, 0xAD, 0x00, 0x00, last]),
+        ip: Some(Ipv4Addr::new(192, 168, 100, last)),
+        subnet_mask: Some(Ipv4Addr::new(255, 255, 255, 0)),
+        default_gateway: Some(MASTER_IP),
+        dns_server: Some(Ipv4Addr::new(192, 168, 100, 53)),
+        dns_name: Some(format!("slave-{last}")),
+    }
+}
+
+fn echo_request(to: &IpSettings, id: u16, seq: u16, payload: &[u8]) -> Vec<u8> {
+    let mut frame = Vec::new();
+    PacketBuilder::ethernet2(MASTER_MAC, to.mac.unwrap())
+        .ipv4(MASTER_IP.octets(), to.ip.unwrap().octets(), 64)
+        .icmpv4_echo_request(id, seq)
+        .write(&mut frame, payload)
+        .unwrap();
+    frame
+}
+
+/// Sends an ICMP echo request through EoE and returns the payload of the matching reply,
+/// with the lengths of the frame sent and of the reply's frame.
+async fn ping(
+    slave: &SlaveMailbox,
+    to: &IpSettings,
+    seq: u16,
+    payload: &[u8],
+) -> (Vec<u8>, usize, usize) {
+    let mut frames = slave.subscribe_eoe();
+    let request = echo_request(to, 0x4242, seq, payload);
+    slave.eoe_send(&request).await.unwrap();
+    loop {
+        let frame = tokio::time::timeout(Duration::from_secs(5), frames.recv())
+            .await
+            .expect("an answer through EoE")
+            .unwrap();
+        assert_eq!(frame.station, slave.station());
+        let packet = SlicedPacket::from_ethernet(&frame.frame).unwrap();
+        let (Some(NetSlice::Ipv4(ip)), Some(TransportSlice::Icmpv4(icmp))) =
+            (&packet.net, &packet.transport)
+        else {
+            continue;
+        };
+        if let Icmpv4Type::EchoReply(echo) = icmp.icmp_type()
+            && echo.id == 0x4242
+            && echo.seq == seq
+        {
+            assert_eq!(ip.header().source_addr(), to.ip.unwrap());
+            assert_eq!(ip.header().destination_addr(), MASTER_IP);
+            return (icmp.payload().to_vec(), request.len(), frame.frame.len());
+        }
+    }
+}
+
+#[tokio::test]
+async fn set_ip_then_get_ip_round_trip() {
+    let rig = Rig::default_segment();
+    for position in [DRIVE, EOE_PORT] {
+        let slave = rig.slave(position);
+        let wanted = settings(10 + position as u8);
+        slave.eoe_set_ip(&wanted).await.unwrap();
+        assert_eq!(slave.eoe_get_ip().await.unwrap(), wanted);
+        // Only the fields sent change.
+        let partial = IpSettings {
+            ip: Some(Ipv4Addr::new(10, 0, 0, position as u8)),
+            ..IpSettings::default()
+        };
+        slave.eoe_set_ip(&partial).await.unwrap();
+        let now = slave.eoe_get_ip().await.unwrap();
+        assert_eq!(now.ip, partial.ip);
+        assert_eq!(now.mac, wanted.mac);
+        assert_eq!(now.dns_name, wanted.dns_name);
+    }
+}
+
+#[tokio::test]
+async fn an_icmp_echo_request_through_eoe_gets_the_slaves_reply() {
+    let rig = Rig::default_segment();
+    for position in [DRIVE, EOE_PORT] {
+        let slave = rig.slave(position);
+        let me = settings(20 + position as u8);
+        slave.eoe_set_ip(&me).await.unwrap();
+        let small = b"ecatd ping".to_vec();
+        let (echo, out_small, in_small) = ping(&slave, &me, 1, &small).await;
+        assert_eq!(echo, small);
+        // 1400 bytes: a dozen fragments each way through 128-byte mailboxes.
+        let large: Vec<u8> = (0..1400u32).map(|i| (i * 7) as u8).collect();
+        let (echo, out_large, in_large) = ping(&slave, &me, 2, &large).await;
+        assert_eq!(echo, large);
+        let stats = slave.stats();
+        assert_eq!(stats.eoe_frames_out, 2);
+        assert_eq!(stats.eoe_frames_in, 2);
+        // Whole Ethernet frames, counted once each however many fragments carried them.
+        assert_eq!(stats.eoe_bytes_out, (out_small + out_large) as u64);
+        assert_eq!(stats.eoe_bytes_in, (in_small + in_large) as u64);
+        assert!(stats.eoe_bytes_out > 1400, "{stats:?}");
+        assert_eq!(stats.eoe_reassembly_errors, 0);
+    }
+    assert_eq!(rig.slave(EOE_PORT).station(), station(EOE_PORT));
+}
+
+#[tokio::test]
+async fn the_address_filter_answer_and_frame_limits() {
+    // The filter request has fixed slots: 126 bytes of mailbox data, more than a 128-byte
+    // mailbox holds. It is refused before anything is sent.
+    let rig = Rig::default_segment();
+    let slave = rig.slave(EOE_PORT);
+    assert!(matches!(
+        slave
+            .eoe_set_address_filter(&AddressFilter::default())
+            .await,
+        Err(MailboxError::Invalid(_))
+    ));
+    assert_eq!(slave.stats().writes, 0);
+    let mut topology = Topology::default_segment();
+    let mailbox = topology.slaves[EOE_PORT].mailbox.as_mut().unwrap();
+    mailbox.rx_size = 256;
+    mailbox.tx_size = 256;
+    let rig = Rig::start(
+        &topology,
+        Default::default(),
+        5,
+        mailbox_support::bus_config(),
+    );
+    let slave = rig.slave(EOE_PORT);
+    assert_eq!(
+        slave
+            .eoe_set_address_filter(&AddressFilter::default())
+            .await
+            .unwrap_err(),
+        MailboxError::Eoe(EoeResult::NoFilterSupport)
+    );
+    assert!(matches!(
+        slave.eoe_send(&vec![0u8; 4000]).await,
+        Err(MailboxError::TooLarge { .. })
+    ));
+}
+
+#[tokio::test]
+async fn voe_echo() {
+    let rig = Rig::default_segment();
+    let drive = rig.slave(DRIVE);
+    let data: Vec<u8> = (0..100u8).collect();
+    let answer = drive.voe(0x1164, 0x0042, &data).await.unwrap();
+    assert_eq!(answer.vendor_id, 0x1164);
+    assert_eq!(answer.vendor_type, 0x0042);
+    assert_eq!(answer.data, VoeEcho::transform(&data));
+    // Another vendor's protocol: the slave answers with a mailbox error.
+    assert_eq!(
+        drive.voe(0x0002, 1, &data).await.unwrap_err(),
+        MailboxError::Mailbox(MailboxErrorCode::ServiceNotSupported)
+    );
+}

@@ -1,0 +1,113 @@
+//! How many reads of SM1 one exchange costs: a slave that answers at once is read in the
+//! write's own frame, and a slow one (a real ESC's application answers after its own delay)
+//! gets a few eager reads, then one read per poll interval or "mailbox full" notice, never
+//! a read per round trip for as long as it takes.
+
+use crate::mailbox_support;
+
+use std::time::{Duration, Instant};
+
+use mailbox_support::{DRIVE, Rig, bus_config};
+use master_core::link::FaultConfig;
+use master_core::mailbox::MailboxConfig;
+use sim::topology::Topology;
+
+/// The default segment with the drive answering `delay_us` after each request.
+fn topology(delay_us: u32) -> Topology {
+    let mut topology = Topology::default_segment();
+    topology.slaves[DRIVE].esc.response_delay_us = delay_us;
+    topology
+}
+
+/// The drive's segment with idle polling off, so that every read of SM1 counted is one an
+/// upload asked for (the owner's idle reads, every 10 ms by default, would land among the
+/// uploads whenever they take longer than that).
+fn rig(delay_us: u32) -> Rig {
+    Rig::start_with(
+        &topology(delay_us),
+        FaultConfig::default(),
+        1,
+        bus_config(),
+        no_idle_poll(),
+        |_, _| {},
+    )
+}
+
+fn no_idle_poll() -> MailboxConfig {
+    MailboxConfig {
+        idle_poll: None,
+        ..MailboxConfig::default()
+    }
+}
+
+fn vendor_id() -> Vec<u8> {
+    Topology::default_segment().slaves[DRIVE]
+        .vendor_id
+        .to_le_bytes()
+        .to_vec()
+}
+
+#[tokio::test]
+async fn a_slave_that_answers_at_once_costs_one_write_and_one_read_per_upload() {
+    // Without the "mailbox full" bits in the cyclic frame. With them, an answer can cost
+    // one more (empty) read, rightly: when the bus thread sends the write before the read
+    // is queued (a loaded machine) and a cycle runs between the two frames, the cycle sees
+    // SM1 full, and the engine reads again on that notice, since it cannot tell the
+    // message it announced from a new one.
+    let rig = Rig::start_without_status_bits(&topology(0), no_idle_poll(), |_, _| {});
+    let drive = rig.slave(DRIVE);
+    assert_eq!(drive.sdo_upload(0x1018, 1).await.unwrap(), vendor_id());
+    let bus = rig.bus.stats();
+    let mailbox = drive.stats();
+    const UPLOADS: u64 = 20;
+    for _ in 0..UPLOADS {
+        assert_eq!(drive.sdo_upload(0x1018, 1).await.unwrap(), vendor_id());
+    }
+    let sent = rig.bus.stats().datagrams_sent - bus.datagrams_sent;
+    let after = drive.stats();
+    assert_eq!(after.writes - mailbox.writes, UPLOADS);
+    assert_eq!(after.reads - mailbox.reads, UPLOADS);
+    // The read that found the answer is the one sent behind the write: no other.
+    assert_eq!(
+        sent,
+        2 * UPLOADS,
+        "datagrams for {UPLOADS} uploads: {bus:?} then {:?}",
+        rig.bus.stats()
+    );
+}
+
+/// Datagrams (the write and every read of SM1) for `uploads` uploads from the drive when
+/// it answers `delay_us` after each request; each upload is checked.
+async fn datagrams_per_upload(delay_us: u32, uploads: u64) -> f64 {
+    let rig = rig(delay_us);
+    let drive = rig.slave(DRIVE);
+    let before = rig.bus.stats();
+    for _ in 0..uploads {
+        let t = Instant::now();
+        assert_eq!(drive.sdo_upload(0x1018, 1).await.unwrap(), vendor_id());
+        assert!(
+            t.elapsed() >= Duration::from_micros(delay_us.into()),
+            "answered before the slave had the answer ready"
+        );
+    }
+    (rig.bus.stats().datagrams_sent - before.datagrams_sent) as f64 / uploads as f64
+}
+
+#[tokio::test]
+async fn a_slave_that_answers_after_100_us_is_read_a_few_times_per_upload() {
+    // The write, the read behind it, four eager reads, then pauses of 50 and 75 µs: eight
+    // datagrams when every pause ends on time, fewer when the machine makes them late; one
+    // more when a "mailbox full" notice left over from the last upload ends a pause early.
+    let per_upload = datagrams_per_upload(100, 20).await;
+    assert!(per_upload <= 9.0, "{per_upload} datagrams per upload");
+}
+
+#[tokio::test]
+async fn a_slave_that_answers_after_1_ms_is_answered_without_a_read_per_round_trip() {
+    // Pauses of 50, 75, 112, 168, 253, 379 µs reach 1 ms: twelve datagrams with the write
+    // and the five first reads (thirteen with a left-over "mailbox full" notice). The in-process link answers in microseconds, so a
+    // strategy that read at every round trip would send hundreds, and one that paused a
+    // whole poll interval after the eager reads would answer a millisecond late.
+    let per_upload = datagrams_per_upload(1000, 10).await;
+    assert!(per_upload <= 13.0, "{per_upload} datagrams per upload");
+}

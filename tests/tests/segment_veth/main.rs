@@ -1,0 +1,12 @@
+//! master-core and the other masters against `ecat-sim` over veth: master-core's master,
+//! mailboxes and process data, and pysoem, KickCAT and Wireshark on the simulator.
+
+#[path = "../../../master-core/tests/master_pd_support/mod.rs"]
+mod master_pd_support;
+
+mod kickcat;
+mod mailbox;
+mod master;
+mod process_data;
+mod pysoem;
+mod tshark;

@@ -1,0 +1,143 @@
+//! ecatd's event streams carry CoE emergencies: a gRPC `WatchEvents` stream (grpcurl) and the
+//! REST server-sent events (curl) both deliver the emergency a simulated slave raised (through
+//! the `--simulate`-only route `POST /api/v1/slaves/{slave}/sim/emergency`, or on veth through
+//! `ecat-sim --control`), with the slave, the error code, the error register and the five
+//! manufacturer bytes as raised.
+
+use crate::server_support;
+
+use std::process::Command;
+
+use serde_json::Value;
+use server_support::streaming::Streaming;
+use server_support::{Ecatd, b64, curl, grpcurl_path};
+
+/// The JSON messages grpcurl printed after "Response contents:" (one pretty object each).
+fn grpc_messages(text: &str) -> Vec<Value> {
+    text.split("Response contents:")
+        .skip(1)
+        .filter_map(|part| {
+            serde_json::Deserializer::from_str(part)
+                .into_iter::<Value>()
+                .next()?
+                .ok()
+        })
+        .collect()
+}
+
+/// The `data:` payloads of the server-sent events named `kind`.
+fn sse_events(text: &str, kind: &str) -> Vec<Value> {
+    let mut out = Vec::new();
+    let mut current = String::new();
+    for line in text.lines() {
+        if let Some(name) = line.strip_prefix("event:") {
+            current = name.trim().to_owned();
+        } else if let Some(data) = line.strip_prefix("data:")
+            && current == kind
+            && let Ok(value) = serde_json::from_str(data.trim())
+        {
+            out.push(value);
+        }
+    }
+    out
+}
+
+fn raise(ecatd: &Ecatd, slave: &str, body: &str) -> (u16, String) {
+    curl(&[
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "content-type: application/json",
+        "-d",
+        body,
+        &format!("{}/api/v1/slaves/{slave}/sim/emergency", ecatd.http),
+    ])
+}
+
+#[test]
+fn emergencies_reach_the_grpc_and_sse_streams() {
+    let mut ecatd = Ecatd::start(&[]);
+    // The CoE store of the default segment, named by position.
+    let (status, body) = curl(&["-s", &format!("{}/api/v1/slaves/3", ecatd.http)]);
+    assert_eq!(status, 200, "{body}");
+    let slave: Value = serde_json::from_str(&body).unwrap();
+    let station = slave["station"].as_u64().unwrap();
+
+    let grpc = Streaming::start(
+        Command::new(grpcurl_path())
+            .args(["-plaintext", "-v", "-d", "{}", &ecatd.grpc])
+            .arg("ecat.v1.BusService/WatchEvents"),
+    );
+    let sse = Streaming::start(Command::new("curl").args([
+        "-s",
+        "-N",
+        "-i",
+        &format!("{}/api/v1/events", ecatd.http),
+    ]));
+    // Both subscribed once their response headers arrived (the handlers subscribe before
+    // answering).
+    grpc.wait_for("gRPC response headers", |t| {
+        t.contains("Response headers received").then_some(())
+    });
+    sse.wait_for("SSE response headers", |t| {
+        t.lines()
+            .next()
+            .filter(|l| l.starts_with("HTTP/1.1 200"))
+            .map(|_| ())
+    });
+
+    ecatd
+        .raise_emergency(3, 0x8130, 0x11, [0xde, 0xad, 0xbe, 0xef, 0x01])
+        .expect("the emergency is raised");
+
+    let from_grpc = grpc.wait_for("emergency on the gRPC stream", |t| {
+        grpc_messages(t)
+            .into_iter()
+            .find(|m| m["kind"] == "emergency")
+    });
+    assert_eq!(from_grpc["position"], 3);
+    assert_eq!(from_grpc["station"].as_u64(), Some(station));
+    assert_eq!(from_grpc["emergency"]["errorCode"], 0x8130);
+    assert_eq!(from_grpc["emergency"]["errorRegister"], 0x11);
+    let data = from_grpc["emergency"]["data"].as_str().unwrap();
+    assert_eq!(b64::decode(data), [0xde, 0xad, 0xbe, 0xef, 0x01]);
+
+    let from_sse = sse.wait_for("emergency on the SSE stream", |t| {
+        sse_events(t, "emergency").into_iter().next()
+    });
+    assert_eq!(from_sse["kind"], "emergency");
+    assert_eq!(from_sse["position"], 3);
+    assert_eq!(from_sse["station"].as_u64(), Some(station));
+    assert_eq!(from_sse["emergency"]["error_code"], 0x8130);
+    assert_eq!(from_sse["emergency"]["error_register"], 0x11);
+    assert_eq!(from_sse["emergency"]["data"], "deadbeef01");
+
+    // Exactly one emergency each: nothing invented or duplicated.
+    let grpc_count = grpc_messages(&grpc.text())
+        .iter()
+        .filter(|m| m["kind"] == "emergency")
+        .count();
+    assert_eq!(grpc_count, 1);
+    assert_eq!(sse_events(&sse.text(), "emergency").len(), 1);
+}
+
+#[test]
+fn the_sim_route_refuses_bad_requests() {
+    let ecatd = Ecatd::start(&[]);
+    let good = r#"{"error_code": 1, "error_register": 0, "data": "0000000000"}"#;
+    if server_support::on_veth() {
+        // ecatd on a real interface has no simulator to reach: the route is not there.
+        let (status, body) = raise(&ecatd, "3", good);
+        assert_eq!(status, 404, "{body}");
+        return;
+    }
+    // Position 1 of the default segment is the DO8 terminal: no mailbox, no emergencies.
+    let (status, body) = raise(&ecatd, "1", good);
+    assert_eq!(status, 400, "{body}");
+    let (status, body) = raise(&ecatd, "9", good);
+    assert_eq!(status, 404, "{body}");
+    let short = r#"{"error_code": 1, "error_register": 0, "data": "00"}"#;
+    let (status, body) = raise(&ecatd, "3", short);
+    assert_eq!(status, 400, "{body}");
+}
