@@ -5,9 +5,9 @@
 //! to any register, mailbox and EEPROM traffic, AL control), so every ESC function a master
 //! can reach is exercised.
 
-use master_core::wire::command::{AddressingMode, Command};
-use master_core::wire::datagram::{DatagramRepr, Datagrams};
-use master_core::wire::frame::EthercatFrame;
+use ecat_wire::command::{AddressingMode, Command};
+use ecat_wire::datagram::{DatagramRepr, Datagrams};
+use ecat_wire::frame::EthercatFrame;
 
 use crate::topology::{Topology, build_with_handles};
 

@@ -5,9 +5,9 @@
 //! - [`segment`]: slaves chained in a line, processing whole frames.
 //! - [`device`]: the application behind a slave's PDI (mailbox protocols, process data).
 //! - [`topology`]: a segment described as data (TOML) and built into a [`segment::Segment`].
-//! - [`link`]: [`link::InProcessLink`], a `master_core::link::Link` straight into a segment.
+//! - [`link`]: [`link::InProcessLink`], a `ecat_link::Link` straight into a segment.
 //!
-//! The simulator uses only `master_core::wire` (the codecs) from the master, never its logic,
+//! The simulator uses only `ecat_wire` (the codecs) from the master, never its logic,
 //! so a mistake in the master cannot be mirrored by the simulator.
 
 pub mod device;

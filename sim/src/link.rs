@@ -1,4 +1,4 @@
-//! [`InProcessLink`]: a `master_core::link::Link` whose wire is a simulated segment.
+//! [`InProcessLink`]: a `ecat_link::Link` whose wire is a simulated segment.
 //!
 //! `send` runs the frame through the segment at once (the slaves process it in place, as
 //! the frame passes them) and queues what comes back; `recv` takes the oldest returned
@@ -8,13 +8,13 @@
 //!
 //! The segment sits behind a shared handle so a test can reach the slaves (unplug one,
 //! drive inputs, read registers) while the master owns the link. Fault injection comes from
-//! wrapping the link in `master_core::link::FaultInjector`.
+//! wrapping the link in `ecat_link::FaultInjector`.
 
 use std::collections::VecDeque;
 use std::io;
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use master_core::link::{Link, MAX_FRAME_LEN, Wait};
+use ecat_link::{Link, MAX_FRAME_LEN, Wait};
 
 use crate::segment::Segment;
 

@@ -22,7 +22,7 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use clap::Parser;
-use master_core::link::{FaultConfig, FaultInjector, Link, PcapTap, RawSocket, RawSocketOptions};
+use ecat_link::{FaultConfig, FaultInjector, Link, PcapTap, RawSocket, RawSocketOptions};
 use sim::device::eoe::HostPort;
 use sim::topology::{Built, Topology, build_with_handles};
 

@@ -11,12 +11,12 @@
 //! (the last slave loops it back in no time). A master measuring propagation delays
 //! therefore finds each slave's configured `hop_delay_ns`.
 
-use master_core::wire::ethernet::EthernetFrame;
-use master_core::wire::frame::{EthercatFrame, FrameType};
+use ecat_wire::ethernet::EthernetFrame;
+use ecat_wire::frame::{EthercatFrame, FrameType};
 
 use crate::device::Device;
 use crate::esc::{Esc, FrameTiming, ManualTime, TimeSource};
-use master_core::wire::register::AlState;
+use ecat_wire::register::AlState;
 
 /// The locally-administered bit the first slave sets in the first source-MAC byte of the
 /// frames it returns (ETG.1000.4, spec-notes §frame).

@@ -4,14 +4,14 @@
 //! frames a master sends most. Shared by `sim/benches/throughput.rs` (in-process) and
 //! `tests/benches/sim_veth.rs` (over veth), which include this file.
 
-use master_core::link::MAX_FRAME_LEN;
-use master_core::wire::command::{Command, DatagramAddress};
-use master_core::wire::datagram::{DatagramRepr, FrameBuilder};
-use master_core::wire::frame::EthercatFrame;
-use master_core::wire::register::fmmu::{FMMU_LEN, Fmmu, FmmuRepr};
-use master_core::wire::register::sync_manager::{SM_LEN, SyncManager, SyncManagerRepr};
-use master_core::wire::sii::SiiImage;
-use master_core::wire::sii::syncm::SyncmType;
+use ecat_link::MAX_FRAME_LEN;
+use ecat_wire::command::{Command, DatagramAddress};
+use ecat_wire::datagram::{DatagramRepr, FrameBuilder};
+use ecat_wire::frame::EthercatFrame;
+use ecat_wire::register::fmmu::{FMMU_LEN, Fmmu, FmmuRepr};
+use ecat_wire::register::sync_manager::{SM_LEN, SyncManager, SyncManagerRepr};
+use ecat_wire::sii::SiiImage;
+use ecat_wire::sii::syncm::SyncmType;
 
 const MASTER_MAC: [u8; 6] = [0x02, 0, 0, 0, 0, 0x01];
 

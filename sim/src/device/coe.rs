@@ -15,10 +15,10 @@ use std::any::Any;
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use master_core::od::emergency::emergency;
-use master_core::od::{Outcome, SdoServer, ServerContext, StaticDictionary};
-use master_core::wire::coe::emergency::EMERGENCY_LEN;
-use master_core::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
+use ecat_od::emergency::emergency;
+use ecat_od::{Outcome, SdoServer, ServerContext, StaticDictionary};
+use ecat_wire::coe::emergency::EMERGENCY_LEN;
+use ecat_wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
 
 use crate::device::coe_quirks::CoeQuirks;
 use crate::device::{DeviceContext, MailboxService, ReplySink};
@@ -233,8 +233,8 @@ impl MailboxService for CoeService {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use master_core::wire::coe::{DataType, ObjectAccess};
-    use master_core::wire::register::AlState;
+    use ecat_wire::coe::{DataType, ObjectAccess};
+    use ecat_wire::register::AlState;
 
     fn ctx() -> DeviceContext {
         DeviceContext {

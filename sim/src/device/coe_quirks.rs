@@ -9,11 +9,11 @@
 //! - complete access refused with abort 0x08000000 (a stack built without it);
 //! - every wrong-length download aborted with 0x06070010 (SOES), not 0x06070012/0x06070013.
 
-use master_core::wire::Emit;
-use master_core::wire::coe::AbortCode;
-use master_core::wire::coe::sdo::SdoFrame;
-use master_core::wire::coe::sdo_response::SdoResponse;
-use master_core::wire::coe::{CoeFrame, CoeService, SdoInfoFrame};
+use ecat_wire::Emit;
+use ecat_wire::coe::AbortCode;
+use ecat_wire::coe::sdo::SdoFrame;
+use ecat_wire::coe::sdo_response::SdoResponse;
+use ecat_wire::coe::{CoeFrame, CoeService, SdoInfoFrame};
 
 /// Command specifier of an abort (bits 5-7).
 const ABORT_SPECIFIER: u8 = 4;

@@ -6,8 +6,8 @@
 //! offered to both (mailbox first, so a fall back to INIT resets the mailbox even when the
 //! application refuses nothing).
 
-use master_core::wire::register::al::AlState;
-use master_core::wire::register::al_status_code::AlStatusCode;
+use ecat_wire::register::al::AlState;
+use ecat_wire::register::al_status_code::AlStatusCode;
 
 use crate::device::{Device, DeviceContext, MailboxStack, Outbox, ProcessDataSizes};
 

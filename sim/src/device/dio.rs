@@ -17,8 +17,8 @@
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use master_core::wire::register::al::AlState;
-use master_core::wire::register::al_status_code::AlStatusCode;
+use ecat_wire::register::al::AlState;
+use ecat_wire::register::al_status_code::AlStatusCode;
 
 use crate::device::{Device, DeviceContext, ProcessDataSizes};
 

@@ -15,8 +15,8 @@
 //! - while operation is enabled the actual position 0x6064 takes the target position 0x607A
 //!   (an ideal axis).
 
-use master_core::od::standard::{RX_PDO_ASSIGN, TX_PDO_ASSIGN};
-use master_core::od::{PdoEntry, StaticDictionary};
+use ecat_od::standard::{RX_PDO_ASSIGN, TX_PDO_ASSIGN};
+use ecat_od::{PdoEntry, StaticDictionary};
 
 use crate::device::coe::{SharedDictionary, lock_dictionary};
 use crate::device::{Device, ProcessDataSizes};

@@ -7,8 +7,8 @@
 
 use std::collections::VecDeque;
 
-use master_core::wire::register::al::AlState;
-use master_core::wire::register::al_status_code::AlStatusCode;
+use ecat_wire::register::al::AlState;
+use ecat_wire::register::al_status_code::AlStatusCode;
 
 /// Process-data sizes in bytes: SM2 (outputs, master → slave) and SM3 (inputs, slave → master).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -12,9 +12,9 @@
 
 use std::any::Any;
 
-use master_core::wire::Emit;
-use master_core::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
-use master_core::wire::voe::{VoePacket, VoeRepr};
+use ecat_wire::Emit;
+use ecat_wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
+use ecat_wire::voe::{VoePacket, VoeRepr};
 
 use crate::device::DeviceContext;
 use crate::device::mailbox::{MailboxService, ReplySink};

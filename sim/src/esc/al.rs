@@ -8,11 +8,11 @@
 //! bit set; the error is held until a request with the acknowledge bit (0x10), or any INIT
 //! request, clears it.
 
-use master_core::wire::register::address as reg;
-use master_core::wire::register::al::{AlControl, AlState, AlStatus};
-use master_core::wire::register::al_status_code::AlStatusCode;
-use master_core::wire::register::sync_manager::{SmActivate, SmControl, SmPdiControl};
-use master_core::wire::sii::fixed::SiiMailboxArea;
+use ecat_wire::register::address as reg;
+use ecat_wire::register::al::{AlControl, AlState, AlStatus};
+use ecat_wire::register::al_status_code::AlStatusCode;
+use ecat_wire::register::sync_manager::{SmActivate, SmControl, SmPdiControl};
+use ecat_wire::sii::fixed::SiiMailboxArea;
 
 use crate::device::{Device, ProcessDataSizes};
 
@@ -253,7 +253,7 @@ impl Esc {
 mod tests {
     use super::super::test_support::*;
     use super::*;
-    use master_core::wire::command::Command;
+    use ecat_wire::command::Command;
 
     #[test]
     fn init_to_preop_checks_the_mailbox_sync_managers() {
@@ -344,7 +344,7 @@ mod tests {
     }
 
     fn boot_image() -> Vec<u8> {
-        let mut b = master_core::wire::sii::SiiBuilder::new(SiiFixedRepr {
+        let mut b = ecat_wire::sii::SiiBuilder::new(SiiFixedRepr {
             boot_rx_mailbox: SiiMailboxArea {
                 offset: 0x1000,
                 size: 244,
@@ -359,7 +359,7 @@ mod tests {
         b.build().unwrap()
     }
 
-    use master_core::wire::sii::fixed::SiiFixedRepr;
+    use ecat_wire::sii::fixed::SiiFixedRepr;
 
     #[test]
     fn bootstrap() {

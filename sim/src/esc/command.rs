@@ -13,9 +13,9 @@
 //!   per slave however many FMMUs hit.
 //! - Every slave ORs its pending ECAT events (0x0210 & 0x0200) into the IRQ field.
 
-use master_core::wire::command::Command;
-use master_core::wire::datagram::Datagram;
-use master_core::wire::register::address as reg;
+use ecat_wire::command::Command;
+use ecat_wire::datagram::Datagram;
+use ecat_wire::register::address as reg;
 
 use crate::device::Device;
 
@@ -42,7 +42,7 @@ impl Esc {
     /// (mailbox delivery, outputs, inputs, state changes) happen before it returns.
     ///
     /// The view must have passed `check_len` (as [`Datagram::new_checked`] and
-    /// [`master_core::wire::datagram::DatagramsMut`] ensure); DC times refer to the frame
+    /// [`ecat_wire::datagram::DatagramsMut`] ensure); DC times refer to the frame
     /// last passed to [`Esc::process_frame`].
     pub fn process_datagram(
         &mut self,
@@ -168,7 +168,7 @@ fn rmw_or(command: Command, addressed: bool) -> Option<Op> {
 #[cfg(test)]
 mod tests {
     use super::super::test_support::*;
-    use master_core::wire::command::Command;
+    use ecat_wire::command::Command;
 
     #[test]
     fn position_commands_increment_adp_and_address_adp_zero() {

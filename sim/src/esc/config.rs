@@ -1,7 +1,7 @@
 //! Static configuration of an emulated ESC: what the information block reports, how much
 //! process RAM it has, and how its distributed clock behaves on the simulated time base.
 
-use master_core::wire::register::{EscFeatures, PortType};
+use ecat_wire::register::{EscFeatures, PortType};
 
 /// Identity and capabilities of an emulated ESC (spec-notes §esc.info), fixed for its lifetime.
 #[derive(Debug, Clone, PartialEq, Eq)]

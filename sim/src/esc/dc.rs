@@ -12,8 +12,8 @@
 //!   0x092C as sign (bit 31: local ≥ received) and magnitude (KickCAT's model).
 //!   A 4-byte write compares the low 32 bits with wrapping arithmetic.
 
-use master_core::wire::register::address as reg;
-use master_core::wire::register::dc::SystemTimeDifference;
+use ecat_wire::register::address as reg;
+use ecat_wire::register::dc::SystemTimeDifference;
 
 use super::Esc;
 use super::memory::overlaps;
@@ -162,7 +162,7 @@ mod tests {
     use super::super::test_support::*;
     use super::super::{DcConfig, FrameTiming};
     use super::*;
-    use master_core::wire::command::Command;
+    use ecat_wire::command::Command;
 
     #[test]
     fn filter_converges_exactly() {

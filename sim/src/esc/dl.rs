@@ -7,8 +7,8 @@
 //! always, "open" keeps it open (and frames sent into a port without link are treated as
 //! looped back, not lost). Ports 2 and 3 do not exist and show a closed loop.
 
-use master_core::wire::register::address as reg;
-use master_core::wire::register::dl::{DlControl, DlStatus, LoopMode, PortStatus};
+use ecat_wire::register::address as reg;
+use ecat_wire::register::dl::{DlControl, DlStatus, LoopMode, PortStatus};
 
 use super::Esc;
 use super::memory::overlaps;
@@ -170,7 +170,7 @@ impl Esc {
 mod tests {
     use super::super::test_support::*;
     use super::*;
-    use master_core::wire::command::Command;
+    use ecat_wire::command::Command;
 
     #[test]
     fn dl_status_follows_the_topology() {

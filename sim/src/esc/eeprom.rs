@@ -7,12 +7,12 @@
 //! word-7 checksum: a bad one sets 0x0502 bit 11, loads nothing, and leaves the PDI
 //! non-operational (DL status bit 0 = 0).
 
-use master_core::wire::register::address as reg;
-use master_core::wire::register::eeprom::{EepromCommand, EepromControl};
-use master_core::wire::sii::checksum::checksum_ok;
-use master_core::wire::sii::fixed::{SiiFixed, SiiFixedRepr, SiiMailboxArea};
-use master_core::wire::sii::image::SiiImage;
-use master_core::wire::sii::syncm::SyncmType;
+use ecat_wire::register::address as reg;
+use ecat_wire::register::eeprom::{EepromCommand, EepromControl};
+use ecat_wire::sii::checksum::checksum_ok;
+use ecat_wire::sii::fixed::{SiiFixed, SiiFixedRepr, SiiMailboxArea};
+use ecat_wire::sii::image::SiiImage;
+use ecat_wire::sii::syncm::SyncmType;
 
 use super::Esc;
 
@@ -225,7 +225,7 @@ impl Esc {
 #[cfg(test)]
 mod tests {
     use super::super::test_support::*;
-    use master_core::wire::command::Command;
+    use ecat_wire::command::Command;
 
     fn read_word(esc: &mut super::Esc, dev: &mut TestDevice, word: u16) -> (Vec<u8>, u16) {
         let w = word.to_le_bytes();
@@ -341,7 +341,7 @@ mod tests {
         let (mut esc, mut dev) = slave();
         // Words 4 and 7: alias 0x0042 with a fresh checksum.
         let mut image = esc.sii().to_vec();
-        master_core::wire::sii::set_alias(&mut image, 0x0042).unwrap();
+        ecat_wire::sii::set_alias(&mut image, 0x0042).unwrap();
         for word in [4u16, 7] {
             let at = usize::from(word) * 2;
             exec(

@@ -8,8 +8,8 @@
 //! ([`super::physical`], i.e. SyncManager buffers for process data). Partial physical bytes
 //! are read-modify-written so unmapped bits keep their value.
 
-use master_core::wire::register::address as reg;
-use master_core::wire::register::fmmu::{FMMU_LEN, Fmmu, FmmuRepr};
+use ecat_wire::register::address as reg;
+use ecat_wire::register::fmmu::{FMMU_LEN, Fmmu, FmmuRepr};
 
 use crate::device::Device;
 
@@ -202,7 +202,7 @@ impl Esc {
 mod tests {
     use super::super::test_support::*;
     use super::*;
-    use master_core::wire::command::Command;
+    use ecat_wire::command::Command;
 
     fn fmmu_bytes(f: FmmuRepr) -> Vec<u8> {
         let mut b = vec![0u8; FMMU_LEN];

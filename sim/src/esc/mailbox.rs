@@ -4,9 +4,9 @@
 
 use std::collections::VecDeque;
 
-use master_core::wire::mailbox::{HEADER_LEN, Mailbox};
-use master_core::wire::register::al::AlState;
-use master_core::wire::register::sync_manager::{SmActivate, SmDirection, SmPdiControl};
+use ecat_wire::mailbox::{HEADER_LEN, Mailbox};
+use ecat_wire::register::al::AlState;
+use ecat_wire::register::sync_manager::{SmActivate, SmDirection, SmPdiControl};
 
 use crate::device::{Device, Outbox};
 
@@ -209,7 +209,7 @@ impl Esc {
 mod tests {
     use super::super::test_support::*;
     use super::*;
-    use master_core::wire::command::Command;
+    use ecat_wire::command::Command;
 
     /// A CoE-looking message of `len` data bytes with `marker` as first data byte, padded
     /// to the 128-byte SM0.

@@ -50,10 +50,10 @@ mod sync_manager;
 pub mod time;
 mod watchdog;
 
-use master_core::wire::datagram::DatagramsMut;
-use master_core::wire::register::address as reg;
-use master_core::wire::register::al::{AlState, AlStatus};
-use master_core::wire::register::al_status_code::AlStatusCode;
+use ecat_wire::datagram::DatagramsMut;
+use ecat_wire::register::address as reg;
+use ecat_wire::register::al::{AlState, AlStatus};
+use ecat_wire::register::al_status_code::AlStatusCode;
 
 use crate::device::{Device, DeviceContext};
 

@@ -12,9 +12,9 @@
 //!   rules.
 //! - Beyond the RAM: blocked.
 
-use master_core::wire::register::address as reg;
-use master_core::wire::register::dl::DlControl;
-use master_core::wire::register::sync_manager::SM_LEN;
+use ecat_wire::register::address as reg;
+use ecat_wire::register::dl::DlControl;
+use ecat_wire::register::sync_manager::SM_LEN;
 
 use crate::device::Device;
 
@@ -259,7 +259,7 @@ impl Esc {
 #[cfg(test)]
 mod tests {
     use super::super::test_support::*;
-    use master_core::wire::command::Command;
+    use ecat_wire::command::Command;
 
     #[test]
     fn read_only_registers_ignore_writes_but_count() {

@@ -8,11 +8,11 @@
 
 use std::sync::LazyLock;
 
-use master_core::wire::register::address as reg;
-use master_core::wire::register::al::{AlControl, AlState, AlStatus};
-use master_core::wire::register::dc::SPEED_COUNTER_START_DEFAULT;
-use master_core::wire::register::info::{EscInfo, EscInfoRepr};
-use master_core::wire::register::sync_manager::{
+use ecat_wire::register::address as reg;
+use ecat_wire::register::al::{AlControl, AlState, AlStatus};
+use ecat_wire::register::dc::SPEED_COUNTER_START_DEFAULT;
+use ecat_wire::register::info::{EscInfo, EscInfoRepr};
+use ecat_wire::register::sync_manager::{
     SM_LEN, SmActivate, SmControl, SmDirection, SmMode, SmPdiControl, SyncManager,
 };
 

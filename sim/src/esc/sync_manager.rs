@@ -12,8 +12,8 @@
 //! Every access is clipped at the SM end. Disabling a SyncManager, or changing its start,
 //! length or control while it is enabled, resets it (empty mailbox, no buffer written).
 
-use master_core::wire::register::address as reg;
-use master_core::wire::register::sync_manager::{
+use ecat_wire::register::address as reg;
+use ecat_wire::register::sync_manager::{
     SM_LEN, SmActivate, SmControl, SmDirection, SmMode, SmPdiControl, SmStatus, SyncManager,
 };
 

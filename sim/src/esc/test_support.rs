@@ -1,14 +1,14 @@
 //! Helpers for the ESC's unit tests: a standard SII image, a test device, and running one
 //! datagram through an ESC.
 
-use master_core::wire::Emit;
-use master_core::wire::command::{Command, DatagramAddress};
-use master_core::wire::datagram::{Datagram, DatagramRepr};
-use master_core::wire::register::al::AlState;
-use master_core::wire::register::al_status_code::AlStatusCode;
-use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
-use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
+use ecat_wire::Emit;
+use ecat_wire::command::{Command, DatagramAddress};
+use ecat_wire::datagram::{Datagram, DatagramRepr};
+use ecat_wire::register::al::AlState;
+use ecat_wire::register::al_status_code::AlStatusCode;
+use ecat_wire::sii::SiiBuilder;
+use ecat_wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
+use ecat_wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 
 use crate::device::{Device, DeviceContext, Outbox, ProcessDataSizes};
 
@@ -128,7 +128,7 @@ pub fn slave_with(f: impl FnOnce(&mut EscConfig)) -> (Esc, TestDevice) {
 /// The standard test slave whose SII carries `alias`.
 pub fn slave_with_alias(alias: u16) -> (Esc, TestDevice) {
     let mut image = sii_image();
-    master_core::wire::sii::set_alias(&mut image, alias).unwrap();
+    ecat_wire::sii::set_alias(&mut image, alias).unwrap();
     slave_with_image(image)
 }
 

@@ -7,9 +7,9 @@
 //! between frames ([`Esc::idle`]): a real ESC counts its watchdog in hardware, so a slave
 //! behind a cut cable, which sees no frame at all, still falls back to SAFEOP on time.
 
-use master_core::wire::register::address as reg;
-use master_core::wire::register::al::AlState;
-use master_core::wire::register::al_status_code::AlStatusCode;
+use ecat_wire::register::address as reg;
+use ecat_wire::register::al::AlState;
+use ecat_wire::register::al_status_code::AlStatusCode;
 
 use crate::device::Device;
 
@@ -76,7 +76,7 @@ impl Esc {
 mod tests {
     use super::super::FrameTiming;
     use super::super::test_support::*;
-    use master_core::wire::command::Command;
+    use ecat_wire::command::Command;
 
     fn at(esc: &mut super::Esc, dev: &mut TestDevice, ns: u64) {
         let timing = FrameTiming {

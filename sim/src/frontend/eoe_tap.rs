@@ -15,7 +15,7 @@
 //!
 //! The TAP carries bare Ethernet frames (`IFF_NO_PI`), is not persistent and is made with
 //! its link up; it goes away when ecat-sim exits. Everything is an `ioctl` through
-//! master-core's network-device controls (`master_core::link::netdev`, which ecatd's own EoE
+//! master-core's network-device controls (`ecat_link::netdev`, which ecatd's own EoE
 //! interfaces use too), no process is started.
 
 use std::io;
@@ -25,7 +25,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use master_core::link::netdev;
+use ecat_link::netdev;
 use sim::device::eoe::{HostEvent, HostPort, IpConfig};
 
 /// How long either thread waits before it looks at the stop flag again.

@@ -9,7 +9,7 @@ use std::io::{self, ErrorKind, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use master_core::link::{Link, MAX_FRAME_LEN, Wait};
+use ecat_link::{Link, MAX_FRAME_LEN, Wait};
 use sim::esc::ManualTime;
 use sim::segment::Segment;
 
@@ -126,10 +126,10 @@ pub fn serve(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use master_core::link::MemoryLink;
-    use master_core::wire::command::{Command, DatagramAddress};
-    use master_core::wire::datagram::{DatagramRepr, FrameBuilder};
-    use master_core::wire::frame::EthercatFrame;
+    use ecat_link::MemoryLink;
+    use ecat_wire::command::{Command, DatagramAddress};
+    use ecat_wire::datagram::{DatagramRepr, FrameBuilder};
+    use ecat_wire::frame::EthercatFrame;
     use sim::topology::{Topology, build_with_handles};
 
     fn brd_frame() -> Vec<u8> {

@@ -9,7 +9,7 @@
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use master_core::wire::WireError;
+use ecat_wire::WireError;
 use thiserror::Error;
 
 use crate::device::coe::{CoeService, EmergencyTrigger, SharedDictionary};

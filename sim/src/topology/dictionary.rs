@@ -4,10 +4,10 @@
 
 use std::collections::BTreeMap;
 
-use master_core::od::access::presets::{RO_TX, RW_PREOP, RW_RX, WO};
-use master_core::od::{DictionaryBuilder, Entry, Object, PdoEntry, SmType, StaticDictionary};
-use master_core::od::{Identity, ValueError};
-use master_core::wire::coe::{DataType, ObjectAccess, ObjectCode};
+use ecat_od::access::presets::{RO_TX, RW_PREOP, RW_RX, WO};
+use ecat_od::{DictionaryBuilder, Entry, Object, PdoEntry, SmType, StaticDictionary};
+use ecat_od::{Identity, ValueError};
+use ecat_wire::coe::{DataType, ObjectAccess, ObjectCode};
 
 use super::model::{CoeObject, SlaveSpec, pattern};
 

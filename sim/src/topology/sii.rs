@@ -5,13 +5,13 @@
 
 use std::collections::BTreeSet;
 
-use master_core::wire::WireError;
-use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
-use master_core::wire::sii::fmmu::FmmuUsage;
-use master_core::wire::sii::general::{CoeDetails, GeneralRepr, PhysicalPorts};
-use master_core::wire::sii::pdo::{Pdo, PdoFlags, SiiPdoEntry};
-use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
+use ecat_wire::WireError;
+use ecat_wire::sii::SiiBuilder;
+use ecat_wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
+use ecat_wire::sii::fmmu::FmmuUsage;
+use ecat_wire::sii::general::{CoeDetails, GeneralRepr, PhysicalPorts};
+use ecat_wire::sii::pdo::{Pdo, PdoFlags, SiiPdoEntry};
+use ecat_wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 
 use super::dictionary::data_type;
 use super::model::{PdoSpec, SlaveSpec};

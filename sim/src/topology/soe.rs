@@ -1,7 +1,7 @@
 //! A slave's SoE server from its description: the default IDN set of every drive, then the
 //! IDNs the description adds or overrides.
 
-use master_core::wire::soe::SoeAttribute;
+use ecat_wire::soe::SoeAttribute;
 
 use crate::device::soe::{IdnEntry, SoeService};
 

@@ -1,5 +1,5 @@
-//! The simulator's own rules and corpora: it imports only master-core's wire, od and link,
-//! its fuzz seeds replay, and the `ecat-sim` command line.
+//! The simulator's own rules and corpora: it depends on the wire, dictionary and link
+//! crates, not on the master; its fuzz seeds replay; the `ecat-sim` command line.
 
 #[path = "../../../fuzz/replay.rs"]
 mod replay;

@@ -3,11 +3,11 @@
 
 use crate::segment_support;
 
-use master_core::wire::command::Command;
-use master_core::wire::register::al::AlState;
-use master_core::wire::register::al_status_code::AlStatusCode;
-use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{SiiFixedRepr, SiiMailboxArea};
+use ecat_wire::command::Command;
+use ecat_wire::register::al::AlState;
+use ecat_wire::register::al_status_code::AlStatusCode;
+use ecat_wire::sii::SiiBuilder;
+use ecat_wire::sii::fixed::{SiiFixedRepr, SiiMailboxArea};
 use segment_support::*;
 
 const S: u16 = 0x1001;

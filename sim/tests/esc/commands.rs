@@ -3,8 +3,8 @@
 
 use crate::segment_support;
 
-use master_core::wire::command::Command;
-use master_core::wire::register::fmmu::{Fmmu, FmmuRepr};
+use ecat_wire::command::Command;
+use ecat_wire::register::fmmu::{Fmmu, FmmuRepr};
 use proptest::prelude::*;
 use segment_support::*;
 
@@ -192,12 +192,12 @@ fn irq_field_carries_masked_events() {
 fn malformed_chain_stops_and_counts() {
     let mut bench = Bench::new(1);
     let mut buf = vec![0u8; 60];
-    let mut builder = master_core::wire::datagram::FrameBuilder::new(&mut buf).unwrap();
+    let mut builder = ecat_wire::datagram::FrameBuilder::new(&mut buf).unwrap();
     builder
         .push_zeroed(
             Command::Brd,
             0,
-            master_core::wire::command::DatagramAddress::broadcast(0),
+            ecat_wire::command::DatagramAddress::broadcast(0),
             2,
         )
         .unwrap();

@@ -4,9 +4,9 @@
 
 use crate::segment_support;
 
-use master_core::wire::command::Command;
-use master_core::wire::register::dc::{PortReceiveTimes, SystemTimeDifference};
-use master_core::wire::register::dl::DlStatus;
+use ecat_wire::command::Command;
+use ecat_wire::register::dc::{PortReceiveTimes, SystemTimeDifference};
+use ecat_wire::register::dl::DlStatus;
 use segment_support::*;
 use sim::esc::TimeSource;
 

@@ -2,8 +2,8 @@
 
 use crate::segment_support;
 
-use master_core::wire::command::Command;
-use master_core::wire::sii::set_alias;
+use ecat_wire::command::Command;
+use ecat_wire::sii::set_alias;
 use segment_support::*;
 
 const S: u16 = 0x1001;

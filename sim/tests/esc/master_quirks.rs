@@ -3,10 +3,10 @@
 
 use crate::segment_support;
 
-use master_core::link::MAX_FRAME_LEN;
-use master_core::wire::command::{Command, DatagramAddress};
-use master_core::wire::datagram::{DatagramRepr, FrameBuilder};
-use master_core::wire::frame::EthercatFrame;
+use ecat_link::MAX_FRAME_LEN;
+use ecat_wire::command::{Command, DatagramAddress};
+use ecat_wire::datagram::{DatagramRepr, FrameBuilder};
+use ecat_wire::frame::EthercatFrame;
 use segment_support::*;
 
 /// KickCAT leaves the reserved bits 11-13 of the datagram length field uninitialised (seen

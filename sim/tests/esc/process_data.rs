@@ -3,11 +3,11 @@
 
 use crate::segment_support;
 
-use master_core::wire::command::Command;
-use master_core::wire::register::fmmu::{Fmmu, FmmuRepr};
-use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
-use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
+use ecat_wire::command::Command;
+use ecat_wire::register::fmmu::{Fmmu, FmmuRepr};
+use ecat_wire::sii::SiiBuilder;
+use ecat_wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
+use ecat_wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 use segment_support::*;
 
 const S: u16 = 0x1001;

@@ -2,8 +2,8 @@
 
 use crate::segment_support;
 
-use master_core::wire::command::Command;
-use master_core::wire::register::dl::DlStatus;
+use ecat_wire::command::Command;
+use ecat_wire::register::dl::DlStatus;
 use segment_support::*;
 
 fn count(bench: &mut Bench) -> u16 {

@@ -6,16 +6,16 @@ use crate::mailbox_support;
 
 use std::net::Ipv4Addr;
 
+use ecat_wire::Emit;
+use ecat_wire::eoe::{
+    EoeFrameType, EoePacket, EoeRepr, EoeResult, FragmentRepr, Fragmenter, IpParameters,
+    Reassembler,
+};
+use ecat_wire::mailbox::{MailboxErrorCode, MailboxType};
 use etherparse::{
     ArpEthIpv4Packet, ArpOperation, Icmpv4Type, LinkSlice, NetSlice, PacketBuilder, SlicedPacket,
     TransportSlice,
 };
-use master_core::wire::Emit;
-use master_core::wire::eoe::{
-    EoeFrameType, EoePacket, EoeRepr, EoeResult, FragmentRepr, Fragmenter, IpParameters,
-    Reassembler,
-};
-use master_core::wire::mailbox::{MailboxErrorCode, MailboxType};
 use std::time::Duration;
 
 use sim::device::eoe::{EoeService, HostEvent, HostPort, IpConfig};

@@ -3,9 +3,9 @@
 
 use crate::mailbox_support;
 
-use master_core::wire::Emit;
-use master_core::wire::foe::{FoeError, FoePacket, FoeRepr};
-use master_core::wire::mailbox::MailboxType;
+use ecat_wire::Emit;
+use ecat_wire::foe::{FoeError, FoePacket, FoeRepr};
+use ecat_wire::mailbox::MailboxType;
 use sim::device::MailboxStack;
 use sim::device::foe::{BusyPhase, FileStore, FoeFile, FoeService};
 

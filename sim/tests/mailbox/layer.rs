@@ -5,10 +5,10 @@ use crate::mailbox_support;
 
 use std::any::Any;
 
-use master_core::wire::Emit;
-use master_core::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
-use master_core::wire::register::al::AlState;
-use master_core::wire::voe::{VoePacket, VoeRepr};
+use ecat_wire::Emit;
+use ecat_wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
+use ecat_wire::register::al::AlState;
+use ecat_wire::voe::{VoePacket, VoeRepr};
 use proptest::prelude::*;
 use sim::device::eoe::EoeService;
 use sim::device::foe::FoeService;

@@ -3,10 +3,10 @@
 
 use crate::mailbox_support;
 
-use master_core::wire::Emit;
-use master_core::wire::mailbox::{MailboxErrorCode, MailboxType};
-use master_core::wire::register::al::AlState;
-use master_core::wire::soe::{
+use ecat_wire::Emit;
+use ecat_wire::mailbox::{MailboxErrorCode, MailboxType};
+use ecat_wire::register::al::AlState;
+use ecat_wire::soe::{
     ElementFlags, Idn, IdnOrFragments, SoeAttribute, SoeDataType, SoeError, SoeOpcode, SoePacket,
     SoeRepr,
 };

@@ -4,10 +4,10 @@
 
 #![allow(dead_code)]
 
-use master_core::wire::mailbox::{
+use ecat_wire::mailbox::{
     ErrorReply, ErrorReplyRepr, HEADER_LEN, Mailbox, MailboxErrorCode, MailboxHeader, MailboxType,
 };
-use master_core::wire::register::al::AlState;
+use ecat_wire::register::al::AlState;
 use sim::device::{Device, DeviceContext, MailboxStack, Outbox};
 
 /// One slave's mailbox, driven the way the master drives it.

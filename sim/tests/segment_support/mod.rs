@@ -7,15 +7,15 @@
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use master_core::wire::command::{Command, DatagramAddress};
-use master_core::wire::datagram::{DatagramRepr, FrameBuilder};
-use master_core::wire::ethernet::MAX_FRAME_LEN;
-use master_core::wire::frame::EthercatFrame;
-use master_core::wire::register::al::AlState;
-use master_core::wire::register::al_status_code::AlStatusCode;
-use master_core::wire::sii::SiiBuilder;
-use master_core::wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
-use master_core::wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
+use ecat_wire::command::{Command, DatagramAddress};
+use ecat_wire::datagram::{DatagramRepr, FrameBuilder};
+use ecat_wire::ethernet::MAX_FRAME_LEN;
+use ecat_wire::frame::EthercatFrame;
+use ecat_wire::register::al::AlState;
+use ecat_wire::register::al_status_code::AlStatusCode;
+use ecat_wire::sii::SiiBuilder;
+use ecat_wire::sii::fixed::{MailboxProtocols, SiiFixedRepr, SiiMailboxArea};
+use ecat_wire::sii::syncm::{SyncmEnable, SyncmEntry, SyncmType};
 use sim::device::{Device, DeviceContext, Outbox, ProcessDataSizes};
 use sim::esc::{Esc, EscConfig, ManualTime};
 use sim::segment::Segment;

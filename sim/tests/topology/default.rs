@@ -1,8 +1,8 @@
 //! The built-in topology: it builds, its TOML file matches it, and every slave's SII says
 //! what the description declares.
 
-use master_core::wire::sii::SiiImage;
-use master_core::wire::sii::fixed::MailboxProtocols;
+use ecat_wire::sii::SiiImage;
+use ecat_wire::sii::fixed::MailboxProtocols;
 use sim::topology::{SIM_VENDOR_ID, Topology, build_with_handles};
 
 const DEFAULT_TOML: &str = "topologies/default.toml";

@@ -4,8 +4,8 @@
 
 use crate::segment_support;
 
-use master_core::wire::command::Command;
-use master_core::wire::register::fmmu::{Fmmu, FmmuRepr};
+use ecat_wire::command::Command;
+use ecat_wire::register::fmmu::{Fmmu, FmmuRepr};
 use segment_support::*;
 use sim::topology::{Application, SlaveHandles, Topology, build, build_with_handles};
 

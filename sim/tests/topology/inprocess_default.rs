@@ -1,16 +1,16 @@
 //! The default topology through `InProcessLink`, driven by hand with frames built by the
 //! master's codecs: what a master sees when it opens the simulator.
 
-use master_core::link::{Link, MAX_FRAME_LEN, Wait};
-use master_core::wire::Emit;
-use master_core::wire::coe::sdo::SdoFrame;
-use master_core::wire::coe::sdo_payload::SdoPayload;
-use master_core::wire::coe::sdo_request::SdoRequest;
-use master_core::wire::coe::sdo_response::SdoResponse;
-use master_core::wire::command::{Command, DatagramAddress};
-use master_core::wire::datagram::{DatagramRepr, FrameBuilder};
-use master_core::wire::frame::EthercatFrame;
-use master_core::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
+use ecat_link::{Link, MAX_FRAME_LEN, Wait};
+use ecat_wire::Emit;
+use ecat_wire::coe::sdo::SdoFrame;
+use ecat_wire::coe::sdo_payload::SdoPayload;
+use ecat_wire::coe::sdo_request::SdoRequest;
+use ecat_wire::coe::sdo_response::SdoResponse;
+use ecat_wire::command::{Command, DatagramAddress};
+use ecat_wire::datagram::{DatagramRepr, FrameBuilder};
+use ecat_wire::frame::EthercatFrame;
+use ecat_wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
 use sim::device::coe::lock_dictionary;
 use sim::link::InProcessLink;
 use sim::topology::{SIM_VENDOR_ID, Topology, build_with_handles};

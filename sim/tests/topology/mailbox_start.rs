@@ -2,11 +2,11 @@
 //! a start the ESC's RAM does not cover makes a slave that refuses INIT → PREOP with AL
 //! status code 0x0016 although the master configures exactly what the SII announces.
 
-use master_core::wire::command::{Command, DatagramAddress};
-use master_core::wire::datagram::{DatagramRepr, FrameBuilder};
-use master_core::wire::frame::EthercatFrame;
-use master_core::wire::register::{AlState, AlStatusCode, SyncManager, SyncManagerRepr};
-use master_core::wire::sii::SiiImage;
+use ecat_wire::command::{Command, DatagramAddress};
+use ecat_wire::datagram::{DatagramRepr, FrameBuilder};
+use ecat_wire::frame::EthercatFrame;
+use ecat_wire::register::{AlState, AlStatusCode, SyncManager, SyncManagerRepr};
+use ecat_wire::sii::SiiImage;
 use sim::segment::Segment;
 use sim::topology::{Topology, build};
 

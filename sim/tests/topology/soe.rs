@@ -1,13 +1,13 @@
 //! SoE IDNs from the topology file: TOML → built segment → SoE reads through the ESC's
 //! mailbox return the configured elements; bad IDN descriptions are refused when building.
 
-use master_core::link::{Link, MAX_FRAME_LEN, Wait};
-use master_core::wire::Emit;
-use master_core::wire::command::{Command, DatagramAddress};
-use master_core::wire::datagram::{DatagramRepr, FrameBuilder};
-use master_core::wire::frame::EthercatFrame;
-use master_core::wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
-use master_core::wire::soe::{
+use ecat_link::{Link, MAX_FRAME_LEN, Wait};
+use ecat_wire::Emit;
+use ecat_wire::command::{Command, DatagramAddress};
+use ecat_wire::datagram::{DatagramRepr, FrameBuilder};
+use ecat_wire::frame::EthercatFrame;
+use ecat_wire::mailbox::{HEADER_LEN, Mailbox, MailboxHeader, MailboxType};
+use ecat_wire::soe::{
     ElementFlags, Idn, IdnOrFragments, SoeAttribute, SoeError, SoeOpcode, SoePacket, SoeRepr,
 };
 use sim::link::InProcessLink;

@@ -2,7 +2,7 @@
 
 use std::net::Ipv4Addr;
 
-use master_core::wire::eoe::IpParameters;
+use ecat_wire::eoe::IpParameters;
 
 /// What the slave remembers of Set IP parameter requests; each field is `None` until a
 /// request carried it. Get IP parameter answers exactly the fields that are set.

@@ -30,11 +30,9 @@ pub mod tcp_host;
 use std::any::Any;
 use std::collections::VecDeque;
 
-use master_core::wire::eoe::{
-    EoeFrameType, EoePacket, EoeRepr, EoeResult, Fragmenter, Reassembler,
-};
-use master_core::wire::mailbox::{self, MailboxErrorCode, MailboxHeader, MailboxType};
-use master_core::wire::{Emit, WireError};
+use ecat_wire::eoe::{EoeFrameType, EoePacket, EoeRepr, EoeResult, Fragmenter, Reassembler};
+use ecat_wire::mailbox::{self, MailboxErrorCode, MailboxHeader, MailboxType};
+use ecat_wire::{Emit, WireError};
 
 use crate::device::mailbox::{MailboxService, ReplySink};
 use crate::device::{DeviceContext, OutboxFull};

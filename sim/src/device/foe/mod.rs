@@ -33,9 +33,9 @@ pub mod store;
 
 use std::any::Any;
 
-use master_core::wire::foe::{self, FoeError, FoePacket, FoeRepr};
-use master_core::wire::mailbox::{MailboxHeader, MailboxType};
-use master_core::wire::{Emit, WireError};
+use ecat_wire::foe::{self, FoeError, FoePacket, FoeRepr};
+use ecat_wire::mailbox::{MailboxHeader, MailboxType};
+use ecat_wire::{Emit, WireError};
 
 use crate::device::DeviceContext;
 use crate::device::mailbox::{MailboxService, ReplySink};
@@ -302,7 +302,7 @@ impl FoeService {
                 space,
             } => {
                 let max_data = usize::from(ctx.rx_mailbox_size)
-                    .saturating_sub(master_core::wire::mailbox::HEADER_LEN + foe::HEADER_LEN);
+                    .saturating_sub(ecat_wire::mailbox::HEADER_LEN + foe::HEADER_LEN);
                 if number != expected {
                     return send_error(replies, FoeError::PacketNumberWrong);
                 }

@@ -8,7 +8,7 @@
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use master_core::wire::foe::FoeError;
+use ecat_wire::foe::FoeError;
 
 /// One file.
 #[derive(Debug, Clone, PartialEq, Eq)]

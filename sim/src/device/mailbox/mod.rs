@@ -26,7 +26,7 @@
 //! firmware answers slowly; nothing waits for it, so frames keep passing (the ESC looks
 //! again at every frame's end).
 //!
-//! Every reply a master can cause is built with the `master_core::wire` codecs; nothing a
+//! Every reply a master can cause is built with the `ecat_wire` codecs; nothing a
 //! master sends can make the layer panic (checked by a property test).
 //!
 //! # Services
@@ -45,11 +45,9 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use master_core::wire::mailbox::{
-    HEADER_LEN, Mailbox, MailboxErrorCode, MailboxHeader, MailboxType,
-};
-use master_core::wire::register::al::AlState;
-use master_core::wire::register::al_status_code::AlStatusCode;
+use ecat_wire::mailbox::{HEADER_LEN, Mailbox, MailboxErrorCode, MailboxHeader, MailboxType};
+use ecat_wire::register::al::AlState;
+use ecat_wire::register::al_status_code::AlStatusCode;
 
 use crate::device::{Device, DeviceContext, Outbox};
 

@@ -7,9 +7,9 @@
 
 use std::any::Any;
 
-use master_core::wire::mailbox::{ErrorReplyRepr, HEADER_LEN, MailboxErrorCode};
-use master_core::wire::mailbox::{MailboxHeader, MailboxType};
-use master_core::wire::{Emit, WireError};
+use ecat_wire::mailbox::{ErrorReplyRepr, HEADER_LEN, MailboxErrorCode};
+use ecat_wire::mailbox::{MailboxHeader, MailboxType};
+use ecat_wire::{Emit, WireError};
 
 use crate::device::{DeviceContext, OutboxFull};
 
@@ -188,4 +188,4 @@ pub(crate) fn error_reply_data(code: MailboxErrorCode) -> Vec<u8> {
 }
 
 /// Smallest SM1 that can carry a mailbox error reply.
-pub(crate) const MIN_TX_MAILBOX: usize = HEADER_LEN + master_core::wire::mailbox::ERROR_REPLY_LEN;
+pub(crate) const MIN_TX_MAILBOX: usize = HEADER_LEN + ecat_wire::mailbox::ERROR_REPLY_LEN;

@@ -2,7 +2,7 @@
 //! for a master's start-up (cycle time, AT/MDT configuration lists, operation mode) and for
 //! exercising every element and error path.
 
-use master_core::wire::soe::SoeDataType;
+use ecat_wire::soe::SoeDataType;
 
 use super::idn::IdnEntry;
 

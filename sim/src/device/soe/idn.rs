@@ -1,8 +1,8 @@
 //! One IDN of a simulated drive: its elements, how they are encoded for a read, and the
 //! checks a value write goes through (ETG.1000.6, spec-notes §soe).
 
-use master_core::wire::register::al::AlState;
-use master_core::wire::soe::{ElementFlags, SoeAttribute, SoeDataType, SoeError};
+use ecat_wire::register::al::AlState;
+use ecat_wire::soe::{ElementFlags, SoeAttribute, SoeDataType, SoeError};
 
 /// The elements of one IDN.
 ///

@@ -27,9 +27,9 @@ pub mod idn;
 use std::any::Any;
 use std::collections::BTreeMap;
 
-use master_core::wire::Emit;
-use master_core::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
-use master_core::wire::soe::{
+use ecat_wire::Emit;
+use ecat_wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
+use ecat_wire::soe::{
     self, ElementFlags, Idn, IdnOrFragments, SoeError, SoeOpcode, SoePacket, SoeRepr,
 };
 
@@ -232,7 +232,7 @@ fn refresh_idn_list(table: &mut BTreeMap<u16, IdnEntry>) {
 }
 
 /// Emits a response with the codec.
-fn build(repr: &SoeRepr<'_>) -> Result<Vec<u8>, master_core::wire::WireError> {
+fn build(repr: &SoeRepr<'_>) -> Result<Vec<u8>, ecat_wire::WireError> {
     repr.to_vec()
 }
 
