@@ -13,99 +13,74 @@
 //! The master's dictionary (address 0) is CoE: its downloads (AL state requests, rescan,
 //! counter reset) are writes like any other.
 
-use crate::wire::coe::{CoeFrame, CoeService, SdoFrame};
-use crate::wire::foe::{FoeOpcode, FoePacket};
-use crate::wire::mailbox::MailboxType;
-use crate::wire::soe::{Idn, SoeOpcode, SoePacket};
+use crate::wire::foe::FoeOpcode;
+use crate::wire::soe::SoeOpcode;
+
+use super::ask::{Ask, What};
 
 /// The SDO command specifiers of a client's request that read (ETG.1000.6 §5.6.2, Table 38:
 /// 2 initiate upload, 3 upload segment, 4 abort).
 const SDO_READS: [u8; 3] = [2, 3, 4];
 
-/// Whether a request of `ty` with standard data `data` writes.
-pub(crate) fn is_write(ty: MailboxType, data: &[u8]) -> bool {
-    match ty {
-        MailboxType::Coe => match CoeFrame::new_checked(data).map(|f| f.service()) {
-            Ok(CoeService::SdoRequest) => {
-                SdoFrame::new_checked(data).map_or(true, |f| !SDO_READS.contains(&f.specifier()))
-            }
-            Ok(CoeService::SdoInfo | CoeService::TxPdoRemote | CoeService::RxPdoRemote) => false,
-            _ => true,
-        },
-        MailboxType::Soe => {
-            SoePacket::new_checked(data).map_or(true, |p| p.opcode() != SoeOpcode::ReadRequest)
-        }
-        MailboxType::Foe => FoePacket::new_checked(data).map_or(true, |p| {
-            !matches!(
-                p.opcode(),
+impl Ask {
+    /// Whether the request writes.
+    pub(crate) fn is_write(&self) -> bool {
+        match &self.what {
+            What::Sdo { specifier, .. } => !SDO_READS.contains(specifier),
+            What::SdoInfo | What::PdoRemote => false,
+            What::Soe { opcode, .. } => *opcode != SoeOpcode::ReadRequest,
+            What::Foe { opcode, .. } => !matches!(
+                opcode,
                 FoeOpcode::ReadRequest | FoeOpcode::Ack | FoeOpcode::Error
-            )
-        }),
-        _ => true,
-    }
-}
-
-/// Whether a write starts what an audit line records: the first message of a transfer (an
-/// SDO download's initiate, an FoE write request, an SoE write's last or only fragment),
-/// every VoE and EoE message; not the segments and packets that follow.
-pub(crate) fn is_audited(ty: MailboxType, data: &[u8]) -> bool {
-    match ty {
-        MailboxType::Coe => SdoFrame::new_checked(data).map_or(true, |f| f.specifier() != 0),
-        MailboxType::Soe => SoePacket::new_checked(data).map_or(true, |p| !p.incomplete()),
-        MailboxType::Foe => {
-            FoePacket::new_checked(data).map_or(true, |p| p.opcode() != FoeOpcode::Data)
+            ),
+            What::Eoe { .. } | What::Voe { .. } | What::Opaque => true,
         }
-        _ => true,
     }
-}
 
-/// What a request names, for the audit line: `0x6040:00`, `S-0-0032 drive 0`,
-/// `file firmware.bin`, `VoE vendor 0x00001164`, `EoE`.
-pub(crate) fn object(ty: MailboxType, data: &[u8]) -> String {
-    match ty {
-        MailboxType::Coe => match SdoFrame::new_checked(data) {
-            Ok(f)
-                if CoeFrame::new_checked(data)
-                    .is_ok_and(|c| c.service() == CoeService::SdoRequest) =>
-            {
-                format!("0x{:04X}:{:02X}", f.index(), f.subindex())
-            }
-            _ => "CoE".into(),
-        },
-        MailboxType::Soe => match SoePacket::new_checked(data) {
-            Ok(p) => format!(
-                "{} drive {}",
-                Idn::from_raw(p.idn_or_fragments()),
-                p.drive()
-            ),
-            Err(_) => "SoE".into(),
-        },
-        MailboxType::Foe => match FoePacket::new_checked(data) {
-            Ok(p) => {
-                let name = data.get(6..).unwrap_or_default();
-                match p.opcode() {
-                    FoeOpcode::WriteRequest | FoeOpcode::ReadRequest => {
-                        format!("file {}", String::from_utf8_lossy(name).escape_debug())
-                    }
-                    other => format!("FoE {}", other.name()),
-                }
-            }
-            Err(_) => "FoE".into(),
-        },
-        MailboxType::Voe => match data.get(..4) {
-            Some(id) => format!(
-                "VoE vendor 0x{:08X}",
-                u32::from_le_bytes([id[0], id[1], id[2], id[3]])
-            ),
-            None => "VoE".into(),
-        },
-        other => other.name().into(),
+    /// Whether a write starts what an audit line records: the first message of a transfer
+    /// (an SDO download's initiate, an FoE write request, an SoE write's last or only
+    /// fragment), every VoE and EoE message; not the segments and packets that follow.
+    pub(crate) fn is_audited(&self) -> bool {
+        match &self.what {
+            What::Sdo { specifier, .. } => *specifier != 0,
+            What::Soe { incomplete, .. } => !incomplete,
+            What::Foe { opcode, .. } => *opcode != FoeOpcode::Data,
+            _ => true,
+        }
+    }
+
+    /// What the request names, for the audit line: `0x6040:00`, `S-0-0032 drive 0`,
+    /// `file firmware.bin`, `VoE vendor 0x00001164`, `EoE`.
+    pub(crate) fn object(&self) -> String {
+        match &self.what {
+            What::Sdo {
+                index, subindex, ..
+            } => format!("0x{index:04X}:{subindex:02X}"),
+            What::Soe { idn, drive, .. } => format!("{idn} drive {drive}"),
+            What::Foe {
+                file: Some(file), ..
+            } => format!("file {file}"),
+            What::Foe { opcode, .. } => format!("FoE {}", opcode.name()),
+            What::Voe {
+                vendor: Some(vendor),
+            } => format!("VoE vendor 0x{vendor:08X}"),
+            _ => self.ty.name().into(),
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::mailbox::MailboxType;
+
+    fn is_write(ty: MailboxType, data: &[u8]) -> bool {
+        Ask::read(ty, data).is_write()
+    }
+
+    fn object(ty: MailboxType, data: &[u8]) -> String {
+        Ask::read(ty, data).object()
+    }
 
     #[test]
     fn reads_and_writes_are_told_apart() {

@@ -20,11 +20,12 @@
 
 use crate::wire::Emit;
 use crate::wire::coe::info::{SdoInfoRepr, SdoInfoService};
-use crate::wire::coe::{AbortCode, CoeFrame, CoeService, SdoFrame, sdo_abort};
+use crate::wire::coe::{AbortCode, sdo_abort};
 use crate::wire::foe::{FoeError, FoeRepr};
 use crate::wire::mailbox::{MailboxErrorCode, MailboxType, error_reply};
-use crate::wire::soe::{IdnOrFragments, SoeError, SoeOpcode, SoePacket, SoeRepr};
+use crate::wire::soe::{IdnOrFragments, SoeError, SoeOpcode, SoeRepr};
 
+use super::ask::{Ask, What};
 use super::stats::FailureReason;
 
 /// Why the gateway answers a request itself.
@@ -46,7 +47,7 @@ pub(crate) enum Fault {
     Oversized,
     /// A write from a client whose role is `read`.
     Denied,
-    /// A message that continues a transfer, sent to every slave (`transfer::broadcastable`).
+    /// A message that continues a transfer, sent to every slave (`Ask::broadcastable`).
     NotBroadcast,
     /// Anything else.
     Other,
@@ -67,13 +68,9 @@ impl Fault {
     }
 }
 
-/// The answer to a request of `mailbox_type` with mailbox data `request` that failed with
-/// `fault`: the type and data of the reply message, or `None` if the protocol cannot say it.
-pub(crate) fn answer(
-    mailbox_type: MailboxType,
-    request: &[u8],
-    fault: Fault,
-) -> Option<(MailboxType, Vec<u8>)> {
+/// The answer to the request that asks `request` and failed with `fault`: the type and data
+/// of the reply message, or `None` if the protocol cannot say it.
+pub(crate) fn answer(request: &Ask, fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
     match fault {
         Fault::Busy => return Some(mailbox_error(MailboxErrorCode::ServiceInWork)),
         Fault::Oversized => return Some(mailbox_error(MailboxErrorCode::InvalidSize)),
@@ -84,7 +81,7 @@ pub(crate) fn answer(
         }
         _ => {}
     }
-    match mailbox_type {
+    match request.ty {
         MailboxType::Coe => coe_answer(request, coe_code(fault)),
         MailboxType::Soe => soe_answer(request, soe_code(fault)?),
         MailboxType::Foe => foe_answer(foe_code(fault)),
@@ -139,17 +136,16 @@ pub(crate) fn mailbox_error(code: MailboxErrorCode) -> (MailboxType, Vec<u8>) {
 }
 
 /// The CoE answer with `code` to `request`: an SDO Information error for an SDO Information
-/// request, else an SDO abort naming the request's index and subindex.
-pub(crate) fn coe_answer(request: &[u8], code: AbortCode) -> Option<(MailboxType, Vec<u8>)> {
-    let service = CoeFrame::new_checked(request)
-        .map(|f| f.service())
-        .unwrap_or(CoeService::SdoRequest);
-    if service == CoeService::SdoInfo {
-        return Some((MailboxType::Coe, sdo_info_error(code)?));
-    }
-    let (index, subindex) = SdoFrame::new_checked(request)
-        .map(|f| (f.index(), f.subindex()))
-        .unwrap_or((0, 0));
+/// request, else an SDO abort naming the request's index and subindex (0:00 for a request
+/// that names none).
+pub(crate) fn coe_answer(request: &Ask, code: AbortCode) -> Option<(MailboxType, Vec<u8>)> {
+    let (index, subindex) = match request.what {
+        What::SdoInfo => return Some((MailboxType::Coe, sdo_info_error(code)?)),
+        What::Sdo {
+            index, subindex, ..
+        } => (index, subindex),
+        _ => (0, 0),
+    };
     Some((MailboxType::Coe, sdo_abort(index, subindex, code)))
 }
 
@@ -164,19 +160,26 @@ fn sdo_info_error(code: AbortCode) -> Option<Vec<u8>> {
 
 /// The SoE answer with `code` to `request`: the response of the request's kind with the
 /// error bit set, naming its drive, elements and IDN.
-pub(crate) fn soe_answer(request: &[u8], code: SoeError) -> Option<(MailboxType, Vec<u8>)> {
-    let packet = SoePacket::new_checked(request).ok()?;
-    let opcode = match packet.opcode() {
+pub(crate) fn soe_answer(request: &Ask, code: SoeError) -> Option<(MailboxType, Vec<u8>)> {
+    let What::Soe {
+        opcode,
+        idn,
+        drive,
+        elements,
+        ..
+    } = request.what
+    else {
+        return None;
+    };
+    let opcode = match opcode {
         SoeOpcode::WriteRequest => SoeOpcode::WriteResponse,
         _ => SoeOpcode::ReadResponse,
     };
     let repr = SoeRepr {
         opcode,
-        drive: packet.drive(),
-        elements: packet.elements(),
-        idn_or_fragments: IdnOrFragments::Idn(crate::wire::soe::Idn::from_raw(
-            packet.idn_or_fragments(),
-        )),
+        drive,
+        elements,
+        idn_or_fragments: IdnOrFragments::Idn(idn),
         error: Some(code),
         data: &[],
     };
@@ -192,9 +195,14 @@ pub(crate) fn foe_answer((code, text): (FoeError, &[u8])) -> Option<(MailboxType
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wire::coe::{SdoRequest, SdoResponse};
+
+    fn answer_to(ty: MailboxType, data: &[u8], fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
+        answer(&Ask::read(ty, data), fault)
+    }
+    use crate::wire::coe::{SdoFrame, SdoRequest, SdoResponse};
     use crate::wire::foe::FoePacket;
     use crate::wire::mailbox::{ErrorReply, ErrorReplyRepr};
+    use crate::wire::soe::SoePacket;
 
     fn upload(index: u16, subindex: u8) -> Vec<u8> {
         let req = SdoRequest::InitiateUpload {
@@ -208,7 +216,7 @@ mod tests {
     #[test]
     fn coe_faults_are_aborts_naming_the_object() {
         let (ty, data) =
-            answer(MailboxType::Coe, &upload(0x6040, 2), Fault::UnknownAddress).unwrap();
+            answer_to(MailboxType::Coe, &upload(0x6040, 2), Fault::UnknownAddress).unwrap();
         assert_eq!(ty, MailboxType::Coe);
         let frame = SdoFrame::new_checked(&data[..]).unwrap();
         assert_eq!(
@@ -223,16 +231,16 @@ mod tests {
 
     #[test]
     fn busy_is_a_mailbox_error_and_voe_timeouts_are_silent() {
-        let (ty, data) = answer(MailboxType::Voe, &[], Fault::Busy).unwrap();
+        let (ty, data) = answer_to(MailboxType::Voe, &[], Fault::Busy).unwrap();
         assert_eq!(ty, MailboxType::Error);
         let reply = ErrorReplyRepr::parse(&ErrorReply::new_checked(&data[..]).unwrap()).unwrap();
         assert_eq!(reply.detail, MailboxErrorCode::ServiceInWork);
-        assert_eq!(answer(MailboxType::Voe, &[], Fault::Timeout), None);
+        assert_eq!(answer_to(MailboxType::Voe, &[], Fault::Timeout), None);
     }
 
     #[test]
     fn foe_and_soe_use_their_own_errors() {
-        let (_, data) = answer(MailboxType::Foe, &[], Fault::Unsupported).unwrap();
+        let (_, data) = answer_to(MailboxType::Foe, &[], Fault::Unsupported).unwrap();
         let packet = FoePacket::new_checked(&data[..]).unwrap();
         assert_eq!(
             FoeRepr::parse(&packet).unwrap(),
@@ -242,7 +250,7 @@ mod tests {
             }
         );
         let read = [0x01, 0x40, 0x20, 0x00];
-        let (_, data) = answer(MailboxType::Soe, &read, Fault::Unsupported).unwrap();
+        let (_, data) = answer_to(MailboxType::Soe, &read, Fault::Unsupported).unwrap();
         let packet = SoePacket::new_checked(&data[..]).unwrap();
         let repr = SoeRepr::parse(&packet).unwrap();
         assert_eq!(repr.opcode, SoeOpcode::ReadResponse);

@@ -10,8 +10,8 @@ use crate::wire::foe::{FoePacket, FoeRepr};
 use crate::wire::mailbox::{ErrorReply, ErrorReplyRepr, MailboxType};
 use crate::wire::soe::SoePacket;
 
-use super::access;
 use super::answer::Fault;
+use super::ask::Ask;
 
 /// What became of a request, as far as the audit line says.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -92,37 +92,31 @@ fn slave(address: u16) -> String {
     }
 }
 
-/// Logs the audit line of a write (request of `ty`, standard data `data`, to `address`)
+/// Logs the audit line of a write (the request that asks `ask`, to `address`)
 /// that was carried out with `outcome`; nothing for the follow-up messages of a transfer.
-pub(crate) fn write(
-    client: SocketAddr,
-    address: u16,
-    ty: MailboxType,
-    data: &[u8],
-    outcome: &Outcome,
-) {
-    if !access::is_audited(ty, data) {
+pub(crate) fn write(client: SocketAddr, address: u16, ask: &Ask, outcome: &Outcome) {
+    if !ask.is_audited() {
         return;
     }
     tracing::info!(
         target: "audit",
         client = %client,
         slave = %slave(address),
-        object = %access::object(ty, data),
-        protocol = ty.name(),
+        object = %ask.object(),
+        protocol = ask.ty.name(),
         outcome = %outcome.describe(),
         "gateway write"
     );
 }
 
 /// Logs the audit line of a write refused because the client's role is `read`.
-pub(crate) fn refused(client: SocketAddr, address: u16, ty: MailboxType, data: &[u8]) {
+pub(crate) fn refused(client: SocketAddr, address: u16, ask: &Ask) {
     tracing::warn!(
         target: "audit",
         client = %client,
         slave = %slave(address),
-        object = %access::object(ty, data),
-        protocol = ty.name(),
+        object = %ask.object(),
+        protocol = ask.ty.name(),
         outcome = "refused: read role",
         "gateway write refused"
     );
@@ -132,21 +126,15 @@ pub(crate) fn refused(client: SocketAddr, address: u16, ty: MailboxType, data: &
 /// a firmware download say, is a fault an operator looks for, with the client that ran
 /// it), at `debug` for every other protocol (a client's failed read is the client's
 /// business, and a busy tool would fill the log).
-pub(crate) fn failure(
-    client: SocketAddr,
-    address: u16,
-    ty: MailboxType,
-    data: &[u8],
-    outcome: &Outcome,
-) {
+pub(crate) fn failure(client: SocketAddr, address: u16, ask: &Ask, outcome: &Outcome) {
     let Some(error) = outcome.error() else {
         return;
     };
-    if ty == MailboxType::Foe {
+    if ask.ty == MailboxType::Foe {
         tracing::info!(
             client = %client,
             slave = %slave(address),
-            object = %access::object(ty, data),
+            object = %ask.object(),
             error = %error,
             "gateway transfer failed"
         );
@@ -154,8 +142,8 @@ pub(crate) fn failure(
         tracing::debug!(
             client = %client,
             slave = %slave(address),
-            object = %access::object(ty, data),
-            protocol = ty.name(),
+            object = %ask.object(),
+            protocol = ask.ty.name(),
             error = %error,
             "gateway request failed"
         );

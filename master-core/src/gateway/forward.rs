@@ -8,11 +8,11 @@ use std::net::SocketAddr;
 use tokio::time::Instant;
 
 use crate::mailbox::{MailboxError, RawReply, SlaveMailbox};
-use crate::wire::mailbox::MailboxType;
 
 use super::answer::Fault;
+use super::ask::Ask;
 use super::session::{Patience, Sessions};
-use super::transfer::{self, Expect, Sizes};
+use super::transfer::{Expect, Sizes};
 
 /// Most messages a slave may send for one request (SDO Information lists of large
 /// dictionaries come in a few dozen fragments).
@@ -40,15 +40,16 @@ fn fault_of(err: &MailboxError) -> Fault {
     }
 }
 
-/// Sends `data` (mailbox data of `mailbox_type`) to the slave and returns its answers
-/// (none for a message that gets no answer). A slave another client holds is
+/// Sends `data` (mailbox data of `ask.ty`, which ask `ask`) to the slave and returns its
+/// answers (none for a message that gets no answer). A slave another client holds is
 /// [`Fault::Busy`], whether the wait ran out or the patience did not allow one.
 pub(crate) async fn forward(
     f: &Forward<'_>,
     mailbox: &SlaveMailbox,
-    mailbox_type: MailboxType,
+    ask: &Ask,
     data: &[u8],
 ) -> Result<Vec<RawReply>, Fault> {
+    let mailbox_type = ask.ty;
     let station = mailbox.station();
     let open = f
         .sessions
@@ -63,7 +64,7 @@ pub(crate) async fn forward(
         return Err(Fault::Timeout);
     }
     let mb = mailbox.with_timeout(left);
-    let result = match transfer::expect(mailbox_type, data, open) {
+    let result = match ask.expect(open) {
         Expect::Reply => mb.raw(mailbox_type, data).await.map(|reply| vec![reply]),
         Expect::Replies(follows) => {
             mb.raw_replies(mailbox_type, data, follows, MAX_FOLLOW_UPS)
@@ -78,7 +79,7 @@ pub(crate) async fn forward(
     match result {
         Ok(replies) => {
             let first = replies.first().map(|m| (m.mailbox_type(), m.data()));
-            let next = transfer::after(mailbox_type, data, first, open, sizes);
+            let next = ask.after(first, open, sizes);
             f.sessions
                 .update(station, f.client, next, f.session_timeout);
             Ok(replies)

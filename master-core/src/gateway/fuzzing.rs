@@ -15,13 +15,13 @@ use crate::wire::frame::{self, Frame, FrameType};
 use crate::wire::gateway::{GatewayMessage, GatewayRepr};
 use crate::wire::mailbox::MailboxType;
 
-use super::access;
 use super::answer::{Fault, answer};
+use super::ask::Ask;
 use super::compat::{self, Layout};
 use super::normalize;
 use super::reply;
 use super::tcp::{self, MAX_MESSAGE, Stop};
-use super::transfer::{self, Expect, Sizes, Transfer};
+use super::transfer::{Expect, Sizes, Transfer};
 
 const FAULTS: [Fault; 9] = [
     Fault::UnknownAddress,
@@ -69,25 +69,26 @@ pub fn request(datagram: &[u8]) -> bool {
         MailboxType::Coe => normalize::coe_request(&data).into_owned(),
         _ => data,
     };
-    let _ = access::is_write(ty, &data);
-    let _ = access::is_audited(ty, &data);
-    let _ = access::object(ty, &data);
-    let _ = transfer::broadcastable(ty, &data);
+    let ask = Ask::read(ty, &data);
+    let _ = ask.is_write();
+    let _ = ask.is_audited();
+    let _ = ask.object();
+    let _ = ask.broadcastable();
     // The slave's mailbox sizes, from the bytes themselves (any size goes).
     let sizes = Sizes {
         write: usize::from(repr.header.length),
         read: usize::from(repr.header.address),
     };
     for transfer in TRANSFERS {
-        if let Expect::Replies(follows) = transfer::expect(ty, &data, transfer) {
+        if let Expect::Replies(follows) = ask.expect(transfer) {
             let _ = follows(&data);
             let _ = follows(repr.data);
         }
-        let _ = transfer::after(ty, &data, Some((ty, repr.data)), transfer, sizes);
-        let _ = transfer::after(ty, &data, None, transfer, sizes);
+        let _ = ask.after(Some((ty, repr.data)), transfer, sizes);
+        let _ = ask.after(None, transfer, sizes);
     }
     for fault in FAULTS {
-        let answers = [answer(ty, &data, fault), compat::answer(ty, &data, fault)];
+        let answers = [answer(&ask, fault), compat::answer(&ask, fault)];
         for (reply_ty, reply_data) in answers.into_iter().flatten() {
             let _ = reply::made(
                 repr.header.address,

@@ -37,6 +37,7 @@ mod access;
 mod admission;
 mod allow;
 mod answer;
+mod ask;
 mod audit;
 mod bind;
 mod compat;

@@ -22,10 +22,10 @@ use crate::master_od::MasterDictionary;
 use crate::wire::gateway::{GatewayMessage, GatewayRepr};
 use crate::wire::mailbox::{MailboxErrorCode, MailboxHeader, MailboxType};
 
-use super::access;
 use super::admission::{Admission, Ticket};
 use super::allow::GatewayRole;
 use super::answer::{Fault, answer, mailbox_error};
+use super::ask::Ask;
 use super::audit::{self, Outcome};
 use super::compat::{self, Layout};
 use super::config::GatewayConfig;
@@ -36,7 +36,6 @@ use super::retry::{Check, Retries};
 use super::route::{self, Target};
 use super::session::{Patience, Sessions};
 use super::stats::{FailureReason, Stats};
-use super::transfer;
 
 /// What every request task shares.
 pub(crate) struct Shared {
@@ -64,6 +63,8 @@ pub(crate) struct Request {
     client: SocketAddr,
     header: MailboxHeader,
     data: Vec<u8>,
+    /// What `data` ask, read once when the request was admitted.
+    ask: Ask,
     received: StdInstant,
     reply_to: ReplyTo,
     layout: Layout,
@@ -76,8 +77,9 @@ pub(crate) struct Request {
 
 /// What became of a received message.
 pub(crate) enum Admitted {
-    /// To be served.
-    Serve(Request, Ticket),
+    /// To be served (boxed: a request is ten times the size of the other variants, and it
+    /// moves into a task that is allocated anyway).
+    Serve(Box<Request>, Ticket),
     /// Answered or dropped already (busy), counted.
     Done,
     /// Not a gateway message; counted.
@@ -104,7 +106,7 @@ pub(crate) async fn admit(
     };
     shared.stats.parsed(request.header.mailbox_type);
     match shared.admission.admit(client) {
-        Some(ticket) => Admitted::Serve(request, ticket),
+        Some(ticket) => Admitted::Serve(Box::new(request), ticket),
         None => {
             shared.fail(&request, Fault::Busy).await;
             Admitted::Done
@@ -160,7 +162,7 @@ impl Shared {
         }
         let ty = request.header.mailbox_type;
         let answer = match request.layout {
-            Layout::Compat(_) => compat::answer(ty, &request.data, fault),
+            Layout::Compat(_) => compat::answer(&request.ask, fault),
             Layout::Standard
                 if address == route::MASTER_ADDRESS
                     && ty != MailboxType::Coe
@@ -168,7 +170,7 @@ impl Shared {
             {
                 Some(mailbox_error(MailboxErrorCode::UnsupportedProtocol))
             }
-            Layout::Standard => answer(ty, &request.data, fault),
+            Layout::Standard => answer(&request.ask, fault),
         };
         if let Some((ty, data)) = answer
             && let Some(datagram) =
@@ -209,10 +211,12 @@ fn parse(
     let raw = (matches!(reply_to, ReplyTo::Udp(_)) && header.counter != 0)
         .then(|| datagram.get(..message.total_len()).map(Box::from))
         .flatten();
+    let ask = Ask::read(header.mailbox_type, &data);
     Some(Request {
         client,
         header,
         data,
+        ask,
         received,
         reply_to,
         layout,
@@ -223,7 +227,7 @@ fn parse(
 }
 
 /// Works on one admitted request and sends its replies.
-pub(crate) async fn serve(shared: Arc<Shared>, request: Request, _ticket: Ticket) {
+pub(crate) async fn serve(shared: Arc<Shared>, request: Box<Request>, _ticket: Ticket) {
     let repeat = match &request.raw {
         Some(raw) => shared.retries.check(
             request.client,
@@ -247,11 +251,10 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Request, _ticket: Ticket
             return;
         }
     };
-    let ty = request.header.mailbox_type;
     let address = request.header.address;
-    let write = access::is_write(ty, &request.data);
+    let write = request.ask.is_write();
     let outcome = if write && request.role < GatewayRole::Write {
-        audit::refused(request.client, address, ty, &request.data);
+        audit::refused(request.client, address, &request.ask);
         shared.fail(&request, Fault::Denied).await
     } else {
         let outcome = match route::target(&shared.master, address) {
@@ -261,11 +264,11 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Request, _ticket: Ticket
             Err(fault) => shared.fail(&request, fault).await,
         };
         if write {
-            audit::write(request.client, address, ty, &request.data, &outcome);
+            audit::write(request.client, address, &request.ask, &outcome);
         }
         outcome
     };
-    audit::failure(request.client, address, ty, &request.data, &outcome);
+    audit::failure(request.client, address, &request.ask, &outcome);
     if let Some(ticket) = ticket {
         // "Busy" and "no answer in time" are no final answer: a repeat may run.
         let final_answer = !matches!(outcome, Outcome::Failed(Fault::Busy | Fault::Timeout));
@@ -332,7 +335,7 @@ async fn to_slave(shared: &Shared, request: &Request, station: u16) -> Outcome {
         Err(fault) => return shared.fail(request, fault).await,
     };
     let f = forward_for(shared, request.client, Patience::AnyHolder);
-    match forward(&f, &mailbox, ty, &request.data).await {
+    match forward(&f, &mailbox, &request.ask, &request.data).await {
         Ok(replies) => {
             shared.answered(request);
             let outcome = answered_with(&replies);
@@ -362,7 +365,7 @@ async fn to_slave(shared: &Shared, request: &Request, station: u16) -> Outcome {
 /// transfer is refused before any slave sees it (spec-notes §gateway.broadcast).
 async fn broadcast(shared: &Arc<Shared>, request: &Request) -> Outcome {
     let ty = request.header.mailbox_type;
-    if !transfer::broadcastable(ty, &request.data) {
+    if !request.ask.broadcastable() {
         return shared.fail(request, Fault::NotBroadcast).await;
     }
     let targets: Vec<_> = shared
@@ -376,13 +379,15 @@ async fn broadcast(shared: &Arc<Shared>, request: &Request) -> Outcome {
     }
     let mut tasks = JoinSet::new();
     let data: Arc<[u8]> = Arc::from(request.data.as_slice());
+    let ask = Arc::new(request.ask.clone());
     for mailbox in targets {
         let shared = Arc::clone(shared);
         let data = Arc::clone(&data);
+        let ask = Arc::clone(&ask);
         let client = request.client;
         tasks.spawn(async move {
             let f = forward_for(&shared, client, Patience::ExchangeOnly);
-            let result = forward(&f, &mailbox, ty, &data).await;
+            let result = forward(&f, &mailbox, &ask, &data).await;
             (mailbox.station(), result)
         });
     }

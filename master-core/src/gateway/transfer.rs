@@ -1,7 +1,7 @@
-//! Transfers: what a forwarded message makes the slave do, read from the protocol headers
-//! (how many messages it answers with, [`expect`]) and whether the client is in the middle
-//! of a multi-message transfer afterwards ([`after`]; the slave stays reserved for it, see
-//! `session`).
+//! Transfers: what a forwarded message makes the slave do, from what the request asks
+//! (`ask`): how many messages it answers with ([`Ask::expect`]) and whether the client is in
+//! the middle of a multi-message transfer afterwards ([`Ask::after`]; the slave stays
+//! reserved for it, see `session`).
 //!
 //! The gateway forwards bytes; it looks into them only this far:
 //! - CoE SDO: segmented uploads and downloads span several requests; an abort from the
@@ -13,15 +13,17 @@
 //! - EoE: frame fragments get no answer; the IP and filter services do.
 //! - Everything else: one answer.
 //!
-//! It also tells which messages may go to every slave at once ([`broadcastable`]): not the
-//! steps that continue a transfer.
+//! It also tells which messages may go to every slave at once ([`Ask::broadcastable`]): not
+//! the steps that continue a transfer.
 
+use crate::wire::coe::SdoPayload;
 use crate::wire::coe::info::SdoInfoFrame;
-use crate::wire::coe::{CoeFrame, CoeService, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
-use crate::wire::eoe::{EoeFrameType, EoePacket};
+use crate::wire::coe::{SdoFrame, SdoResponse};
 use crate::wire::foe::{self, FoeOpcode, FoePacket, FoeRepr};
 use crate::wire::mailbox::MailboxType;
 use crate::wire::soe::{SoeOpcode, SoePacket};
+
+use super::ask::{Ask, FoeStep, SdoStep, What};
 
 /// How the slave answers a message.
 #[derive(Debug, Clone, Copy)]
@@ -49,67 +51,6 @@ pub(crate) enum Transfer {
     SoeWrite,
 }
 
-/// What the slave will answer to `data` (mailbox data of `ty`), given the client's transfer
-/// in progress.
-pub(crate) fn expect(ty: MailboxType, data: &[u8], transfer: Option<Transfer>) -> Expect {
-    match ty {
-        MailboxType::Coe => match CoeFrame::new_checked(data).map(|f| f.service()) {
-            Ok(CoeService::SdoInfo) => Expect::Replies(sdo_info_follows),
-            Ok(CoeService::SdoRequest) if is_sdo_abort(data) => Expect::Nothing,
-            _ => Expect::Reply,
-        },
-        MailboxType::Soe => match SoePacket::new_checked(data) {
-            Ok(p) if p.opcode() == SoeOpcode::WriteRequest && p.incomplete() => Expect::Nothing,
-            Ok(p) if p.opcode() == SoeOpcode::ReadRequest => Expect::Replies(soe_follows),
-            _ => Expect::Reply,
-        },
-        MailboxType::Foe => match foe_repr(data) {
-            Some(FoeRepr::Error { .. }) => Expect::Nothing,
-            Some(FoeRepr::Ack { .. }) if transfer == Some(Transfer::FoeRead { last: true }) => {
-                Expect::Nothing
-            }
-            _ => Expect::Reply,
-        },
-        MailboxType::Eoe => match EoePacket::new_checked(data).map(|p| p.frame_type()) {
-            Ok(EoeFrameType::Fragment) | Err(_) => Expect::Nothing,
-            Ok(_) => Expect::Reply,
-        },
-        _ => Expect::Reply,
-    }
-}
-
-/// Whether `data` (mailbox data of `ty`) may be broadcast (address 0xFFFF): a message that
-/// stands alone or opens a transfer. A message that continues one — an SDO download or
-/// upload segment, the client's SDO abort, an FoE DATA, ACK, ERROR or BUSY, an SoE write
-/// fragment with more to come — only means something in the transfer that one slave is in
-/// with the client (ETG.1000.6: SDO segments and FoE packets follow their initiate or
-/// request with the same slave, CiA 301's SDO protocol between one client and one server);
-/// sent to every slave it would be out of place in each slave not in that transfer, or step
-/// into another client's (spec-notes §gateway.broadcast). EoE and VoE are not followed by
-/// the gateway and pass.
-pub(crate) fn broadcastable(ty: MailboxType, data: &[u8]) -> bool {
-    match ty {
-        MailboxType::Coe => match CoeFrame::new_checked(data).map(|f| f.service()) {
-            // The client's command specifiers (ETG.1000.6 §5.6.2): 0 download segment,
-            // 3 upload segment and 4 abort continue a transfer; 1 and 2 initiate one.
-            Ok(CoeService::SdoRequest) => {
-                SdoFrame::new_checked(data).map_or(true, |f| !matches!(f.specifier(), 0 | 3 | 4))
-            }
-            _ => true,
-        },
-        MailboxType::Foe => FoePacket::new_checked(data).map_or(true, |p| {
-            !matches!(
-                p.opcode(),
-                FoeOpcode::Data | FoeOpcode::Ack | FoeOpcode::Error | FoeOpcode::Busy
-            )
-        }),
-        MailboxType::Soe => SoePacket::new_checked(data).map_or(true, |p| {
-            !(p.opcode() == SoeOpcode::WriteRequest && p.incomplete())
-        }),
-        _ => true,
-    }
-}
-
 /// Mailbox sizes of the slave (SM0, SM1), for FoE's "short packet ends the file".
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Sizes {
@@ -117,26 +58,85 @@ pub(crate) struct Sizes {
     pub read: usize,
 }
 
-/// The transfer the client is in after `request` (mailbox data of `ty`) was answered with
-/// `reply` (mailbox data of the first answer, if any; `reply_ty` its type).
-pub(crate) fn after(
-    ty: MailboxType,
-    request: &[u8],
-    reply: Option<(MailboxType, &[u8])>,
-    transfer: Option<Transfer>,
-    sizes: Sizes,
-) -> Option<Transfer> {
-    let reply = reply
-        .filter(|(reply_ty, _)| *reply_ty == ty)
-        .map(|(_, d)| d);
-    match ty {
-        MailboxType::Coe => sdo_after(request, reply?).then_some(Transfer::Sdo),
-        MailboxType::Soe => {
-            let p = SoePacket::new_checked(request).ok()?;
-            (p.opcode() == SoeOpcode::WriteRequest && p.incomplete()).then_some(Transfer::SoeWrite)
+impl Ask {
+    /// What the slave will answer to the request, given the client's transfer in progress.
+    pub(crate) fn expect(&self, transfer: Option<Transfer>) -> Expect {
+        match &self.what {
+            What::SdoInfo => Expect::Replies(sdo_info_follows),
+            // The client's abort (command specifier 4).
+            What::Sdo { specifier: 4, .. } => Expect::Nothing,
+            What::Soe {
+                opcode: SoeOpcode::WriteRequest,
+                incomplete: true,
+                ..
+            } => Expect::Nothing,
+            What::Soe {
+                opcode: SoeOpcode::ReadRequest,
+                ..
+            } => Expect::Replies(soe_follows),
+            What::Foe {
+                step: Some(FoeStep::Error),
+                ..
+            } => Expect::Nothing,
+            What::Foe {
+                step: Some(FoeStep::Ack),
+                ..
+            } if transfer == Some(Transfer::FoeRead { last: true }) => Expect::Nothing,
+            What::Eoe { answered: false } => Expect::Nothing,
+            _ => Expect::Reply,
         }
-        MailboxType::Foe => foe_after(request, reply, transfer, sizes),
-        _ => None,
+    }
+
+    /// Whether the request may be broadcast (address 0xFFFF): a message that stands alone
+    /// or opens a transfer. A message that continues one — an SDO download or upload
+    /// segment, the client's SDO abort, an FoE DATA, ACK, ERROR or BUSY, an SoE write
+    /// fragment with more to come — only means something in the transfer that one slave is
+    /// in with the client (ETG.1000.6: SDO segments and FoE packets follow their initiate or
+    /// request with the same slave, CiA 301's SDO protocol between one client and one
+    /// server); sent to every slave it would be out of place in each slave not in that
+    /// transfer, or step into another client's (spec-notes §gateway.broadcast). EoE and VoE
+    /// are not followed by the gateway and pass.
+    pub(crate) fn broadcastable(&self) -> bool {
+        match &self.what {
+            // The client's command specifiers (ETG.1000.6 §5.6.2): 0 download segment,
+            // 3 upload segment and 4 abort continue a transfer; 1 and 2 initiate one.
+            What::Sdo { specifier, .. } => !matches!(specifier, 0 | 3 | 4),
+            What::Foe { opcode, .. } => !matches!(
+                opcode,
+                FoeOpcode::Data | FoeOpcode::Ack | FoeOpcode::Error | FoeOpcode::Busy
+            ),
+            What::Soe {
+                opcode, incomplete, ..
+            } => !(*opcode == SoeOpcode::WriteRequest && *incomplete),
+            _ => true,
+        }
+    }
+
+    /// The transfer the client is in after the request was answered with `reply` (mailbox
+    /// data of the first answer, if any; `reply_ty` its type).
+    pub(crate) fn after(
+        &self,
+        reply: Option<(MailboxType, &[u8])>,
+        transfer: Option<Transfer>,
+        sizes: Sizes,
+    ) -> Option<Transfer> {
+        let reply = reply
+            .filter(|(reply_ty, _)| *reply_ty == self.ty)
+            .map(|(_, d)| d);
+        match &self.what {
+            What::Sdo {
+                step: Some(step), ..
+            } => sdo_after(*step, reply?).then_some(Transfer::Sdo),
+            What::Soe {
+                opcode: SoeOpcode::WriteRequest,
+                incomplete: true,
+                ..
+            } => Some(Transfer::SoeWrite),
+            What::Foe {
+                step: Some(step), ..
+            } => foe_after(*step, reply, transfer, sizes),
+            _ => None,
+        }
     }
 }
 
@@ -147,29 +147,28 @@ fn foe_repr(data: &[u8]) -> Option<FoeRepr<'_>> {
 }
 
 fn foe_after(
-    request: &[u8],
+    request: FoeStep,
     reply: Option<&[u8]>,
     transfer: Option<Transfer>,
     sizes: Sizes,
 ) -> Option<Transfer> {
-    let request = foe_repr(request)?;
     let reply = reply.and_then(foe_repr);
     let full_read = foe::max_data(sizes.read);
     match (request, reply) {
-        (FoeRepr::Error { .. }, _) | (_, Some(FoeRepr::Error { .. })) => None,
-        (FoeRepr::ReadRequest { .. } | FoeRepr::Ack { .. }, Some(FoeRepr::Data { data, .. })) => {
+        (FoeStep::Error, _) | (_, Some(FoeRepr::Error { .. })) => None,
+        (FoeStep::ReadRequest | FoeStep::Ack, Some(FoeRepr::Data { data, .. })) => {
             Some(Transfer::FoeRead {
                 last: data.len() < full_read,
             })
         }
-        (FoeRepr::Ack { .. }, None) => None,
-        (FoeRepr::WriteRequest { .. }, Some(FoeRepr::Ack { .. } | FoeRepr::Busy { .. })) => {
+        (FoeStep::Ack, None) => None,
+        (FoeStep::WriteRequest, Some(FoeRepr::Ack { .. } | FoeRepr::Busy { .. })) => {
             Some(Transfer::FoeWrite)
         }
-        (FoeRepr::Data { data, .. }, Some(FoeRepr::Ack { .. })) => {
+        (FoeStep::Data { len }, Some(FoeRepr::Ack { .. })) => {
             // A packet shorter than the slave's receive mailbox holds is the last.
             let full_write = foe::max_data(sizes.write);
-            (data.len() >= full_write).then_some(Transfer::FoeWrite)
+            (len >= full_write).then_some(Transfer::FoeWrite)
         }
         // A BUSY: the client sends the same packet again.
         (_, Some(FoeRepr::Busy { .. })) => transfer,
@@ -177,22 +176,17 @@ fn foe_after(
     }
 }
 
-/// Whether a CoE request/answer pair leaves a segmented transfer open.
-fn sdo_after(request: &[u8], reply: &[u8]) -> bool {
-    let (Ok(req_frame), Ok(resp_frame)) =
-        (SdoFrame::new_checked(request), SdoFrame::new_checked(reply))
+/// Whether an SDO request step answered with `reply` leaves a segmented transfer open.
+fn sdo_after(request: SdoStep, reply: &[u8]) -> bool {
+    let Some(response) = SdoFrame::new_checked(reply)
+        .ok()
+        .and_then(|frame| SdoResponse::parse(&frame).ok())
     else {
         return false;
     };
-    let (Ok(req), Ok(resp)) = (
-        SdoRequest::parse(&req_frame),
-        SdoResponse::parse(&resp_frame),
-    ) else {
-        return false;
-    };
-    match (req, resp) {
+    match (request, response) {
         (
-            SdoRequest::InitiateUpload { .. },
+            SdoStep::Upload,
             SdoResponse::InitiateUpload {
                 payload:
                     SdoPayload::Normal {
@@ -202,25 +196,11 @@ fn sdo_after(request: &[u8], reply: &[u8]) -> bool {
                 ..
             },
         ) => (data.len() as u64) < u64::from(complete_size),
-        (SdoRequest::UploadSegment { .. }, SdoResponse::UploadSegment { last, .. }) => !last,
-        (
-            SdoRequest::InitiateDownload {
-                payload:
-                    SdoPayload::Normal {
-                        complete_size,
-                        data,
-                    },
-                ..
-            },
-            SdoResponse::InitiateDownload { .. },
-        ) => (data.len() as u64) < u64::from(complete_size),
-        (SdoRequest::DownloadSegment { last, .. }, SdoResponse::DownloadSegment { .. }) => !last,
+        (SdoStep::UploadSegment, SdoResponse::UploadSegment { last, .. }) => !last,
+        (SdoStep::Download { segmented }, SdoResponse::InitiateDownload { .. }) => segmented,
+        (SdoStep::DownloadSegment { last }, SdoResponse::DownloadSegment { .. }) => !last,
         _ => false,
     }
-}
-
-fn is_sdo_abort(data: &[u8]) -> bool {
-    SdoFrame::new_checked(data).is_ok_and(|f| f.specifier() == 4)
 }
 
 fn sdo_info_follows(data: &[u8]) -> bool {
@@ -235,6 +215,25 @@ fn soe_follows(data: &[u8]) -> bool {
 mod tests {
     use super::*;
     use crate::wire::Emit;
+    use crate::wire::coe::SdoRequest;
+
+    fn expect(ty: MailboxType, data: &[u8], transfer: Option<Transfer>) -> Expect {
+        Ask::read(ty, data).expect(transfer)
+    }
+
+    fn broadcastable(ty: MailboxType, data: &[u8]) -> bool {
+        Ask::read(ty, data).broadcastable()
+    }
+
+    fn after(
+        ty: MailboxType,
+        request: &[u8],
+        reply: Option<(MailboxType, &[u8])>,
+        transfer: Option<Transfer>,
+        sizes: Sizes,
+    ) -> Option<Transfer> {
+        Ask::read(ty, request).after(reply, transfer, sizes)
+    }
 
     fn foe(repr: FoeRepr<'_>) -> Vec<u8> {
         repr.to_vec().unwrap()
@@ -353,7 +352,6 @@ mod tests {
 
     #[test]
     fn only_messages_that_stand_alone_or_open_a_transfer_are_broadcast() {
-        use crate::wire::coe::SdoPayload;
         let sdo = |r: SdoRequest<'_>| r.to_vec().unwrap();
         let upload = sdo(SdoRequest::InitiateUpload {
             index: 0x1018,

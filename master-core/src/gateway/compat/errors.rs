@@ -22,15 +22,12 @@ use crate::wire::mailbox::MailboxType;
 use crate::wire::soe::SoeError;
 
 use super::super::answer::{Fault, coe_answer, foe_answer, soe_answer};
+use super::super::ask::Ask;
 
 /// The answer (standard type and data, to be encoded in the compatibility layout) to a
 /// request of `ty` with standard data `request` that failed with `fault`.
-pub(crate) fn answer(
-    ty: MailboxType,
-    request: &[u8],
-    fault: Fault,
-) -> Option<(MailboxType, Vec<u8>)> {
-    match ty {
+pub(crate) fn answer(request: &Ask, fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
+    match request.ty {
         MailboxType::Coe => coe_answer(request, AbortCode::from(coe(fault))),
         MailboxType::Soe => soe_answer(request, SoeError::from(soe(fault))),
         MailboxType::Foe => foe_answer((FoeError::from(foe(fault)), b"")),
@@ -98,19 +95,23 @@ fn code_error(code: u16) -> (MailboxType, Vec<u8>) {
 mod tests {
     use super::*;
 
+    fn answer_to(ty: MailboxType, data: &[u8], fault: Fault) -> Option<(MailboxType, Vec<u8>)> {
+        answer(&Ask::read(ty, data), fault)
+    }
+
     #[test]
     fn the_manuals_codes_are_used() {
         let upload = [0x00, 0x20, 0x40, 0x40, 0x60, 0x00, 0, 0, 0, 0];
-        let (_, data) = answer(MailboxType::Coe, &upload, Fault::Denied).unwrap();
+        let (_, data) = answer_to(MailboxType::Coe, &upload, Fault::Denied).unwrap();
         assert_eq!(data[2], 0x80);
         assert_eq!(data[6..10], 0x0601_0002u32.to_le_bytes());
         let write = [0x03, 0x40, 0x20, 0x00, 1, 0];
-        let (_, data) = answer(MailboxType::Soe, &write, Fault::Denied).unwrap();
+        let (_, data) = answer_to(MailboxType::Soe, &write, Fault::Denied).unwrap();
         assert_eq!(data[0], 0x14);
         assert_eq!(data[4..6], 0x7002u16.to_le_bytes());
-        let (_, data) = answer(MailboxType::Foe, &[], Fault::UnknownAddress).unwrap();
+        let (_, data) = answer_to(MailboxType::Foe, &[], Fault::UnknownAddress).unwrap();
         assert_eq!(data[2..6], 0x8002u32.to_le_bytes());
-        let (ty, data) = answer(MailboxType::Voe, &[], Fault::Timeout).unwrap();
+        let (ty, data) = answer_to(MailboxType::Voe, &[], Fault::Timeout).unwrap();
         assert_eq!((ty, data), (MailboxType::Error, vec![1, 0, 3, 0]));
     }
 }
