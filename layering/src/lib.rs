@@ -1,6 +1,7 @@
-//! Which modules a Rust source file names: the reading behind each crate's import-direction
-//! test (`master-core/tests/checks/layering.rs`, `server/tests/checks/layering.rs`, `sim/tests/checks/layering.rs`;
-//! the ranks themselves are in those tests, docs/architecture.md explains them).
+//! Which modules a Rust source file names: the reading behind the import-direction tests
+//! inside a crate (`master-core/tests/checks/layering.rs`, `server/tests/checks/layering.rs`;
+//! the ranks themselves are in those tests, docs/architecture.md explains them). Between
+//! crates Cargo holds the direction.
 //!
 //! [`uses`] parses a file with Rust's grammar and returns every path it names, resolved
 //! against the file's place in its crate: `use` items (grouped ones too, `use
