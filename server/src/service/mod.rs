@@ -1,13 +1,13 @@
 //! The service layer both APIs call: one method per operation, each one call into the
 //! master or a slave's mailbox, errors as [`ApiError`].
 //!
-//! Files: `view` (what the APIs serialise), `calls` (the mailbox requests it made,
-//! counted), `gateway` (the mailbox gateway's state, start and stop), `bus` (frame and cycle counters), `read_effects` (register reads that
-//! need the write role), `transfer` (deadlines and progress of FoE and SDO transfers),
-//! `capture` (live captures), `rolling` (the rolling capture's ring of files), `domains`
-//! (the process image by slave group), `log_filter` (the runtime log filter),
-//! `process_data` (the layout, values and forced outputs), `pd_stream` (the interval and
-//! changes of a process-data stream), `pdos` (each slave's SyncManagers and PDOs).
+//! Files: `view` (what the APIs serialise), `calls` (the mailbox requests it made, counted),
+//! `gateway` (the mailbox gateway's state, start and stop), `bus` (frame and cycle counters),
+//! `read_effects` (register reads that need the write role), `transfer` (deadlines and progress of
+//! FoE and SDO transfers), `capture` (live captures), `rolling` (the rolling capture's ring of
+//! files), `domains` (the process image by slave group), `log_filter` (the runtime log filter),
+//! `process_data` (the layout, values and forced outputs), `pd_stream` (the interval and changes of
+//! a process-data stream), `pdos` (each slave's SyncManagers and PDOs).
 
 pub mod bus;
 pub mod calls;
