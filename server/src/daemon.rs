@@ -521,7 +521,7 @@ fn start_app(
 async fn start_gateway(core: &Core, settings: &GatewaySettings) -> Result<(), String> {
     let config = settings.gateway_config()?;
     core.set_gateway(MailboxGateway::new(core.master().clone(), config));
-    core.start_gateway().await.map_err(|err| err.message)?;
+    core.open_gateway().await.map_err(|err| err.message)?;
     Ok(())
 }
 

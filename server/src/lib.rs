@@ -21,7 +21,6 @@ pub mod http;
 pub mod input;
 pub mod logging;
 pub mod metrics;
-pub mod roles;
 pub mod scheduling;
 pub mod security;
 pub mod segment;

@@ -2,11 +2,11 @@
 //!
 //! Without configured tokens every caller may read and write (ecatd then refuses to listen
 //! on a non-loopback address unless `--insecure`). With tokens every API call needs one
-//! (`authorization: Bearer <token>`); writes and state changes need a write token. Every
-//! write is logged on the `audit` target with the caller's token name (outcome: [`crate::audit`]).
+//! (`authorization: Bearer <token>`); writes and state changes need a write token, which the
+//! core checks and audits ([`crate::service::admission`]).
 //!
-//! This is the transport-neutral half; `grpc::auth` and `http::auth` put it in front of
-//! their calls.
+//! This is the transport-neutral half; `grpc::auth` and `http::auth` authenticate every call
+//! with it.
 
 use std::sync::{Arc, RwLock};
 
@@ -94,24 +94,6 @@ fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
-/// Checks that `caller` may write and logs the audit line for `operation` on `target`.
-pub fn authorize_write(
-    caller: Option<&Caller>,
-    operation: &str,
-    target: &str,
-) -> Result<(), ApiError> {
-    let caller = caller.ok_or_else(|| ApiError::unauthenticated("a bearer token is required"))?;
-    if caller.role < Role::Write {
-        tracing::warn!(target: "audit", caller = %caller.name, operation, target, "write refused: read-only token");
-        return Err(ApiError::permission_denied(format!(
-            "{operation} needs a write token"
-        )));
-    }
-    tracing::info!(target: "audit", caller = %caller.name, operation, target, "write");
-    crate::audit::note(&caller.name, operation, target);
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -136,7 +118,7 @@ mod tests {
     }
 
     #[test]
-    fn roles_decide() {
+    fn tokens_name_their_caller_and_role() {
         let t = tokens();
         assert_eq!(t.authenticate(None).unwrap_err().kind.http(), 401);
         assert_eq!(
@@ -144,15 +126,9 @@ mod tests {
             401
         );
         let reader = t.authenticate(Some("Bearer read-secret")).unwrap();
-        assert_eq!(
-            authorize_write(Some(&reader), "x", "0")
-                .unwrap_err()
-                .kind
-                .http(),
-            403
-        );
+        assert_eq!((reader.name.as_str(), reader.role), ("r", Role::Read));
         let writer = t.authenticate(Some("Bearer write-secret")).unwrap();
-        assert!(authorize_write(Some(&writer), "x", "0").is_ok());
+        assert_eq!((writer.name.as_str(), writer.role), ("w", Role::Write));
         let open = Tokens::default().authenticate(None).unwrap();
         assert_eq!(open.role, Role::Write);
     }

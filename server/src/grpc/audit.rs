@@ -1,6 +1,7 @@
-//! The gRPC side of the audit trail ([`crate::audit`]): a layer around every service that
-//! opens the call's slot and, once the answer's headers are known, logs the write the call
-//! noted with its outcome (`done`, or the gRPC code and message).
+//! The gRPC side of the call log ([`crate::audit`]): a layer around every service that
+//! opens the call's slot (the interceptor notes the caller there, for the core's audit
+//! lines) and, once the answer's headers are known, logs a failed call at `debug`. The
+//! audit line of a write is the core's ([`crate::service::admission`]).
 
 use std::future::Future;
 use std::pin::Pin;
@@ -12,9 +13,9 @@ use crate::audit;
 
 /// The layer; see the [module documentation](self).
 #[derive(Debug, Clone, Copy, Default)]
-pub struct AuditLayer;
+pub struct CallLayer;
 
-impl<S> tower_layer::Layer<S> for AuditLayer {
+impl<S> tower_layer::Layer<S> for CallLayer {
     type Service = Audited<S>;
 
     fn layer(&self, inner: S) -> Audited<S> {
@@ -22,7 +23,7 @@ impl<S> tower_layer::Layer<S> for AuditLayer {
     }
 }
 
-/// A service with its writes audited.
+/// A service whose calls run in a slot of their own.
 #[derive(Debug, Clone)]
 pub struct Audited<S> {
     inner: S,
@@ -60,9 +61,6 @@ where
                 // trailers, past this layer.)
                 let caller = noted.caller.as_ref().map(|c| c.caller.as_str());
                 tracing::debug!(caller, operation = %path, error = %error, "gRPC call failed");
-            }
-            if let Some(write) = noted.write.filter(|w| !w.caller.is_empty()) {
-                audit::outcome(&write, error.as_deref().map_or(Ok(()), Err));
             }
             result
         })

@@ -1,12 +1,11 @@
 //! The gRPC side of [`crate::security`]: the interceptor that authenticates every call of
-//! the `ecat.v1` services and checks the role [`crate::roles::GRPC`] declares for its method
-//! (an undeclared method needs the write role), and the write check with the slave a request
-//! names for the audit line.
+//! the `ecat.v1` services, and [`admit`], with which a handler asks the core to admit its
+//! caller before it reads the request ([`crate::service::admission`]).
 
 use tonic::{Request, Status};
 
-use crate::roles::{self, Access};
-use crate::security::{Caller, Role, Tokens, authorize_write};
+use crate::security::{Caller, Tokens};
+use crate::service::{Core, Operation, Ticket};
 
 /// The called method's HTTP/2 path (`/package.Service/Method`), put in the request's
 /// extensions by [`with_path`] before the interceptor runs (a tonic interceptor sees no
@@ -23,14 +22,9 @@ pub fn with_path<B>(
     request
 }
 
-/// The gRPC side of [`authorize_write`].
-pub fn require_write<T: SlaveField>(request: &Request<T>, operation: &str) -> Result<(), Status> {
-    authorize_write(
-        request.extensions().get::<Caller>(),
-        operation,
-        request.get_ref().slave_field(),
-    )
-    .map_err(Status::from)
+/// The core's admission of the request's caller for `operation`.
+pub fn admit<T>(core: &Core, request: &Request<T>, operation: Operation) -> Result<Ticket, Status> {
+    Ok(core.admit(request.extensions().get::<Caller>(), operation)?)
 }
 
 /// The interceptor in front of every `ecat.v1` service: authenticates and attaches the
@@ -48,70 +42,8 @@ pub fn grpc_interceptor(
             .extensions()
             .get::<GrpcPath>()
             .map_or("", |p| p.0.as_str());
-        let access = roles::grpc(path).unwrap_or(Access::Write);
-        if access == Access::Write && caller.role < Role::Write {
-            // Refused here for every write method alike; the handlers' own check logs the
-            // audit line of an allowed write with the slave it names.
-            authorize_write(Some(&caller), path, "")?;
-        }
         crate::audit::note_caller(&caller.name, path);
         request.extensions_mut().insert(caller);
         Ok(request)
-    }
-}
-
-/// The slave a request names, for the audit line.
-pub trait SlaveField {
-    /// The slave name, or "" for bus-wide calls.
-    fn slave_field(&self) -> &str;
-}
-
-macro_rules! slave_field {
-    ($($t:ty),* $(,)?) => {$(
-        impl SlaveField for $t {
-            fn slave_field(&self) -> &str { &self.slave }
-        }
-    )*};
-}
-
-slave_field!(
-    proto::v1::RequestStateRequest,
-    proto::v1::WriteRegisterRequest,
-    proto::v1::ReadWriteRegisterRequest,
-    proto::v1::WriteSiiRequest,
-    proto::v1::SetAliasRequest,
-    proto::v1::DownloadRequest,
-    proto::v1::SoeWriteRequest,
-    proto::v1::VoeRequest,
-    proto::v1::SetIpRequest,
-);
-
-impl SlaveField for proto::v1::RescanRequest {
-    fn slave_field(&self) -> &str {
-        "all"
-    }
-}
-
-impl SlaveField for proto::v1::SetLogFilterRequest {
-    fn slave_field(&self) -> &str {
-        "ecatd"
-    }
-}
-
-impl SlaveField for proto::v1::CaptureRequest {
-    fn slave_field(&self) -> &str {
-        "all"
-    }
-}
-
-impl SlaveField for tonic::Streaming<proto::v1::FoeWriteChunk> {
-    fn slave_field(&self) -> &str {
-        "(stream)"
-    }
-}
-
-impl SlaveField for tonic::Streaming<proto::v1::WriteWithProgressRequest> {
-    fn slave_field(&self) -> &str {
-        "(stream)"
     }
 }

@@ -10,11 +10,11 @@ use tokio_stream::wrappers::BroadcastStream;
 use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 use tonic::{Request, Response, Status};
 
-use super::auth::require_write;
+use super::auth::admit;
 use super::convert::{event, requested_state, slave};
 use super::status::narrow;
 use crate::security::Caller;
-use crate::service::{Core, EventView};
+use crate::service::{Core, EventView, Operation, parse_name};
 
 /// The bus service over the core.
 pub struct Bus {
@@ -40,7 +40,7 @@ impl BusService for Bus {
     }
 
     async fn get_slave(&self, request: Request<pb::GetSlaveRequest>) -> Reply<pb::Slave> {
-        let view = self.core.get_slave(&request.get_ref().slave)?;
+        let view = self.core.get_slave(parse_name(&request.get_ref().slave)?)?;
         Ok(Response::new(slave(&view)))
     }
 
@@ -48,18 +48,21 @@ impl BusService for Bus {
         &self,
         request: Request<pb::RequestStateRequest>,
     ) -> Reply<pb::RequestStateResponse> {
-        require_write(&request, "request_state")?;
+        let ticket = admit(&self.core, &request, Operation::RequestState)?;
         let r = request.get_ref();
         let state = requested_state(r.state)?;
-        let view = self.core.request_state(&r.slave, state).await?;
+        let view = self
+            .core
+            .request_state(ticket, parse_name(&r.slave)?, state)
+            .await?;
         Ok(Response::new(pb::RequestStateResponse {
             slave: Some(slave(&view)),
         }))
     }
 
     async fn rescan(&self, request: Request<pb::RescanRequest>) -> Reply<pb::RescanResponse> {
-        require_write(&request, "rescan")?;
-        let (slaves, failures) = self.core.rescan().await?;
+        let ticket = admit(&self.core, &request, Operation::Rescan)?;
+        let (slaves, failures) = self.core.rescan(ticket).await?;
         Ok(Response::new(pb::RescanResponse {
             slaves: slaves.iter().map(slave).collect(),
             failures,
@@ -92,7 +95,7 @@ impl BusService for Bus {
             .core
             .read_register(
                 request.extensions().get::<Caller>(),
-                &r.slave,
+                parse_name(&r.slave)?,
                 narrow(r.address, "address")?,
                 narrow(r.length, "length")?,
             )
@@ -104,17 +107,24 @@ impl BusService for Bus {
         &self,
         request: Request<pb::WriteRegisterRequest>,
     ) -> Reply<pb::WriteRegisterResponse> {
-        require_write(&request, "write_register")?;
+        let ticket = admit(&self.core, &request, Operation::WriteRegister)?;
         let r = request.get_ref();
-        crate::audit::note_value(&r.data);
         self.core
-            .write_register(&r.slave, narrow(r.address, "address")?, &r.data)
+            .write_register(
+                ticket,
+                parse_name(&r.slave)?,
+                narrow(r.address, "address")?,
+                &r.data,
+            )
             .await?;
         Ok(Response::new(pb::WriteRegisterResponse {}))
     }
 
     async fn read_sii(&self, request: Request<pb::ReadSiiRequest>) -> Reply<pb::ReadSiiResponse> {
-        let data = self.core.read_sii(&request.get_ref().slave).await?;
+        let data = self
+            .core
+            .read_sii(parse_name(&request.get_ref().slave)?)
+            .await?;
         Ok(Response::new(pb::ReadSiiResponse { data }))
     }
 
@@ -122,11 +132,16 @@ impl BusService for Bus {
         &self,
         request: Request<pb::WriteSiiRequest>,
     ) -> Reply<pb::WriteSiiResponse> {
-        require_write(&request, "write_sii")?;
+        let ticket = admit(&self.core, &request, Operation::WriteSii)?;
         let r = request.get_ref();
-        crate::audit::note_value(&r.data);
         self.core
-            .write_sii(&r.slave, narrow(r.word, "word")?, &r.data, r.force)
+            .write_sii(
+                ticket,
+                parse_name(&r.slave)?,
+                narrow(r.word, "word")?,
+                &r.data,
+                r.force,
+            )
             .await?;
         Ok(Response::new(pb::WriteSiiResponse {}))
     }
@@ -135,11 +150,11 @@ impl BusService for Bus {
         &self,
         request: Request<pb::SetAliasRequest>,
     ) -> Reply<pb::SetAliasResponse> {
-        require_write(&request, "set_alias")?;
+        let ticket = admit(&self.core, &request, Operation::SetAlias)?;
         let r = request.get_ref();
         let alias = self
             .core
-            .set_alias(&r.slave, narrow(r.alias, "alias")?)
+            .set_alias(ticket, parse_name(&r.slave)?, narrow(r.alias, "alias")?)
             .await?;
         Ok(Response::new(pb::SetAliasResponse {
             alias: u32::from(alias),
@@ -168,12 +183,16 @@ impl BusService for Bus {
         &self,
         request: Request<pb::ReadWriteRegisterRequest>,
     ) -> Reply<pb::ReadWriteRegisterResponse> {
-        require_write(&request, "read_write_register")?;
+        let ticket = admit(&self.core, &request, Operation::ReadWriteRegister)?;
         let r = request.get_ref();
-        crate::audit::note_value(&r.data);
         let data = self
             .core
-            .read_write_register(&r.slave, narrow(r.address, "address")?, &r.data)
+            .read_write_register(
+                ticket,
+                parse_name(&r.slave)?,
+                narrow(r.address, "address")?,
+                &r.data,
+            )
             .await?;
         Ok(Response::new(pb::ReadWriteRegisterResponse { data }))
     }
@@ -198,22 +217,24 @@ impl BusService for Bus {
         &self,
         request: Request<pb::SetLogFilterRequest>,
     ) -> Reply<pb::SetLogFilterResponse> {
-        require_write(&request, "set_log_filter")?;
-        crate::audit::note_value(request.get_ref().filter.as_bytes());
-        let filter = self.core.set_log_filter(&request.get_ref().filter)?;
+        let ticket = admit(&self.core, &request, Operation::SetLogFilter)?;
+        let filter = self
+            .core
+            .set_log_filter(ticket, &request.get_ref().filter)?;
         Ok(Response::new(pb::SetLogFilterResponse { filter }))
     }
 
     type CaptureStream = Pin<Box<dyn Stream<Item = Result<pb::CaptureResponse, Status>> + Send>>;
 
     async fn capture(&self, request: Request<pb::CaptureRequest>) -> Reply<Self::CaptureStream> {
-        require_write(&request, "capture")?;
+        let ticket = admit(&self.core, &request, Operation::Capture)?;
         let r = request.get_ref();
         let done = if r.rolling {
-            self.core.rolling_window().await
+            self.core.rolling_window(ticket).await
         } else {
             self.core
                 .capture(
+                    ticket,
                     r.frames,
                     std::time::Duration::from_millis(u64::from(r.duration_ms)),
                 )

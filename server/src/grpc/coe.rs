@@ -4,9 +4,9 @@ use proto::v1 as pb;
 use proto::v1::coe_service_server::CoeService;
 use tonic::{Request, Response, Status};
 
-use super::auth::require_write;
+use super::auth::admit;
 use super::status::narrow;
-use crate::service::{Core, SdoPayload};
+use crate::service::{Core, Operation, SdoPayload, parse_name};
 
 /// The CoE service over the core.
 pub struct Coe {
@@ -25,7 +25,13 @@ impl CoeService for Coe {
         let value_type = (!r.value_type.is_empty()).then_some(r.value_type.as_str());
         let read = self
             .core
-            .coe_read(&r.slave, index, subindex, r.complete_access, value_type)
+            .coe_read(
+                parse_name(&r.slave)?,
+                index,
+                subindex,
+                r.complete_access,
+                value_type,
+            )
             .await?;
         Ok(Response::new(pb::UploadResponse {
             data: read.data,
@@ -34,7 +40,7 @@ impl CoeService for Coe {
     }
 
     async fn download(&self, request: Request<pb::DownloadRequest>) -> Reply<pb::DownloadResponse> {
-        require_write(&request, "coe_download")?;
+        let ticket = admit(&self.core, &request, Operation::CoeDownload)?;
         let r = request.get_ref();
         let payload = if r.value_type.is_empty() {
             SdoPayload::Bytes {
@@ -47,10 +53,9 @@ impl CoeService for Coe {
                 value_type: &r.value_type,
             }
         };
-        crate::audit::note_value(payload.audited());
         let (index, subindex) = (narrow(r.index, "index")?, narrow(r.subindex, "subindex")?);
         self.core
-            .coe_write(&r.slave, index, subindex, payload)
+            .coe_write(ticket, parse_name(&r.slave)?, index, subindex, payload)
             .await?;
         Ok(Response::new(pb::DownloadResponse {}))
     }
@@ -65,7 +70,10 @@ impl CoeService for Coe {
         } else {
             narrow(r.list, "list")?
         };
-        let indices = self.core.coe_object_list(&r.slave, list).await?;
+        let indices = self
+            .core
+            .coe_object_list(parse_name(&r.slave)?, list)
+            .await?;
         Ok(Response::new(pb::ObjectListResponse {
             indices: indices.into_iter().map(u32::from).collect(),
         }))
@@ -78,7 +86,7 @@ impl CoeService for Coe {
         let r = request.get_ref();
         let o = self
             .core
-            .coe_object(&r.slave, narrow(r.index, "index")?)
+            .coe_object(parse_name(&r.slave)?, narrow(r.index, "index")?)
             .await?;
         Ok(Response::new(pb::ObjectDescriptionResponse {
             index: u32::from(o.index),
@@ -98,7 +106,7 @@ impl CoeService for Coe {
         let e = self
             .core
             .coe_entry(
-                &r.slave,
+                parse_name(&r.slave)?,
                 narrow(r.index, "index")?,
                 narrow(r.subindex, "subindex")?,
             )

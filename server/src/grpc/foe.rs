@@ -14,9 +14,9 @@ use tokio_stream::wrappers::ReceiverStream;
 use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 
-use crate::security::{Caller, authorize_write};
+use super::auth::admit;
 use crate::service::transfer::PROGRESS_PERIOD;
-use crate::service::{ApiError, Core};
+use crate::service::{ApiError, Core, Operation, SlaveName, parse_name};
 
 /// Largest file a client may write in one call.
 pub const MAX_FOE_WRITE: usize = 16 << 20;
@@ -39,6 +39,7 @@ impl FoeService for Foe {
 
     async fn read(&self, request: Request<pb::FoeReadRequest>) -> Reply<Self::ReadStream> {
         let r = request.into_inner();
+        let slave = parse_name(&r.slave)?;
         let (tx, rx) = mpsc::channel(QUEUE);
         let progress_tx = tx.clone();
         // Progress messages carry no data; a full queue drops them (the data still comes).
@@ -56,7 +57,7 @@ impl FoeService for Foe {
             // The client leaving closes the stream's receiver: the read is dropped then,
             // which ends the transfer towards the slave.
             let read = tokio::select! {
-                read = core.foe_read(&r.slave, &r.name, r.password, Some(progress)) => read,
+                read = core.foe_read(slave, &r.name, r.password, Some(progress)) => read,
                 () = tx.closed() => return,
             };
             match read {
@@ -87,11 +88,11 @@ impl FoeService for Foe {
         &self,
         request: Request<Streaming<pb::FoeWriteChunk>>,
     ) -> Reply<pb::FoeWriteResponse> {
-        let caller = request.extensions().get::<Caller>().cloned();
-        let (slave, name, password, data) =
-            receive_file(caller.as_ref(), request.into_inner()).await?;
+        // Admitted before any data is kept.
+        let ticket = admit(&self.core, &request, Operation::FoeWrite)?;
+        let (slave, name, password, data) = receive_file(request.into_inner()).await?;
         self.core
-            .foe_write(&slave, &name, password, &data, None)
+            .foe_write(ticket, slave, &name, password, &data, None)
             .await?;
         Ok(Response::new(pb::FoeWriteResponse {
             written: data.len() as u64,
@@ -105,7 +106,8 @@ impl FoeService for Foe {
         &self,
         request: Request<Streaming<pb::WriteWithProgressRequest>>,
     ) -> Reply<Self::WriteWithProgressStream> {
-        let caller = request.extensions().get::<Caller>().cloned();
+        // Admitted before any data is kept.
+        let ticket = admit(&self.core, &request, Operation::FoeWrite)?;
         // The same pieces as Write's, in a message of the method's own name.
         let chunks = request.into_inner().map(|piece| {
             piece.map(|p| pb::FoeWriteChunk {
@@ -115,7 +117,7 @@ impl FoeService for Foe {
                 data: p.data,
             })
         });
-        let (slave, name, password, data) = receive_file(caller.as_ref(), chunks).await?;
+        let (slave, name, password, data) = receive_file(chunks).await?;
         let (tx, rx) = mpsc::channel(QUEUE);
         let progress_tx = tx.clone();
         // Progress messages are spaced like the events; a full queue drops one (the next,
@@ -144,7 +146,7 @@ impl FoeService for Foe {
             // The client leaving closes the stream's receiver: the write is dropped then,
             // which ends the transfer towards the slave with an FoE ERROR.
             let written = tokio::select! {
-                written = core.foe_write(&slave, &name, password, &data, Some(progress)) => written,
+                written = core.foe_write(ticket, slave, &name, password, &data, Some(progress)) => written,
                 () = tx.closed() => return,
             };
             let last = match written {
@@ -161,24 +163,17 @@ impl FoeService for Foe {
     }
 }
 
-/// Takes a whole file from a write stream: the first chunk names the slave and the file,
-/// and the caller's right to write is checked (and audited) before any data is kept.
+/// Takes a whole file from a write stream: the first chunk names the slave and the file.
 async fn receive_file(
-    caller: Option<&Caller>,
     stream: impl Stream<Item = Result<pb::FoeWriteChunk, Status>>,
-) -> Result<(String, String, u32, Vec<u8>), Status> {
+) -> Result<(SlaveName, String, u32, Vec<u8>), Status> {
     let mut stream = std::pin::pin!(stream);
-    let mut target: Option<(String, String, u32)> = None;
+    let mut target: Option<(SlaveName, String, u32)> = None;
     let mut data = Vec::new();
     while let Some(chunk) = stream.next().await {
         let chunk = chunk?;
         if target.is_none() {
-            authorize_write(
-                caller,
-                "foe_write",
-                &format!("{} {}", chunk.slave, chunk.name),
-            )?;
-            target = Some((chunk.slave, chunk.name, chunk.password));
+            target = Some((parse_name(&chunk.slave)?, chunk.name, chunk.password));
         }
         if data.len() + chunk.data.len() > MAX_FOE_WRITE {
             return Err(Status::from(ApiError::too_large(format!(
@@ -187,12 +182,7 @@ async fn receive_file(
         }
         data.extend_from_slice(&chunk.data);
     }
-    if target.is_none() {
-        // Nothing to write, but the caller still needs the right to try.
-        authorize_write(caller, "foe_write", "")?;
-    }
     let (slave, name, password) =
         target.ok_or_else(|| Status::from(ApiError::invalid("empty FoE write stream")))?;
-    crate::audit::note_value(&data);
     Ok((slave, name, password, data))
 }

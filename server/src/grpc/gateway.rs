@@ -4,11 +4,11 @@ use proto::v1 as pb;
 use proto::v1::gateway_service_server::GatewayService;
 use tonic::{Request, Response, Status};
 
-use crate::security::{Caller, authorize_write};
-use crate::service::Core;
+use super::auth::admit;
 use crate::service::gateway::{
     GatewayFailuresView, GatewayStatsView, GatewayView, LatencyBucketView, LatencyView,
 };
+use crate::service::{Core, Operation};
 
 /// The gateway service over the core.
 pub struct Gateway {
@@ -113,11 +113,6 @@ fn stats(s: &GatewayStatsView) -> pb::GatewayStats {
     }
 }
 
-fn require_write<T>(request: &Request<T>, operation: &str) -> Result<(), Status> {
-    authorize_write(request.extensions().get::<Caller>(), operation, "gateway")
-        .map_err(Status::from)
-}
-
 #[tonic::async_trait]
 impl GatewayService for Gateway {
     async fn get_gateway(&self, _: Request<pb::GetGatewayRequest>) -> Reply<pb::GatewayStatus> {
@@ -128,8 +123,8 @@ impl GatewayService for Gateway {
         &self,
         request: Request<pb::StartGatewayRequest>,
     ) -> Reply<pb::GatewayStatus> {
-        require_write(&request, "start_gateway")?;
-        let view = self.core.start_gateway().await?;
+        let ticket = admit(&self.core, &request, Operation::StartGateway)?;
+        let view = self.core.start_gateway(ticket).await?;
         Ok(Response::new(gateway_status(&view)))
     }
 
@@ -137,8 +132,8 @@ impl GatewayService for Gateway {
         &self,
         request: Request<pb::StopGatewayRequest>,
     ) -> Reply<pb::GatewayStatus> {
-        require_write(&request, "stop_gateway")?;
-        let view = self.core.stop_gateway().await?;
+        let ticket = admit(&self.core, &request, Operation::StopGateway)?;
+        let view = self.core.stop_gateway(ticket).await?;
         Ok(Response::new(gateway_status(&view)))
     }
 }

@@ -101,10 +101,10 @@ pub async fn serve_tls(
         .layer(tower::util::MapRequestLayer::new(
             auth::with_path::<tonic::body::Body>,
         ))
-        .layer(audit::AuditLayer)
+        .layer(audit::CallLayer)
         // The time limit of each call, except FoE transfers (they have their own deadlines,
-        // which follow the transfer's progress); inside the audit layer, which records the
-        // timeout as the outcome.
+        // which follow the transfer's progress); inside the call layer, which logs the
+        // timeout as a failed call (and a write's ticket, dropped, says it was cut short).
         .layer(deadline::DeadlineLayer::new(TIMEOUT))
         .add_service(reflection_v1)
         .add_service(reflection_v1alpha)

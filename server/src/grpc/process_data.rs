@@ -11,15 +11,14 @@ use proto::v1::process_data_service_server::ProcessDataService;
 use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status};
 
-use super::auth::{SlaveField, require_write};
+use super::auth::admit;
 use super::status::narrow;
-use crate::security::Caller;
 use crate::service::pd_stream::PdChanges;
 use crate::service::pdos::SlavePdosView;
 use crate::service::process_data::{
     ForceView, PdEntryView, PdInput, PdValue, PdValueView, ProcessDataView,
 };
-use crate::service::{ApiError, Core};
+use crate::service::{ApiError, Core, Operation, SlaveName, parse_name};
 
 /// The process-data service over the core.
 pub struct ProcessData {
@@ -30,16 +29,8 @@ pub struct ProcessData {
 type Reply<T> = Result<Response<T>, Status>;
 
 /// An empty slave field names every slave.
-fn slave_of(name: &str) -> Option<&str> {
-    (!name.is_empty()).then_some(name)
-}
-
-/// The caller's token name for the audit (`anonymous` without tokens).
-fn caller_name<T>(request: &Request<T>) -> String {
-    request
-        .extensions()
-        .get::<Caller>()
-        .map_or_else(|| "anonymous".into(), |c| c.name.clone())
+fn slave_of(name: &str) -> Result<Option<SlaveName>, Status> {
+    Ok((!name.is_empty()).then(|| parse_name(name)).transpose()?)
 }
 
 fn entry(e: &PdEntryView) -> pb::PdEntry {
@@ -163,25 +154,13 @@ fn input(value: Option<pb::force_request::Value>) -> Result<PdInput, Status> {
     }
 }
 
-impl SlaveField for pb::ForceRequest {
-    fn slave_field(&self) -> &str {
-        &self.slave
-    }
-}
-
-impl SlaveField for pb::ReleaseForceRequest {
-    fn slave_field(&self) -> &str {
-        &self.slave
-    }
-}
-
 #[tonic::async_trait]
 impl ProcessDataService for ProcessData {
     async fn get_layout(
         &self,
         request: Request<pb::GetLayoutRequest>,
     ) -> Reply<pb::GetLayoutResponse> {
-        let slave = slave_of(&request.get_ref().slave);
+        let slave = slave_of(&request.get_ref().slave)?;
         let layout = self.core.process_data_layout(slave)?;
         let slaves = self.core.pdo_layout(slave)?;
         Ok(Response::new(pb::GetLayoutResponse {
@@ -197,7 +176,9 @@ impl ProcessDataService for ProcessData {
         &self,
         request: Request<pb::ProcessDataReadRequest>,
     ) -> Reply<pb::ProcessDataReadResponse> {
-        let view = self.core.process_data(slave_of(&request.get_ref().slave))?;
+        let view = self
+            .core
+            .process_data(slave_of(&request.get_ref().slave)?)?;
         Ok(Response::new(read_response(&view)))
     }
 
@@ -212,9 +193,9 @@ impl ProcessDataService for ProcessData {
         let requested =
             (r.interval_ms != 0).then(|| Duration::from_millis(u64::from(r.interval_ms)));
         let interval = self.core.pd_stream_interval(requested)?;
-        let slave = slave_of(&r.slave).map(str::to_owned);
+        let slave = slave_of(&r.slave)?;
         // The slave must exist now; the stream then follows it.
-        self.core.process_data(slave.as_deref())?;
+        self.core.process_data(slave)?;
         let ticks = tokio_stream::wrappers::IntervalStream::new({
             let mut ticks = tokio::time::interval(interval);
             // A client that reads slowly gets the newest values, not a backlog of ticks.
@@ -224,7 +205,7 @@ impl ProcessDataService for ProcessData {
         let core = self.core.clone();
         let mut changes = PdChanges::default();
         let stream = ticks.filter_map(move |_| {
-            core.process_data(slave.as_deref())
+            core.process_data(slave)
                 .ok()
                 .and_then(|view| changes.next(view))
                 .map(|view| Ok(watch_response(&view)))
@@ -235,15 +216,15 @@ impl ProcessDataService for ProcessData {
     }
 
     async fn force(&self, request: Request<pb::ForceRequest>) -> Reply<pb::ForceResponse> {
-        require_write(&request, "force_output")?;
-        let caller = caller_name(&request);
+        let ticket = admit(&self.core, &request, Operation::ForceOutput)?;
         let r = request.into_inner();
+        let slave = parse_name(&r.slave)?;
         let index = narrow(r.index, "index")?;
         let subindex = narrow(r.subindex, "subindex")?;
         let value = input(r.value)?;
-        let view =
-            self.core
-                .force_output(&caller, &r.slave, index, subindex, value, r.r#override)?;
+        let view = self
+            .core
+            .force_output(ticket, slave, index, subindex, value, r.r#override)?;
         Ok(Response::new(pb::ForceResponse {
             force: Some(force(&view)),
         }))
@@ -253,12 +234,11 @@ impl ProcessDataService for ProcessData {
         &self,
         request: Request<pb::ReleaseForceRequest>,
     ) -> Reply<pb::ReleaseForceResponse> {
-        require_write(&request, "release_output")?;
-        let caller = caller_name(&request);
+        let ticket = admit(&self.core, &request, Operation::ReleaseOutput)?;
         let r = request.get_ref();
         self.core.release_output(
-            &caller,
-            &r.slave,
+            ticket,
+            parse_name(&r.slave)?,
             narrow(r.index, "index")?,
             narrow(r.subindex, "subindex")?,
         )?;

@@ -6,9 +6,9 @@ use proto::v1::soe_service_server::SoeService;
 use proto::v1::voe_service_server::VoeService;
 use tonic::{Request, Response, Status};
 
-use super::auth::require_write;
+use super::auth::admit;
 use super::status::narrow;
-use crate::service::{Core, IpView};
+use crate::service::{Core, IpView, Operation, parse_name};
 
 /// The SoE, VoE and EoE services over the core.
 pub struct Protocols {
@@ -25,7 +25,7 @@ impl SoeService for Protocols {
         let data = self
             .core
             .soe_read(
-                &r.slave,
+                parse_name(&r.slave)?,
                 narrow(r.drive, "drive")?,
                 narrow(r.idn, "idn")?,
                 narrow(r.elements, "elements")?,
@@ -35,12 +35,12 @@ impl SoeService for Protocols {
     }
 
     async fn write(&self, request: Request<pb::SoeWriteRequest>) -> Reply<pb::SoeWriteResponse> {
-        require_write(&request, "soe_write")?;
+        let ticket = admit(&self.core, &request, Operation::SoeWrite)?;
         let r = request.get_ref();
-        crate::audit::note_value(&r.data);
         self.core
             .soe_write(
-                &r.slave,
+                ticket,
+                parse_name(&r.slave)?,
                 narrow(r.drive, "drive")?,
                 narrow(r.idn, "idn")?,
                 narrow(r.elements, "elements")?,
@@ -54,13 +54,13 @@ impl SoeService for Protocols {
 #[tonic::async_trait]
 impl VoeService for Protocols {
     async fn transfer(&self, request: Request<pb::VoeRequest>) -> Reply<pb::VoeResponse> {
-        require_write(&request, "voe")?;
+        let ticket = admit(&self.core, &request, Operation::Voe)?;
         let r = request.get_ref();
-        crate::audit::note_value(&r.data);
         let answer = self
             .core
             .voe(
-                &r.slave,
+                ticket,
+                parse_name(&r.slave)?,
                 r.vendor_id,
                 narrow(r.vendor_type, "vendor_type")?,
                 &r.data,
@@ -81,7 +81,7 @@ fn some(text: &str) -> Option<String> {
 #[tonic::async_trait]
 impl EoeService for Protocols {
     async fn set_ip(&self, request: Request<pb::SetIpRequest>) -> Reply<pb::SetIpResponse> {
-        require_write(&request, "eoe_set_ip")?;
+        let ticket = admit(&self.core, &request, Operation::EoeSetIp)?;
         let r = request.get_ref();
         let s = r.settings.clone().unwrap_or_default();
         let view = IpView {
@@ -92,7 +92,9 @@ impl EoeService for Protocols {
             dns_server: some(&s.dns_server),
             dns_name: some(&s.dns_name),
         };
-        self.core.eoe_set_ip(&r.slave, &view).await?;
+        self.core
+            .eoe_set_ip(ticket, parse_name(&r.slave)?, &view)
+            .await?;
         Ok(Response::new(pb::SetIpResponse {}))
     }
 
@@ -124,7 +126,10 @@ impl EoeService for Protocols {
     }
 
     async fn get_ip(&self, request: Request<pb::GetIpRequest>) -> Reply<pb::IpSettings> {
-        let v = self.core.eoe_get_ip(&request.get_ref().slave).await?;
+        let v = self
+            .core
+            .eoe_get_ip(parse_name(&request.get_ref().slave)?)
+            .await?;
         Ok(Response::new(pb::IpSettings {
             mac: v.mac.unwrap_or_default(),
             ip: v.ip.unwrap_or_default(),

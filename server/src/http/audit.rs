@@ -1,73 +1,29 @@
-//! The REST side of the audit trail ([`crate::audit`]): around every API call that is not
-//! GET or HEAD, the request body's size and digest are noted, and once the answer is known
-//! the write's audit line is logged with its outcome (`done`, or the status and the error).
-
-use std::sync::{Arc, Mutex, PoisonError};
+//! The REST side of the call log ([`crate::audit`]): every API call runs in a slot where
+//! the authentication layer notes its caller (the core's audit lines and a failed transfer's
+//! log line name it), and every failed call leaves a line at `debug` with its caller, status
+//! and error. The audit line of a write is the core's ([`crate::service::admission`]).
 
 use axum::body::{Body, to_bytes};
 use axum::extract::Request;
-use axum::http::{Method, StatusCode};
+use axum::http::StatusCode;
 use axum::middleware::Next;
 use axum::response::Response;
-use futures_util::StreamExt;
-use sha2::{Digest, Sha256};
 
 use crate::audit;
 
-/// Largest error body copied into an audit line.
+/// Largest error body copied into a log line.
 const MAX_ERROR_TEXT: usize = 64 << 10;
 
-/// The middleware; it wraps the authentication layer so that the write check can note the
-/// caller in the call's slot. The body is hashed as the handler reads it, never buffered
-/// here: a caller the authentication layer refuses costs no body read at all. Every failed
-/// call leaves a line at `debug` with its caller and error.
+/// The middleware; it wraps the authentication layer, so that the caller is noted in the
+/// call's slot.
 pub async fn record(request: Request, next: Next) -> Response {
     let operation = format!("{} {}", request.method(), request.uri().path());
-    if matches!(*request.method(), Method::GET | Method::HEAD) {
-        let (response, noted) = audit::Scope::default().run(next.run(request)).await;
-        if response.status().is_success() {
-            return response;
-        }
-        let (response, text) = error_text(response).await;
-        log_failure(&operation, noted.caller.as_ref(), response.status(), &text);
-        return response;
-    }
-    let (parts, body) = request.into_parts();
-    let seen = Arc::new(Mutex::new((Sha256::new(), 0usize)));
-    let tap = Arc::clone(&seen);
-    let body = Body::from_stream(body.into_data_stream().map(move |chunk| {
-        if let Ok(bytes) = &chunk {
-            let mut seen = tap.lock().unwrap_or_else(PoisonError::into_inner);
-            seen.0.update(bytes);
-            seen.1 += bytes.len();
-        }
-        chunk
-    }));
-    let request = Request::from_parts(parts, body);
-    let (response, noted) = audit::Scope::default()
-        .run(async {
-            let response = next.run(request).await;
-            let (hash, len) =
-                std::mem::take(&mut *seen.lock().unwrap_or_else(PoisonError::into_inner));
-            if len > 0 {
-                audit::note_described(audit::describe_hashed(len, hash));
-            }
-            response
-        })
-        .await;
+    let (response, noted) = audit::Scope::default().run(next.run(request)).await;
     if response.status().is_success() {
-        // Only a write the authentication layer let through was noted with a caller.
-        if let Some(write) = noted.write.filter(|w| !w.caller.is_empty()) {
-            audit::outcome(&write, Ok(()));
-        }
         return response;
     }
     let (response, text) = error_text(response).await;
-    let status = response.status();
-    log_failure(&operation, noted.caller.as_ref(), status, &text);
-    if let Some(write) = noted.write.filter(|w| !w.caller.is_empty()) {
-        audit::outcome(&write, Err(&format!("{status} {text}")));
-    }
+    log_failure(&operation, noted.caller.as_ref(), response.status(), &text);
     response
 }
 

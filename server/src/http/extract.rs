@@ -15,7 +15,7 @@
 //! the place (`value: invalid type: integer `6`, expected a string at line 1 column 12`).
 
 use axum::extract::rejection::{JsonRejection, PathRejection, QueryRejection};
-use axum::extract::{FromRequest, FromRequestParts, Request};
+use axum::extract::{FromRef, FromRequest, FromRequestParts, Request};
 use axum::http::StatusCode;
 use axum::http::request::Parts;
 use axum::response::{IntoResponse, Response};
@@ -23,7 +23,30 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 use super::error::problem;
-use crate::service::ApiError;
+use crate::security::Caller;
+use crate::service::operation::Marker;
+use crate::service::{ApiError, Core, Ticket};
+
+/// The core's admission for the operation `O` stands for ([`crate::service::admission`]),
+/// of the caller the authentication layer found. A handler of an operation that needs the
+/// write role takes it as its first argument: the core admits (or refuses, with the same
+/// problem+json as any error) before the path, the query or the body is read.
+pub struct Admit<O>(pub Ticket, pub std::marker::PhantomData<fn() -> O>);
+
+impl<O: Marker, S: Send + Sync> FromRequestParts<S> for Admit<O>
+where
+    Core: FromRef<S>,
+{
+    type Rejection = ApiError;
+
+    async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, ApiError> {
+        let caller = parts.extensions.get::<Caller>();
+        Ok(Admit(
+            Core::from_ref(state).admit(caller, O::OPERATION)?,
+            std::marker::PhantomData,
+        ))
+    }
+}
 
 /// A refused request: the problem and the status axum gives it.
 #[derive(Debug)]

@@ -11,8 +11,8 @@ use axum::routing::{get, post};
 use serde::Deserialize;
 
 use super::rest::Done;
-use crate::http::extract::{Json, Path};
-use crate::service::{ApiError, Core};
+use crate::http::extract::{Admit, Json, Path};
+use crate::service::{ApiError, Core, Operation, op, parse_name};
 use crate::sim_hooks::SimHooks;
 
 /// What the route needs: the core (to name slaves) and the simulator's hooks.
@@ -20,6 +20,12 @@ use crate::sim_hooks::SimHooks;
 struct SimState {
     core: Core,
     hooks: SimHooks,
+}
+
+impl axum::extract::FromRef<SimState> for Core {
+    fn from_ref(state: &SimState) -> Core {
+        state.core.clone()
+    }
 }
 
 /// The emergency to raise.
@@ -46,15 +52,27 @@ pub fn routes<S: Clone + Send + Sync + 'static>(core: Core, hooks: Option<SimHoo
 }
 
 async fn raise_emergency(
+    Admit(mut ticket, _): Admit<op::SimEmergency>,
     State(SimState { core, hooks }): State<SimState>,
     Path(slave): Path<String>,
     Json(body): Json<EmergencyBody>,
+) -> Result<Json<Done>, ApiError> {
+    // The simulator's hooks are no part of the core: the ticket is used here.
+    ticket.check(Operation::SimEmergency, &slave)?;
+    ticket.finish(emergency(&core, &hooks, &slave, &body))
+}
+
+fn emergency(
+    core: &Core,
+    hooks: &SimHooks,
+    slave: &str,
+    body: &EmergencyBody,
 ) -> Result<Json<Done>, ApiError> {
     let data: [u8; 5] = hex::decode(body.data.trim())
         .ok()
         .and_then(|bytes| bytes.try_into().ok())
         .ok_or_else(|| ApiError::invalid("data must be 5 bytes, hex"))?;
-    let position = core.get_slave(&slave)?.position;
+    let position = core.get_slave(parse_name(slave)?)?.position;
     hooks.raise_emergency(position, body.error_code, body.error_register, data)?;
     Ok(Json(Done { ok: true }))
 }
@@ -70,7 +88,7 @@ async fn outputs(
     State(SimState { core, hooks }): State<SimState>,
     Path(slave): Path<String>,
 ) -> Result<Json<OutputsBody>, ApiError> {
-    let position = core.get_slave(&slave)?.position;
+    let position = core.get_slave(parse_name(&slave)?)?.position;
     Ok(Json(OutputsBody {
         outputs: hex::encode(hooks.outputs(position)?),
     }))

@@ -61,6 +61,27 @@ impl SlaveName {
     }
 }
 
+/// The name in the syntax it was parsed from (positions plain, `station:`, `alias:`), for
+/// audit lines and messages.
+impl std::fmt::Display for SlaveName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SlaveName::Address(SlaveAddress::Position(p)) => write!(f, "{p}"),
+            SlaveName::Address(SlaveAddress::Station(s)) => write!(f, "station:{s}"),
+            SlaveName::Address(SlaveAddress::Alias(a)) => write!(f, "alias:{a:#06x}"),
+            SlaveName::AliasOffset { alias, offset } => write!(f, "alias:{alias:#06x}+{offset}"),
+        }
+    }
+}
+
+impl std::str::FromStr for SlaveName {
+    type Err = ApiError;
+
+    fn from_str(text: &str) -> Result<SlaveName, ApiError> {
+        parse_name(text)
+    }
+}
+
 fn bad(text: &str) -> ApiError {
     ApiError::invalid_field(
         "slave",
@@ -163,6 +184,15 @@ mod tests {
     }
 
     #[test]
+    fn a_name_prints_in_a_form_that_parses_back() {
+        for text in ["3", "station:1004", "alias:0x0777", "alias:0x0777+2"] {
+            let name: SlaveName = text.parse().unwrap();
+            assert_eq!(name.to_string(), text);
+        }
+        assert_eq!(parse_name("#0x3ec").unwrap().to_string(), "station:1004");
+    }
+
+    #[test]
     fn junk_is_refused() {
         for bad in [
             "",
@@ -184,6 +214,7 @@ mod tests {
             assert!(parse_name(bad).is_err(), "{bad:?} accepted");
         }
         let err = parse_name("foo:3").unwrap_err();
+        assert_eq!(err.field, Some("slave"));
         assert_eq!(err.kind, crate::error::ErrorKind::InvalidArgument);
     }
 }

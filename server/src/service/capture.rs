@@ -15,7 +15,7 @@ use pcap_file::pcapng::blocks::interface_description::{
     InterfaceDescriptionBlock, InterfaceDescriptionOption,
 };
 
-use super::{ApiError, Core, Result};
+use super::{ApiError, Core, Operation, Result, Ticket};
 
 /// The most frames one capture takes.
 pub const MAX_FRAMES: u64 = 1_000_000;
@@ -64,9 +64,10 @@ impl Core {
 
     /// The rolling capture's window: its files, oldest first, as one pcapng file of
     /// several sections (the newest files within [`MAX_BYTES`]).
-    pub async fn rolling_window(&self) -> Result<CaptureResult> {
+    pub async fn rolling_window(&self, mut ticket: Ticket) -> Result<CaptureResult> {
+        ticket.check(Operation::Capture, "rolling")?;
         let core = self.clone();
-        tokio::task::spawn_blocking(move || {
+        let window = tokio::task::spawn_blocking(move || {
             let rolling = core.rolling.get().ok_or_else(|| {
                 let mut err = ApiError::unavailable(
                     "no rolling capture runs: set [capture] rolling = true in ecatd's configuration",
@@ -86,13 +87,25 @@ impl Core {
                 pcapng,
             })
         })
-        .await
-        .map_err(|err| ApiError::internal(format!("capture task: {err}")))?
+        .await;
+        ticket.finish(
+            window.unwrap_or_else(|err| Err(ApiError::internal(format!("capture task: {err}")))),
+        )
     }
 
     /// Captures the bus until `frames` frames (0: no limit) or `duration` (zero: no limit)
     /// have passed, whichever comes first; at least one limit is needed.
-    pub async fn capture(&self, frames: u64, duration: Duration) -> Result<CaptureResult> {
+    pub async fn capture(
+        &self,
+        mut ticket: Ticket,
+        frames: u64,
+        duration: Duration,
+    ) -> Result<CaptureResult> {
+        ticket.check(Operation::Capture, "all")?;
+        ticket.finish(self.capture_frames(frames, duration).await)
+    }
+
+    async fn capture_frames(&self, frames: u64, duration: Duration) -> Result<CaptureResult> {
         if frames == 0 && duration.is_zero() {
             return Err(ApiError::invalid_field(
                 "frames",

@@ -9,7 +9,7 @@ use master_core::gateway::{FailureCounts, MailboxGateway, MailboxGatewayStats};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::{ApiError, Core, ErrorKind, Result};
+use super::{ApiError, Core, ErrorKind, Operation, Result, Ticket};
 
 /// The gateway: whether it runs, where, with which settings, and its statistics.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -249,7 +249,13 @@ impl Core {
 
     /// Starts the gateway (binding the configured port, or a free one if it is taken) and
     /// returns its state; a running gateway stays as it is. Counters restart from zero.
-    pub async fn start_gateway(&self) -> Result<GatewayView> {
+    pub async fn start_gateway(&self, mut ticket: Ticket) -> Result<GatewayView> {
+        ticket.check(Operation::StartGateway, "gateway")?;
+        ticket.finish(self.open_gateway().await)
+    }
+
+    /// [`Core::start_gateway`] for ecatd itself, at start (no caller to audit).
+    pub(crate) async fn open_gateway(&self) -> Result<GatewayView> {
         let core = self.clone();
         // Starting builds the gateway's runtime and thread: not on an async worker.
         tokio::task::spawn_blocking(move || {
@@ -282,10 +288,11 @@ impl Core {
 
     /// Stops the gateway (releasing its port; requests under way are cancelled) and
     /// returns its state; a stopped gateway stays stopped.
-    pub async fn stop_gateway(&self) -> Result<GatewayView> {
+    pub async fn stop_gateway(&self, mut ticket: Ticket) -> Result<GatewayView> {
+        ticket.check(Operation::StopGateway, "gateway")?;
         let core = self.clone();
         // Stopping joins the gateway's thread: not on an async worker.
-        tokio::task::spawn_blocking(move || {
+        let stopped = tokio::task::spawn_blocking(move || {
             let mut slot = core.gateway_slot();
             let gateway = slot.as_mut().ok_or_else(no_gateway)?;
             if gateway.is_running() {
@@ -294,7 +301,9 @@ impl Core {
             }
             Ok(GatewayView::of(Some(gateway)))
         })
-        .await
-        .map_err(|err| ApiError::internal(format!("gateway stop: {err}")))?
+        .await;
+        ticket.finish(
+            stopped.unwrap_or_else(|err| Err(ApiError::internal(format!("gateway stop: {err}")))),
+        )
     }
 }

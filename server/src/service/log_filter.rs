@@ -1,7 +1,7 @@
 //! ecatd's runtime log filter (`ecat debug`, IgH's `ethercat debug`): read and replaced
 //! through [`crate::logging`]'s reload handle, without a restart.
 
-use super::{ApiError, Core, Result};
+use super::{ApiError, Core, Operation, Result, Ticket};
 
 impl Core {
     /// The log filter in force (`EnvFilter` syntax).
@@ -10,21 +10,27 @@ impl Core {
     }
 
     /// Replaces the log filter; a bad filter is refused and the old one stays.
-    pub fn set_log_filter(&self, filter: &str) -> Result<String> {
-        let filter = filter.trim();
-        if filter.is_empty() {
-            return Err(ApiError::invalid_field(
-                "filter",
-                "give a filter: a level (\"debug\") or directives (\"info,master_core::bus=trace\")",
-            ));
-        }
-        crate::logging::set_filter(filter).map_err(|err| match err {
-            Some(message) => ApiError::invalid_field("filter", message),
-            None => not_installed(),
-        })?;
-        tracing::info!(filter, "log filter replaced");
-        Ok(filter.to_owned())
+    pub fn set_log_filter(&self, mut ticket: Ticket, filter: &str) -> Result<String> {
+        ticket.check(Operation::SetLogFilter, "ecatd")?;
+        ticket.value(filter.as_bytes());
+        ticket.finish(set_filter(filter))
     }
+}
+
+fn set_filter(filter: &str) -> Result<String> {
+    let filter = filter.trim();
+    if filter.is_empty() {
+        return Err(ApiError::invalid_field(
+            "filter",
+            "give a filter: a level (\"debug\") or directives (\"info,master_core::bus=trace\")",
+        ));
+    }
+    crate::logging::set_filter(filter).map_err(|err| match err {
+        Some(message) => ApiError::invalid_field("filter", message),
+        None => not_installed(),
+    })?;
+    tracing::info!(filter, "log filter replaced");
+    Ok(filter.to_owned())
 }
 
 fn not_installed() -> ApiError {

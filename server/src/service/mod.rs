@@ -1,14 +1,19 @@
 //! The service layer both APIs call: one method per operation, each one call into the
-//! master or a slave's mailbox, errors as [`ApiError`].
+//! master or a slave's mailbox, typed in and out, errors as [`ApiError`]. An operation that
+//! needs the write role is declared in `operation` and admitted and audited in `admission`:
+//! its method takes the [`Ticket`] only [`Core::admit`] gives.
 //!
-//! Files: `view` (what the APIs serialise), `calls` (the mailbox requests it made, counted),
-//! `gateway` (the mailbox gateway's state, start and stop), `bus` (frame and cycle counters),
-//! `read_effects` (register reads that need the write role), `transfer` (deadlines and progress of
-//! FoE and SDO transfers), `capture` (live captures), `rolling` (the rolling capture's ring of
-//! files), `domains` (the process image by slave group), `log_filter` (the runtime log filter),
-//! `process_data` (the layout, values and forced outputs), `pd_stream` (the interval and changes of
-//! a process-data stream), `pdos` (each slave's SyncManagers and PDOs).
+//! Files: `admission` (who may write, and the audit line), `operation` (the operations that
+//! need the write role), `view` (what the APIs serialise), `calls` (the mailbox requests it
+//! made, counted), `gateway` (the mailbox gateway's state, start and stop), `bus` (frame and
+//! cycle counters), `read_effects` (register reads that need the write role), `transfer`
+//! (deadlines and progress of FoE and SDO transfers), `capture` (live captures), `rolling`
+//! (the rolling capture's ring of files), `domains` (the process image by slave group),
+//! `log_filter` (the runtime log filter), `process_data` (the layout, values and forced
+//! outputs), `pd_stream` (the interval and changes of a process-data stream), `pdos` (each
+//! slave's SyncManagers and PDOs).
 
+pub mod admission;
 pub mod bus;
 pub mod calls;
 pub mod capture;
@@ -17,6 +22,7 @@ pub mod events;
 pub mod gateway;
 pub mod log_filter;
 pub mod master_view;
+pub mod operation;
 pub mod pd_stream;
 pub mod pdos;
 pub mod process_data;
@@ -40,11 +46,13 @@ pub use crate::error::{ApiError, ErrorKind};
 pub use crate::input::address::{SlaveName, parse_name, parse_slave};
 use crate::input::ip;
 use crate::input::value::{self, ValueType};
-use crate::security::{Caller, authorize_write};
+use crate::security::Caller;
+pub use admission::Ticket;
 pub use bus::BusView;
 use calls::{MailboxCalls, Outcome, Protocol};
 pub use gateway::GatewayView;
 pub use master_view::MasterView;
+pub use operation::{Operation, op};
 pub use view::{
     EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
 };
@@ -121,8 +129,7 @@ pub struct Core {
     app: Arc<std::sync::OnceLock<crate::app::AppHandle>>,
 }
 
-/// What the gRPC and REST layers give the core for each request: the slave name and the
-/// operation's own arguments.
+/// A core method's outcome.
 pub type Result<T> = std::result::Result<T, ApiError>;
 
 impl Core {
@@ -255,12 +262,12 @@ impl Core {
         self.ready.subscribe()
     }
 
-    /// The master's address of `slave` (any form of [`address`]).
-    fn address(&self, slave: &str) -> Result<master_core::master::SlaveAddress> {
-        parse_name(slave)?.resolve(|| self.master.slaves())
+    /// The master's address of `slave`.
+    fn address(&self, slave: SlaveName) -> Result<master_core::master::SlaveAddress> {
+        slave.resolve(|| self.master.slaves())
     }
 
-    fn mailbox(&self, slave: &str) -> Result<SlaveMailbox> {
+    fn mailbox(&self, slave: SlaveName) -> Result<SlaveMailbox> {
         Ok(self.master.mailbox(self.address(slave)?)?)
     }
 
@@ -268,7 +275,7 @@ impl Core {
     /// protocol).
     async fn call<T, F>(
         &self,
-        slave: &str,
+        slave: SlaveName,
         protocol: Protocol,
         op: impl FnOnce(SlaveMailbox) -> F,
     ) -> Result<T>
@@ -295,20 +302,35 @@ impl Core {
     }
 
     /// One slave.
-    pub fn get_slave(&self, slave: &str) -> Result<SlaveView> {
+    pub fn get_slave(&self, slave: SlaveName) -> Result<SlaveView> {
         Ok(SlaveView::from(&self.master.slave(self.address(slave)?)?))
     }
 
     /// Moves a slave to `state` and returns it afterwards.
-    pub async fn request_state(&self, slave: &str, state: AlState) -> Result<SlaveView> {
-        let address = self.address(slave)?;
-        self.master.request_state(address, state).await?;
-        Ok(SlaveView::from(&self.master.slave(address)?))
+    pub async fn request_state(
+        &self,
+        mut ticket: Ticket,
+        slave: SlaveName,
+        state: AlState,
+    ) -> Result<SlaveView> {
+        ticket.check(
+            Operation::RequestState,
+            format_args!("{slave} {}", state.name()),
+        )?;
+        ticket.finish(
+            async {
+                let address = self.address(slave)?;
+                self.master.request_state(address, state).await?;
+                Ok(SlaveView::from(&self.master.slave(address)?))
+            }
+            .await,
+        )
     }
 
     /// Scans the segment again; the slaves and one message per slave that refused a state.
-    pub async fn rescan(&self) -> Result<(Vec<SlaveView>, Vec<String>)> {
-        let report = self.master.scan().await?;
+    pub async fn rescan(&self, mut ticket: Ticket) -> Result<(Vec<SlaveView>, Vec<String>)> {
+        ticket.check(Operation::Rescan, "all")?;
+        let report = ticket.finish(self.master.scan().await.map_err(ApiError::from))?;
         let failures = report.failures.iter().map(|f| f.to_string()).collect();
         Ok((self.list_slaves(), failures))
     }
@@ -337,7 +359,7 @@ impl Core {
     pub async fn read_register(
         &self,
         caller: Option<&Caller>,
-        slave: &str,
+        slave: SlaveName,
         address: u16,
         len: usize,
     ) -> Result<Vec<u8>> {
@@ -346,49 +368,75 @@ impl Core {
                 "register length must be 1..={MAX_REGISTER_LEN}"
             )));
         }
-        let target = self.address(slave)?;
-        let info = self.master.slave(target)?;
-        if let Some(effect) = read_effects::side_effect(&info, address, len) {
-            let operation = format!("read_register 0x{address:04X}+{len} over {effect}");
-            authorize_write(caller, &operation, slave)?;
-        }
-        Ok(self.master.read_register(target, address, len).await?)
+        let resolved = self.address(slave)?;
+        let info = self.master.slave(resolved)?;
+        let Some(effect) = read_effects::side_effect(&info, address, len) else {
+            return Ok(self.master.read_register(resolved, address, len).await?);
+        };
+        let target = format!("{slave} 0x{address:04X}+{len} over {effect}");
+        let mut ticket = self.admit_on(caller, Operation::ReadRegisterWithEffect, &target)?;
+        ticket.check(Operation::ReadRegisterWithEffect, target)?;
+        ticket.finish(
+            self.master
+                .read_register(resolved, address, len)
+                .await
+                .map_err(ApiError::from),
+        )
     }
 
     /// Writes ESC registers at `address`.
-    pub async fn write_register(&self, slave: &str, address: u16, data: &[u8]) -> Result<()> {
-        if data.is_empty() || data.len() > MAX_REGISTER_LEN {
-            return Err(ApiError::invalid(format!(
-                "register data must be 1..={MAX_REGISTER_LEN} bytes"
-            )));
-        }
-        Ok(self
-            .master
-            .write_register(self.address(slave)?, address, data)
-            .await?)
+    pub async fn write_register(
+        &self,
+        mut ticket: Ticket,
+        slave: SlaveName,
+        address: u16,
+        data: &[u8],
+    ) -> Result<()> {
+        ticket.check(
+            Operation::WriteRegister,
+            format_args!("{slave} 0x{address:04X}"),
+        )?;
+        ticket.value(data);
+        ticket.finish(
+            async {
+                register_data(data)?;
+                Ok(self
+                    .master
+                    .write_register(self.address(slave)?, address, data)
+                    .await?)
+            }
+            .await,
+        )
     }
 
     /// Writes ESC registers at `address` and returns their contents from before the write,
     /// in one FPRW datagram.
     pub async fn read_write_register(
         &self,
-        slave: &str,
+        mut ticket: Ticket,
+        slave: SlaveName,
         address: u16,
         data: &[u8],
     ) -> Result<Vec<u8>> {
-        if data.is_empty() || data.len() > MAX_REGISTER_LEN {
-            return Err(ApiError::invalid(format!(
-                "register data must be 1..={MAX_REGISTER_LEN} bytes"
-            )));
-        }
-        Ok(self
-            .master
-            .read_write_register(self.address(slave)?, address, data)
-            .await?)
+        ticket.check(
+            Operation::ReadWriteRegister,
+            format_args!("{slave} 0x{address:04X}"),
+        )?;
+        ticket.value(data);
+        ticket.finish(
+            async {
+                register_data(data)?;
+                Ok(self
+                    .master
+                    .read_write_register(self.address(slave)?, address, data)
+                    .await?)
+            }
+            .await,
+        )
     }
 
     /// Reads the whole SII image.
-    pub async fn read_sii(&self, slave: &str) -> Result<Vec<u8>> {
+    pub async fn read_sii(&self, slave: SlaveName) -> Result<Vec<u8>> {
         Ok(self.master.read_sii(self.address(slave)?).await?)
     }
 
@@ -396,7 +444,26 @@ impl Core {
     /// write into words 0-7 keeps the checksum valid (ETG.2010, spec-notes §sii.fixed):
     /// recomputed and written to word 7 when the write leaves word 7 out, refused (nothing
     /// written) when it writes a word 7 that does not match; `force` writes as given.
-    pub async fn write_sii(&self, slave: &str, word: u16, data: &[u8], force: bool) -> Result<()> {
+    pub async fn write_sii(
+        &self,
+        mut ticket: Ticket,
+        slave: SlaveName,
+        word: u16,
+        data: &[u8],
+        force: bool,
+    ) -> Result<()> {
+        ticket.check(Operation::WriteSii, format_args!("{slave} word {word}"))?;
+        ticket.value(data);
+        ticket.finish(self.write_sii_words(slave, word, data, force).await)
+    }
+
+    async fn write_sii_words(
+        &self,
+        slave: SlaveName,
+        word: u16,
+        data: &[u8],
+        force: bool,
+    ) -> Result<()> {
         if data.is_empty() || !data.len().is_multiple_of(2) {
             return Err(ApiError::invalid(
                 "SII data must be a non-empty even number of bytes",
@@ -422,14 +489,16 @@ impl Core {
     }
 
     /// Sets the station alias; returns the alias register read back.
-    pub async fn set_alias(&self, slave: &str, alias: u16) -> Result<u16> {
-        Ok(self.master.set_alias(self.address(slave)?, alias).await?)
+    pub async fn set_alias(&self, mut ticket: Ticket, slave: SlaveName, alias: u16) -> Result<u16> {
+        ticket.check(Operation::SetAlias, slave)?;
+        ticket.value(&alias.to_le_bytes());
+        ticket.finish(async { Ok(self.master.set_alias(self.address(slave)?, alias).await?) }.await)
     }
 
     /// SDO upload (complete access from `subindex` when `complete`).
     pub async fn coe_upload(
         &self,
-        slave: &str,
+        slave: SlaveName,
         index: u16,
         subindex: u8,
         complete: bool,
@@ -447,9 +516,9 @@ impl Core {
     }
 
     /// SDO download (complete access from `subindex` when `complete`).
-    pub async fn coe_download(
+    async fn sdo_download(
         &self,
-        slave: &str,
+        slave: SlaveName,
         index: u16,
         subindex: u8,
         data: &[u8],
@@ -471,7 +540,7 @@ impl Core {
     /// Information entry description), anything else is a type name (`u32`, `string`, ...).
     async fn value_type(
         &self,
-        slave: &str,
+        slave: SlaveName,
         index: u16,
         subindex: u8,
         name: &str,
@@ -492,7 +561,7 @@ impl Core {
     /// text (`value_type` as in [`SdoPayload::Value`]).
     pub async fn coe_read(
         &self,
-        slave: &str,
+        slave: SlaveName,
         index: u16,
         subindex: u8,
         complete: bool,
@@ -518,27 +587,30 @@ impl Core {
     /// SDO download of `payload`: bytes as they are, or a value as text with its type.
     pub async fn coe_write(
         &self,
-        slave: &str,
+        mut ticket: Ticket,
+        slave: SlaveName,
         index: u16,
         subindex: u8,
         payload: SdoPayload<'_>,
     ) -> Result<()> {
-        match payload {
+        ticket.check(Operation::CoeDownload, slave)?;
+        ticket.value(payload.audited());
+        ticket.finish(match payload {
             SdoPayload::Bytes { data, complete } => {
-                self.coe_download(slave, index, subindex, data, complete)
+                self.sdo_download(slave, index, subindex, data, complete)
                     .await
             }
             SdoPayload::Value { text, value_type } => {
                 self.coe_download_value(slave, index, subindex, text, value_type)
                     .await
             }
-        }
+        })
     }
 
     /// SDO upload with the value as text, typed by `type_name` (as in [`SdoPayload::Value`]).
     async fn coe_upload_value(
         &self,
-        slave: &str,
+        slave: SlaveName,
         index: u16,
         subindex: u8,
         complete: bool,
@@ -565,7 +637,7 @@ impl Core {
     /// [`SdoPayload::Value`]).
     async fn coe_download_value(
         &self,
-        slave: &str,
+        slave: SlaveName,
         index: u16,
         subindex: u8,
         text: &str,
@@ -573,12 +645,12 @@ impl Core {
     ) -> Result<()> {
         let ty = self.value_type(slave, index, subindex, type_name).await?;
         let data = value::encode(ty, text)?;
-        self.coe_download(slave, index, subindex, &data, false)
+        self.sdo_download(slave, index, subindex, &data, false)
             .await
     }
 
     /// The object list of type `list` (1 all, 2 RxPDO, 3 TxPDO, 4 backup, 5 settings).
-    pub async fn coe_object_list(&self, slave: &str, list: u16) -> Result<Vec<u16>> {
+    pub async fn coe_object_list(&self, slave: SlaveName, list: u16) -> Result<Vec<u16>> {
         if !(1..=5).contains(&list) {
             return Err(ApiError::invalid("object list type must be 1..=5"));
         }
@@ -589,7 +661,7 @@ impl Core {
     }
 
     /// The description of object `index`.
-    pub async fn coe_object(&self, slave: &str, index: u16) -> Result<ObjectView> {
+    pub async fn coe_object(&self, slave: SlaveName, index: u16) -> Result<ObjectView> {
         let info = self
             .call(slave, Protocol::Coe, |m| async move {
                 m.sdo_info_object(index).await
@@ -606,7 +678,7 @@ impl Core {
     }
 
     /// The description of entry `index:subindex`.
-    pub async fn coe_entry(&self, slave: &str, index: u16, subindex: u8) -> Result<EntryView> {
+    pub async fn coe_entry(&self, slave: SlaveName, index: u16, subindex: u8) -> Result<EntryView> {
         let info = self
             .call(slave, Protocol::Coe, |m| async move {
                 m.sdo_info_entry(index, subindex, 0).await
@@ -626,7 +698,7 @@ impl Core {
     /// Reads the `elements` (0: the value) of IDN `idn` of drive `drive`.
     pub async fn soe_read(
         &self,
-        slave: &str,
+        slave: SlaveName,
         drive: u8,
         idn: u16,
         elements: u8,
@@ -641,17 +713,22 @@ impl Core {
     /// Writes the `elements` (0: the value) of IDN `idn` of drive `drive`.
     pub async fn soe_write(
         &self,
-        slave: &str,
+        mut ticket: Ticket,
+        slave: SlaveName,
         drive: u8,
         idn: u16,
         elements: u8,
         data: &[u8],
     ) -> Result<()> {
-        self.call(slave, Protocol::Soe, |m| async move {
-            m.soe_write(drive, Idn::from_raw(idn), element_flags(elements), data)
-                .await
-        })
-        .await
+        ticket.check(Operation::SoeWrite, slave)?;
+        ticket.value(data);
+        ticket.finish(
+            self.call(slave, Protocol::Soe, |m| async move {
+                m.soe_write(drive, Idn::from_raw(idn), element_flags(elements), data)
+                    .await
+            })
+            .await,
+        )
     }
 
     /// Reads file `name`; `progress` hears the bytes transferred so far, and so does the
@@ -659,7 +736,7 @@ impl Core {
     /// dropping the call ends the transfer towards the slave with an FoE ERROR.
     pub async fn foe_read(
         &self,
-        slave: &str,
+        slave: SlaveName,
         name: &str,
         password: u32,
         progress: Option<transfer::ProgressFn>,
@@ -693,12 +770,15 @@ impl Core {
     /// ERROR.
     pub async fn foe_write(
         &self,
-        slave: &str,
+        mut ticket: Ticket,
+        slave: SlaveName,
         name: &str,
         password: u32,
         data: &[u8],
         progress: Option<transfer::ProgressFn>,
     ) -> Result<()> {
+        ticket.check(Operation::FoeWrite, format_args!("{slave} {name}"))?;
+        ticket.value(data);
         let written = self
             .call(slave, Protocol::Foe, |m| async move {
                 let report = self.foe_reporter(&m, name, Some(data.len()), progress);
@@ -713,7 +793,7 @@ impl Core {
         if let Err(err) = &written {
             transfer::log_failure("write", slave, name, err);
         }
-        written
+        ticket.finish(written)
     }
 
     /// The progress reporter of an FoE transfer on `mailbox` (events only once somebody
@@ -739,28 +819,44 @@ impl Core {
     /// Sends one VoE message and returns the answer.
     pub async fn voe(
         &self,
-        slave: &str,
+        mut ticket: Ticket,
+        slave: SlaveName,
         vendor_id: u32,
         vendor_type: u16,
         data: &[u8],
     ) -> Result<VoeMessage> {
-        self.call(slave, Protocol::Voe, |m| async move {
-            m.voe(vendor_id, vendor_type, data).await
-        })
-        .await
+        ticket.check(Operation::Voe, slave)?;
+        ticket.value(data);
+        ticket.finish(
+            self.call(slave, Protocol::Voe, |m| async move {
+                m.voe(vendor_id, vendor_type, data).await
+            })
+            .await,
+        )
     }
 
     /// Sets IP parameters of the slave's EoE port.
-    pub async fn eoe_set_ip(&self, slave: &str, settings: &IpView) -> Result<()> {
-        let settings = ip::to_settings(settings)?;
-        self.call(slave, Protocol::Eoe, |m| async move {
-            m.eoe_set_ip(&settings).await
-        })
-        .await
+    pub async fn eoe_set_ip(
+        &self,
+        mut ticket: Ticket,
+        slave: SlaveName,
+        settings: &IpView,
+    ) -> Result<()> {
+        ticket.check(Operation::EoeSetIp, slave)?;
+        ticket.finish(
+            async {
+                let settings = ip::to_settings(settings)?;
+                self.call(slave, Protocol::Eoe, |m| async move {
+                    m.eoe_set_ip(&settings).await
+                })
+                .await
+            }
+            .await,
+        )
     }
 
     /// Reads IP parameters of the slave's EoE port.
-    pub async fn eoe_get_ip(&self, slave: &str) -> Result<IpView> {
+    pub async fn eoe_get_ip(&self, slave: SlaveName) -> Result<IpView> {
         let settings = self
             .call(
                 slave,
@@ -770,6 +866,16 @@ impl Core {
             .await?;
         Ok(ip::from_settings(&settings))
     }
+}
+
+/// Refuses register data of no bytes or more than the ESC's register space.
+fn register_data(data: &[u8]) -> Result<()> {
+    if data.is_empty() || data.len() > MAX_REGISTER_LEN {
+        return Err(ApiError::invalid(format!(
+            "register data must be 1..={MAX_REGISTER_LEN} bytes"
+        )));
+    }
+    Ok(())
 }
 
 fn element_flags(elements: u8) -> ElementFlags {

@@ -65,7 +65,7 @@ pub struct SlavePdosView {
 
 impl Core {
     /// The SyncManagers and PDOs of every slave, or of `slave`, in ring order.
-    pub fn pdo_layout(&self, slave: Option<&str>) -> Result<Vec<SlavePdosView>> {
+    pub fn pdo_layout(&self, slave: Option<super::SlaveName>) -> Result<Vec<SlavePdosView>> {
         let only = slave
             .map(|s| -> Result<u16> {
                 let address = self.address(s)?;

@@ -7,7 +7,7 @@ use ecat_app::entry::Entry;
 use master_core::master::SlaveAddress;
 use master_core::wire::coe::DataType;
 
-use super::{ApiError, Core, Result};
+use super::{ApiError, Core, Operation, Result, SlaveName, Ticket};
 
 /// One mapped entry and where it sits in the image.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -70,7 +70,7 @@ pub struct LayoutView {
 impl Core {
     /// The process image's layout: every mapped entry with its place, as an attached
     /// program gets it.
-    pub fn process_data_layout(&self, slave: Option<&str>) -> Result<LayoutView> {
+    pub fn process_data_layout(&self, slave: Option<SlaveName>) -> Result<LayoutView> {
         let only = slave.map(|s| self.position_of(s)).transpose()?;
         let (entries, image_len) = crate::app::layout_entries(&self.master);
         Ok(LayoutView {
@@ -87,7 +87,7 @@ impl Core {
     }
 
     /// The ring position of the slave `slave` names.
-    fn position_of(&self, slave: &str) -> Result<u16> {
+    fn position_of(&self, slave: SlaveName) -> Result<u16> {
         let address: SlaveAddress = self.address(slave)?;
         self.master
             .slave(address)
@@ -208,7 +208,7 @@ pub fn decode(entry: &Entry, raw: &[u8]) -> PdValue {
 
 impl Core {
     /// The values of the last completed cycle, of every slave or of `slave`.
-    pub fn process_data(&self, slave: Option<&str>) -> Result<ProcessDataView> {
+    pub fn process_data(&self, slave: Option<SlaveName>) -> Result<ProcessDataView> {
         let only = slave.map(|s| self.position_of(s)).transpose()?;
         let (entries, _) = crate::app::layout_entries(&self.master);
         let forces = self.app.get().map(|a| a.forces()).unwrap_or_default();
@@ -239,7 +239,7 @@ impl Core {
     }
 
     /// The entry `index:subindex` of `slave` in the current layout.
-    fn pd_entry(&self, slave: &str, index: u16, subindex: u8) -> Result<Entry> {
+    fn pd_entry(&self, slave: SlaveName, index: u16, subindex: u8) -> Result<Entry> {
         let position = self.position_of(slave)?;
         let app = self.app.get().ok_or_else(|| {
             ApiError::unavailable(
@@ -261,8 +261,30 @@ impl Core {
     /// unless `over_owner`; the audit line says so.
     pub fn force_output(
         &self,
+        mut ticket: Ticket,
+        slave: SlaveName,
+        index: u16,
+        subindex: u8,
+        value: PdInput,
+        over_owner: bool,
+    ) -> Result<ForceView> {
+        // The audit line says when the force went over an owner.
+        ticket.check(
+            Operation::ForceOutput,
+            format_args!(
+                "slave {slave} 0x{index:04X}:{subindex:02X}{}",
+                if over_owner { " over_owner" } else { "" }
+            ),
+        )?;
+        let caller = ticket.caller().to_owned();
+        let forced = self.force_entry(&caller, slave, index, subindex, value, over_owner);
+        ticket.finish(forced)
+    }
+
+    fn force_entry(
+        &self,
         caller: &str,
-        slave: &str,
+        slave: SlaveName,
         index: u16,
         subindex: u8,
         value: PdInput,
@@ -295,16 +317,6 @@ impl Core {
             .app
             .get()
             .ok_or_else(|| ApiError::unavailable("the application interface is not running"))?;
-        let operation = if over_owner {
-            "force_output_over_owner"
-        } else {
-            "force_output"
-        };
-        crate::audit::note(
-            caller,
-            operation,
-            &format!("slave {slave} 0x{index:04X}:{subindex:02X}"),
-        );
         let force = app
             .force(entry.clone(), bits, caller, over_owner)
             .map_err(|refusal| match refusal {
@@ -332,17 +344,28 @@ impl Core {
     /// forced.
     pub fn release_output(
         &self,
+        mut ticket: Ticket,
+        slave: SlaveName,
+        index: u16,
+        subindex: u8,
+    ) -> Result<()> {
+        ticket.check(
+            Operation::ReleaseOutput,
+            format_args!("slave {slave} 0x{index:04X}:{subindex:02X}"),
+        )?;
+        let caller = ticket.caller().to_owned();
+        let released = self.release_entry(&caller, slave, index, subindex);
+        ticket.finish(released)
+    }
+
+    fn release_entry(
+        &self,
         caller: &str,
-        slave: &str,
+        slave: SlaveName,
         index: u16,
         subindex: u8,
     ) -> Result<()> {
         let entry = self.pd_entry(slave, index, subindex)?;
-        crate::audit::note(
-            caller,
-            "release_output",
-            &format!("slave {slave} 0x{index:04X}:{subindex:02X}"),
-        );
         let released = self
             .app
             .get()

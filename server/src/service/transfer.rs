@@ -105,12 +105,12 @@ pub fn reporter(
 /// Logs a transfer that failed, at `info` with who started it: an operator looks for a broken
 /// firmware download in the log and asks who ran it. The caller is the one the transport
 /// noted ([`crate::audit::caller`]); a program embedding the core has none.
-pub fn log_failure(direction: &str, slave: &str, file: &str, err: &super::ApiError) {
+pub fn log_failure(direction: &str, slave: super::SlaveName, file: &str, err: &super::ApiError) {
     let caller = crate::audit::caller();
     tracing::info!(
         caller = caller.as_ref().map(|c| c.caller.as_str()),
         operation = caller.as_ref().map(|c| c.operation.as_str()),
-        slave,
+        slave = %slave,
         file,
         direction,
         reason = err.reason(),

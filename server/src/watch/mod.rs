@@ -21,7 +21,7 @@ use tokio::task::JoinHandle;
 
 pub use crate::config::watch::{Target, WatchSpec};
 use crate::input::value::{self, ValueType};
-use crate::service::{ApiError, Core};
+use crate::service::{ApiError, Core, parse_name};
 pub use values::{WatchLabels, WatchValues};
 
 /// A watch ready to run.
@@ -91,20 +91,20 @@ async fn run(core: Core, mut watch: Watch, values: Arc<WatchValues>) {
 }
 
 async fn read(core: &Core, watch: &mut Watch) -> Result<f64, ApiError> {
+    // Checked when the configuration was read: this does not fail.
+    let slave = parse_name(&watch.slave)?;
     let (data, ty) = match watch.target {
         Target::Sdo { index, subindex } => {
             let ty = match watch.value_type {
                 Some(ty) => ty,
                 None => {
-                    let entry = core.coe_entry(&watch.slave, index, subindex).await?;
+                    let entry = core.coe_entry(slave, index, subindex).await?;
                     let ty = value::for_data_type(entry.data_type.into());
                     watch.value_type = Some(ty);
                     ty
                 }
             };
-            let data = core
-                .coe_upload(&watch.slave, index, subindex, false)
-                .await?;
+            let data = core.coe_upload(slave, index, subindex, false).await?;
             (data, Some(ty))
         }
         Target::Pdo { .. } => {
@@ -113,7 +113,7 @@ async fn read(core: &Core, watch: &mut Watch) -> Result<f64, ApiError> {
             ));
         }
         Target::Idn { drive, idn } => (
-            core.soe_read(&watch.slave, drive, idn.raw(), 0).await?,
+            core.soe_read(slave, drive, idn.raw(), 0).await?,
             watch.value_type,
         ),
     };
@@ -124,7 +124,7 @@ async fn read(core: &Core, watch: &mut Watch) -> Result<f64, ApiError> {
 pub fn refresh_pdo(core: &Core, values: &WatchValues) {
     use crate::service::process_data::PdValue;
     values.refresh_pdo(|slave, index, subindex| {
-        let view = core.process_data(Some(slave)).ok()?;
+        let view = core.process_data(Some(parse_name(slave).ok()?)).ok()?;
         let v = view
             .values
             .iter()

@@ -33,7 +33,6 @@ const RANKS: &[(&str, u8)] = &[
     ("tls", 3),
     // The one service core, and what reads through it.
     ("service", 4),
-    ("roles", 5),
     ("watch", 5),
     // Read from the core and every counter at scrape time.
     ("metrics", 6),

@@ -150,6 +150,12 @@ fn finished(v: &Value, operation: &str) -> bool {
         && v["fields"]["operation"] == operation
 }
 
+/// A finished write's line made by the call `call` (`PUT /slaves/3/...`,
+/// `/ecat.v1.CoeService/Download`).
+fn finished_call(v: &Value, operation: &str, call: &str) -> bool {
+    finished(v, operation) && v["fields"]["call"] == call
+}
+
 fn sha_prefix(data: &[u8]) -> String {
     Sha256::digest(data)[..8]
         .iter()
@@ -178,28 +184,29 @@ fn every_write_kind_is_audited_with_its_outcome_at_log_warn() {
         args.extend(["-d", body, &url]);
         curl(&args)
     };
-    // REST PUT, done: the body's size and digest.
+    // REST PUT, done: the core's line, named as gRPC's is, with the REST call beside it and
+    // the size and digest of the bytes written.
     let body = r#"{"data":"01020304"}"#;
     assert_eq!(rest_put("/slaves/3/coe/sdo/0x2001/0", body).0, 200);
     let line = wait_for(lines, |v| {
-        finished(v, "PUT /slaves/3/coe/sdo/0x2001/0") && v["fields"]["outcome"] == "done"
+        finished_call(v, "coe_download", "PUT /slaves/3/coe/sdo/0x2001/0")
+            && v["fields"]["outcome"] == "done"
     })
     .unwrap_or_else(|| panic!("no REST audit line:\n{:#?}", lines()));
     assert_eq!(line["fields"]["caller"], "engineer");
     // The slave the path names, as gRPC's lines carry the request's slave.
     assert_eq!(line["fields"]["target"], "3");
-    assert_eq!(line["fields"]["size"], body.len());
-    assert_eq!(line["fields"]["sha256"], sha_prefix(body.as_bytes()));
-    // REST PUT, failed: the error.
-    let (status, _) = rest_put("/slaves/3/coe/sdo/0x7777/0", body);
-    assert!(status >= 400, "{status}");
-    let line = wait_for(lines, |v| finished(v, "PUT /slaves/3/coe/sdo/0x7777/0"))
-        .unwrap_or_else(|| panic!("no audit line of the failed write:\n{:#?}", lines()));
+    assert_eq!(line["fields"]["size"], 4);
+    assert_eq!(line["fields"]["sha256"], sha_prefix(&[1, 2, 3, 4]));
+    // REST PUT, failed: the error, by its stable tag.
+    let (status, answer) = rest_put("/slaves/3/coe/sdo/0x7777/0", body);
+    assert_eq!(status, 404, "{answer}");
+    let line = wait_for(lines, |v| {
+        finished_call(v, "coe_download", "PUT /slaves/3/coe/sdo/0x7777/0")
+    })
+    .unwrap_or_else(|| panic!("no audit line of the failed write:\n{:#?}", lines()));
     let outcome = line["fields"]["outcome"].as_str().unwrap();
-    assert!(
-        outcome.starts_with(&format!("error: {status}")),
-        "{outcome}"
-    );
+    assert!(outcome.starts_with("error: sdo_abort: "), "{outcome}");
 
     // gRPC unary, done and failed.
     call(
@@ -209,8 +216,9 @@ fn every_write_kind_is_audited_with_its_outcome_at_log_warn() {
         r#"{"slave":"3","index":8193,"subindex":0,"data":"BQYHCA=="}"#,
     )
     .unwrap();
+    let grpc = "/ecat.v1.CoeService/Download";
     let line = wait_for(lines, |v| {
-        finished(v, "coe_download") && v["fields"]["outcome"] == "done"
+        finished_call(v, "coe_download", grpc) && v["fields"]["outcome"] == "done"
     })
     .unwrap_or_else(|| panic!("no gRPC audit line:\n{:#?}", lines()));
     assert_eq!(line["fields"]["target"], "3");
@@ -226,7 +234,7 @@ fn every_write_kind_is_audited_with_its_outcome_at_log_warn() {
     )
     .unwrap_err();
     let line = wait_for(lines, |v| {
-        finished(v, "coe_download")
+        finished_call(v, "coe_download", grpc)
             && v["fields"]["outcome"]
                 .as_str()
                 .is_some_and(|o| o.starts_with("error: "))
@@ -251,8 +259,10 @@ fn every_write_kind_is_audited_with_its_outcome_at_log_warn() {
         ),
     )
     .unwrap();
-    let line = wait_for(lines, |v| finished(v, "foe_write"))
-        .unwrap_or_else(|| panic!("no FoE audit line:\n{:#?}", lines()));
+    let line = wait_for(lines, |v| {
+        finished_call(v, "foe_write", "/ecat.v1.FoeService/Write")
+    })
+    .unwrap_or_else(|| panic!("no FoE audit line:\n{:#?}", lines()));
     assert_eq!(line["fields"]["target"], "0 audit.bin");
     assert_eq!(line["fields"]["outcome"], "done");
     assert_eq!(line["fields"]["size"], file.len());
@@ -273,8 +283,10 @@ fn every_write_kind_is_audited_with_its_outcome_at_log_warn() {
     // REST POST (no body): done, without size or digest.
     let stop = format!("{}/api/v1/gateway/stop", ecatd.http);
     assert_eq!(curl(&["-s", "-X", "POST", "-H", AUTH, &stop]).0, 200);
-    let line = wait_for(lines, |v| finished(v, "POST /gateway/stop"))
-        .unwrap_or_else(|| panic!("no POST audit line:\n{:#?}", lines()));
+    let line = wait_for(lines, |v| {
+        finished_call(v, "stop_gateway", "POST /gateway/stop")
+    })
+    .unwrap_or_else(|| panic!("no POST audit line:\n{:#?}", lines()));
     assert_eq!(line["fields"]["outcome"], "done");
     assert!(line["fields"].get("sha256").is_none(), "{line}");
 
@@ -308,7 +320,7 @@ fn audit_log_file_takes_the_lines() {
     ]);
     assert_eq!(status, 200);
     let in_file = || parse(&std::fs::read_to_string(&file).unwrap_or_default());
-    let line = wait_for(in_file, |v| finished(v, "PUT /slaves/3/coe/sdo/0x2001/0"))
+    let line = wait_for(in_file, |v| finished(v, "coe_download"))
         .unwrap_or_else(|| panic!("no audit line in the file"));
     assert_eq!(line["fields"]["outcome"], "done");
     assert!(

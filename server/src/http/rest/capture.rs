@@ -10,8 +10,10 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{Result, num};
+use crate::http::extract::Admit;
 use crate::http::extract::Query;
 use crate::service::Core;
+use crate::service::op;
 
 /// The routes.
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -35,11 +37,12 @@ pub struct CaptureQuery {
 /// Captures the live bus for a number of frames or seconds; the `x-ecat-dropped` header
 /// counts the frames the capture could not keep up with.
 pub async fn capture(
+    Admit(ticket, _): Admit<op::Capture>,
     State(core): State<Core>,
     Query(q): Query<CaptureQuery>,
 ) -> Result<impl IntoResponse> {
     if q.rolling == Some(true) {
-        let done = core.rolling_window().await?;
+        let done = core.rolling_window(ticket).await?;
         return Ok(pcapng_response(done));
     }
     let frames = match &q.frames {
@@ -54,7 +57,7 @@ pub async fn capture(
         ));
     }
     let done = core
-        .capture(frames, std::time::Duration::from_secs_f64(seconds))
+        .capture(ticket, frames, std::time::Duration::from_secs_f64(seconds))
         .await?;
     Ok(pcapng_response(done))
 }

@@ -7,8 +7,9 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Done, Result, num, unhex};
-use crate::http::extract::{Json, Path, Query};
+use crate::http::extract::{Admit, Json, Path, Query};
 use crate::service::{Core, EntryView, ObjectView, SdoPayload};
+use crate::service::{op, parse_name};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -85,7 +86,7 @@ pub async fn coe_upload(
     let (index, subindex) = (num(&index, "index")?, num(&subindex, "subindex")?);
     let read = core
         .coe_read(
-            &slave,
+            parse_name(&slave)?,
             index,
             subindex,
             q.complete_access,
@@ -103,6 +104,7 @@ pub async fn coe_upload(
     responses((status = 200, body = Done)))]
 /// SDO download.
 pub async fn coe_download(
+    Admit(ticket, _): Admit<op::CoeDownload>,
     State(core): State<Core>,
     Path((slave, index, subindex)): Path<(String, String, String)>,
     Json(body): Json<SdoWrite>,
@@ -122,7 +124,8 @@ pub async fn coe_download(
             value_type: ty,
         },
     };
-    core.coe_write(&slave, index, subindex, payload).await?;
+    core.coe_write(ticket, parse_name(&slave)?, index, subindex, payload)
+        .await?;
     Ok(DONE)
 }
 
@@ -134,7 +137,7 @@ pub async fn coe_object_list(
     Path(slave): Path<String>,
     Query(q): Query<ListQuery>,
 ) -> Result<Json<ObjectList>> {
-    core.coe_object_list(&slave, q.list.unwrap_or(1))
+    core.coe_object_list(parse_name(&slave)?, q.list.unwrap_or(1))
         .await
         .map(|indices| Json(ObjectList { indices }))
 }
@@ -146,7 +149,7 @@ pub async fn coe_object(
     State(core): State<Core>,
     Path((slave, index)): Path<(String, String)>,
 ) -> Result<Json<ObjectView>> {
-    core.coe_object(&slave, num(&index, "index")?)
+    core.coe_object(parse_name(&slave)?, num(&index, "index")?)
         .await
         .map(Json)
 }
@@ -159,7 +162,11 @@ pub async fn coe_entry(
     State(core): State<Core>,
     Path((slave, index, subindex)): Path<(String, String, String)>,
 ) -> Result<Json<EntryView>> {
-    core.coe_entry(&slave, num(&index, "index")?, num(&subindex, "subindex")?)
-        .await
-        .map(Json)
+    core.coe_entry(
+        parse_name(&slave)?,
+        num(&index, "index")?,
+        num(&subindex, "subindex")?,
+    )
+    .await
+    .map(Json)
 }

@@ -6,8 +6,9 @@ use utoipa_axum::routes;
 
 use super::{DONE, Done, Result};
 use crate::eoe::InterfaceView;
-use crate::http::extract::{Json, Path};
+use crate::http::extract::{Admit, Json, Path};
 use crate::service::{Core, IpView};
+use crate::service::{op, parse_name};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -23,18 +24,21 @@ pub async fn eoe_get_ip(
     State(core): State<Core>,
     Path(slave): Path<String>,
 ) -> Result<Json<IpView>> {
-    core.eoe_get_ip(&slave).await.map(Json)
+    core.eoe_get_ip(parse_name(&slave)?).await.map(Json)
 }
 
 #[utoipa::path(put, path = "/slaves/{slave}/eoe/ip", tag = "eoe", request_body = IpView,
     params(("slave" = String, Path)), responses((status = 200, body = Done)))]
 /// Sets the EoE IP parameters.
 pub async fn eoe_set_ip(
+    Admit(ticket, _): Admit<op::EoeSetIp>,
     State(core): State<Core>,
     Path(slave): Path<String>,
     Json(body): Json<IpView>,
 ) -> Result<Json<Done>> {
-    core.eoe_set_ip(&slave, &body).await.map(|()| DONE)
+    core.eoe_set_ip(ticket, parse_name(&slave)?, &body)
+        .await
+        .map(|()| DONE)
 }
 
 #[utoipa::path(get, path = "/eoe/interfaces", tag = "eoe",

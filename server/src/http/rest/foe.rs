@@ -10,8 +10,9 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Done, Result};
-use crate::http::extract::{Json, Path, Query};
+use crate::http::extract::{Admit, Json, Path, Query};
 use crate::service::Core;
+use crate::service::{op, parse_name};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -34,7 +35,7 @@ pub async fn foe_read(
     Path((slave, name)): Path<(String, String)>,
     Query(q): Query<PasswordQuery>,
 ) -> Result<Vec<u8>> {
-    core.foe_read(&slave, &name, q.password.unwrap_or(0), None)
+    core.foe_read(parse_name(&slave)?, &name, q.password.unwrap_or(0), None)
         .await
 }
 
@@ -44,12 +45,20 @@ pub async fn foe_read(
     responses((status = 200, body = Done)))]
 /// Writes a file (the raw request body).
 pub async fn foe_write(
+    Admit(ticket, _): Admit<op::FoeWrite>,
     State(core): State<Core>,
     Path((slave, name)): Path<(String, String)>,
     Query(q): Query<PasswordQuery>,
     body: Bytes,
 ) -> Result<Json<Done>> {
-    core.foe_write(&slave, &name, q.password.unwrap_or(0), &body, None)
-        .await
-        .map(|()| DONE)
+    core.foe_write(
+        ticket,
+        parse_name(&slave)?,
+        &name,
+        q.password.unwrap_or(0),
+        &body,
+        None,
+    )
+    .await
+    .map(|()| DONE)
 }

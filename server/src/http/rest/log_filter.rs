@@ -7,8 +7,10 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::Result;
+use crate::http::extract::Admit;
 use crate::http::extract::Json;
 use crate::service::Core;
+use crate::service::op;
 
 /// The routes.
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -35,11 +37,11 @@ pub async fn get_log_filter(State(core): State<Core>) -> Result<Json<LogFilter>>
     responses((status = 200, body = LogFilter)))]
 /// Replaces the log filter; a bad one is refused and the old one stays.
 pub async fn set_log_filter(
+    Admit(ticket, _): Admit<op::SetLogFilter>,
     State(core): State<Core>,
     Json(body): Json<LogFilter>,
 ) -> Result<Json<LogFilter>> {
-    crate::audit::note_value(body.filter.as_bytes());
     Ok(Json(LogFilter {
-        filter: core.set_log_filter(&body.filter)?,
+        filter: core.set_log_filter(ticket, &body.filter)?,
     }))
 }

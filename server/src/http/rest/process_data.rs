@@ -4,7 +4,6 @@
 //! `override`), and a server-sent stream of changed values. Values come from the cycle's
 //! snapshot: reading them sends no frame.
 
-use axum::Extension;
 use axum::extract::State;
 use axum::response::sse::{Event, KeepAlive, Sse};
 use futures_util::Stream;
@@ -14,13 +13,12 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Done, Result, num};
-use crate::http::extract::{Json, Path, Query};
-use crate::security::Caller;
+use crate::http::extract::{Admit, Json, Path, Query};
 use crate::service::pd_stream::PdChanges;
 use crate::service::process_data::{
     ForceView, LayoutView, PdEntryView, PdInput, PdValue, PdValueView, ProcessDataView,
 };
-use crate::service::{ApiError, Core};
+use crate::service::{ApiError, Core, op, parse_name};
 
 /// The routes under the request time limit.
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -206,7 +204,10 @@ async fn slave_values(
     Path(slave): Path<String>,
     Query(query): Query<ValuesQuery>,
 ) -> Result<Json<ProcessDataJson>> {
-    Ok(Json(data_json(core.process_data(Some(&slave))?, query.raw)))
+    Ok(Json(data_json(
+        core.process_data(Some(parse_name(&slave)?))?,
+        query.raw,
+    )))
 }
 
 /// A force: the value, and whether to write over an application that owns the outputs.
@@ -251,10 +252,6 @@ impl From<ForceView> for ForceJson {
     }
 }
 
-fn caller_name(caller: Option<Extension<Caller>>) -> String {
-    caller.map_or_else(|| "anonymous".into(), |Extension(c)| c.name)
-}
-
 pub(crate) fn input(value: &serde_json::Value) -> Result<PdInput> {
     match value {
         serde_json::Value::Bool(b) => Ok(PdInput::Int(i64::from(*b))),
@@ -276,8 +273,8 @@ pub(crate) fn input(value: &serde_json::Value) -> Result<PdInput> {
     params(("slave" = String, Path), ("index" = String, Path), ("subindex" = String, Path)),
     responses((status = 200, body = ForceJson), (status = 409, body = crate::http::error::ErrorBody)))]
 async fn force(
+    Admit(ticket, _): Admit<op::ForceOutput>,
     State(core): State<Core>,
-    caller: Option<Extension<Caller>>,
     Path((slave, index, subindex)): Path<(String, String, String)>,
     Json(body): Json<ForceBody>,
 ) -> Result<Json<ForceJson>> {
@@ -285,8 +282,8 @@ async fn force(
     let subindex: u8 = num(&subindex, "subindex")?;
     let value = input(&body.value)?;
     let view = core.force_output(
-        &caller_name(caller),
-        &slave,
+        ticket,
+        parse_name(&slave)?,
         index,
         subindex,
         value,
@@ -300,13 +297,13 @@ async fn force(
     params(("slave" = String, Path), ("index" = String, Path), ("subindex" = String, Path)),
     responses((status = 200, body = Done), (status = 404, body = crate::http::error::ErrorBody)))]
 async fn release(
+    Admit(ticket, _): Admit<op::ReleaseOutput>,
     State(core): State<Core>,
-    caller: Option<Extension<Caller>>,
     Path((slave, index, subindex)): Path<(String, String, String)>,
 ) -> Result<Json<Done>> {
     let index: u16 = num(&index, "index")?;
     let subindex: u8 = num(&subindex, "subindex")?;
-    core.release_output(&caller_name(caller), &slave, index, subindex)?;
+    core.release_output(ticket, parse_name(&slave)?, index, subindex)?;
     Ok(DONE)
 }
 
@@ -357,8 +354,9 @@ async fn stream(
         })
         .transpose()?;
     let interval = core.pd_stream_interval(requested)?;
+    let slave = query.slave.as_deref().map(parse_name).transpose()?;
     // The slave must exist now; the stream then follows it.
-    core.process_data(query.slave.as_deref())?;
+    core.process_data(slave)?;
     let raw = query.raw;
     let ticks = tokio_stream::wrappers::IntervalStream::new({
         let mut ticks = tokio::time::interval(interval);
@@ -366,11 +364,10 @@ async fn stream(
         ticks
     });
     let mut changes = PdChanges::default();
-    let slave = query.slave;
     let source = core.clone();
     let stream = futures_util::StreamExt::filter_map(ticks, move |_| {
         let event = source
-            .process_data(slave.as_deref())
+            .process_data(slave)
             .ok()
             .and_then(|view| changes.next(view))
             .map(|changed| event(changed, raw));

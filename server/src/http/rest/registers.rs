@@ -8,9 +8,10 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Data, Done, Result, data, num, unhex};
-use crate::http::extract::{Json, Path, Query};
+use crate::http::extract::{Admit, Json, Path, Query};
 use crate::security::Caller;
 use crate::service::Core;
+use crate::service::{op, parse_name};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -39,7 +40,7 @@ pub async fn read_register(
     let caller = caller.map(|Extension(c)| c);
     core.read_register(
         caller.as_ref(),
-        &slave,
+        parse_name(&slave)?,
         num(&address, "address")?,
         q.length.unwrap_or(1),
     )
@@ -51,11 +52,13 @@ pub async fn read_register(
     params(("slave" = String, Path), ("address" = String, Path)), responses((status = 200, body = Done)))]
 /// Writes ESC registers.
 pub async fn write_register(
+    Admit(ticket, _): Admit<op::WriteRegister>,
     State(core): State<Core>,
     Path((slave, address)): Path<(String, String)>,
     Json(body): Json<Data>,
 ) -> Result<Json<Done>> {
-    core.write_register(&slave, num(&address, "address")?, &unhex(&body.data)?)
+    let (slave, address) = (parse_name(&slave)?, num(&address, "address")?);
+    core.write_register(ticket, slave, address, &unhex(&body.data)?)
         .await
         .map(|()| DONE)
 }
@@ -65,11 +68,13 @@ pub async fn write_register(
 /// Writes ESC registers and returns their contents from before the write, in one FPRW
 /// datagram.
 pub async fn read_write_register(
+    Admit(ticket, _): Admit<op::ReadWriteRegister>,
     State(core): State<Core>,
     Path((slave, address)): Path<(String, String)>,
     Json(body): Json<Data>,
 ) -> Result<Json<Data>> {
-    core.read_write_register(&slave, num(&address, "address")?, &unhex(&body.data)?)
+    let (slave, address) = (parse_name(&slave)?, num(&address, "address")?);
+    core.read_write_register(ticket, slave, address, &unhex(&body.data)?)
         .await
         .map(data)
 }

@@ -7,8 +7,9 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Data, Done, Result, data, num, unhex};
-use crate::http::extract::{Json, Path, Query};
+use crate::http::extract::{Admit, Json, Path, Query};
 use crate::service::Core;
+use crate::service::{op, parse_name};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -30,7 +31,7 @@ pub struct AliasBody {
     params(("slave" = String, Path)), responses((status = 200, body = Data)))]
 /// Reads the whole SII image.
 pub async fn read_sii(State(core): State<Core>, Path(slave): Path<String>) -> Result<Json<Data>> {
-    core.read_sii(&slave).await.map(data)
+    core.read_sii(parse_name(&slave)?).await.map(data)
 }
 
 /// Options of an SII write.
@@ -48,13 +49,15 @@ pub struct SiiWriteQuery {
 /// Writes SII words (little-endian bytes); the checksum of words 0-6 is kept valid unless
 /// `force`.
 pub async fn write_sii(
+    Admit(ticket, _): Admit<op::WriteSii>,
     State(core): State<Core>,
     Path((slave, word)): Path<(String, String)>,
     Query(query): Query<SiiWriteQuery>,
     Json(body): Json<Data>,
 ) -> Result<Json<Done>> {
     core.write_sii(
-        &slave,
+        ticket,
+        parse_name(&slave)?,
         num(&word, "word")?,
         &unhex(&body.data)?,
         query.force,
@@ -67,11 +70,12 @@ pub async fn write_sii(
     params(("slave" = String, Path)), responses((status = 200, body = AliasBody)))]
 /// Sets the station alias.
 pub async fn set_alias(
+    Admit(ticket, _): Admit<op::SetAlias>,
     State(core): State<Core>,
     Path(slave): Path<String>,
     Json(body): Json<AliasBody>,
 ) -> Result<Json<AliasBody>> {
-    core.set_alias(&slave, body.alias)
+    core.set_alias(ticket, parse_name(&slave)?, body.alias)
         .await
         .map(|alias| Json(AliasBody { alias }))
 }

@@ -12,8 +12,9 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::Result;
-use crate::http::extract::{Json, Path};
+use crate::http::extract::{Admit, Json, Path};
 use crate::service::{Core, EventView, MasterView, SlaveView};
+use crate::service::{op, parse_name};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -68,25 +69,31 @@ pub async fn get_slave(
     State(core): State<Core>,
     Path(slave): Path<String>,
 ) -> Result<Json<SlaveView>> {
-    core.get_slave(&slave).map(Json)
+    core.get_slave(parse_name(&slave)?).map(Json)
 }
 
 #[utoipa::path(put, path = "/slaves/{slave}/state", tag = "bus", request_body = StateBody,
     params(("slave" = String, Path)), responses((status = 200, body = SlaveView)))]
 /// Moves a slave to a state.
 pub async fn request_state(
+    Admit(ticket, _): Admit<op::RequestState>,
     State(core): State<Core>,
     Path(slave): Path<String>,
     Json(body): Json<StateBody>,
 ) -> Result<Json<SlaveView>> {
     let state = crate::input::state::parse_state(&body.state)?;
-    core.request_state(&slave, state).await.map(Json)
+    core.request_state(ticket, parse_name(&slave)?, state)
+        .await
+        .map(Json)
 }
 
 #[utoipa::path(post, path = "/rescan", tag = "bus", responses((status = 200, body = RescanBody)))]
 /// Scans the segment again.
-pub async fn rescan(State(core): State<Core>) -> Result<Json<RescanBody>> {
-    let (slaves, failures) = core.rescan().await?;
+pub async fn rescan(
+    Admit(ticket, _): Admit<op::Rescan>,
+    State(core): State<Core>,
+) -> Result<Json<RescanBody>> {
+    let (slaves, failures) = core.rescan(ticket).await?;
     Ok(Json(RescanBody { slaves, failures }))
 }
 

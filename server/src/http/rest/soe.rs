@@ -7,8 +7,9 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{DONE, Data, Done, Result, data, num, unhex};
-use crate::http::extract::{Json, Path, Query};
+use crate::http::extract::{Admit, Json, Path, Query};
 use crate::service::Core;
+use crate::service::{op, parse_name};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -32,7 +33,7 @@ pub async fn soe_read(
     Query(q): Query<ElementsQuery>,
 ) -> Result<Json<Data>> {
     core.soe_read(
-        &slave,
+        parse_name(&slave)?,
         num(&drive, "drive")?,
         crate::input::value::parse_idn(&idn, "idn")?,
         q.elements.unwrap_or(0),
@@ -46,13 +47,15 @@ pub async fn soe_read(
     responses((status = 200, body = Done)))]
 /// Writes an IDN.
 pub async fn soe_write(
+    Admit(ticket, _): Admit<op::SoeWrite>,
     State(core): State<Core>,
     Path((slave, drive, idn)): Path<(String, String, String)>,
     Query(q): Query<ElementsQuery>,
     Json(body): Json<Data>,
 ) -> Result<Json<Done>> {
     core.soe_write(
-        &slave,
+        ticket,
+        parse_name(&slave)?,
         num(&drive, "drive")?,
         crate::input::value::parse_idn(&idn, "idn")?,
         q.elements.unwrap_or(0),

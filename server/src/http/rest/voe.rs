@@ -7,8 +7,9 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::{Result, unhex};
-use crate::http::extract::{Json, Path};
+use crate::http::extract::{Admit, Json, Path};
 use crate::service::{Core, VoeView};
+use crate::service::{op, parse_name};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
@@ -31,13 +32,15 @@ pub struct VoeBody {
     params(("slave" = String, Path)), responses((status = 200, body = VoeView)))]
 /// Sends one VoE message and returns the answer.
 pub async fn voe(
+    Admit(ticket, _): Admit<op::Voe>,
     State(core): State<Core>,
     Path(slave): Path<String>,
     Json(body): Json<VoeBody>,
 ) -> Result<Json<VoeView>> {
     let answer = core
         .voe(
-            &slave,
+            ticket,
+            parse_name(&slave)?,
             body.vendor_id,
             body.vendor_type,
             &unhex(&body.data)?,
