@@ -6,6 +6,7 @@ use tonic::{Request, Response, Status};
 
 use super::auth::admit;
 use super::status::narrow;
+use crate::input::value::Typing;
 use crate::service::{Core, Operation, SdoPayload, parse_name};
 
 /// The CoE service over the core.
@@ -22,7 +23,9 @@ impl CoeService for Coe {
         let r = request.get_ref();
         let (index, subindex) = (narrow(r.index, "index")?, narrow(r.subindex, "subindex")?);
         // proto3 has no absent string: an empty `value_type` asks for the bytes only.
-        let value_type = (!r.value_type.is_empty()).then_some(r.value_type.as_str());
+        let typing = (!r.value_type.is_empty())
+            .then(|| r.value_type.parse::<Typing>())
+            .transpose()?;
         let read = self
             .core
             .coe_read(
@@ -30,7 +33,7 @@ impl CoeService for Coe {
                 index,
                 subindex,
                 r.complete_access,
-                value_type,
+                typing,
             )
             .await?;
         Ok(Response::new(pb::UploadResponse {
@@ -50,7 +53,8 @@ impl CoeService for Coe {
         } else {
             SdoPayload::Value {
                 text: &r.value,
-                value_type: &r.value_type,
+                typing: r.value_type.parse()?,
+                complete: r.complete_access,
             }
         };
         let (index, subindex) = (narrow(r.index, "index")?, narrow(r.subindex, "subindex")?);

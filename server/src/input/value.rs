@@ -60,6 +60,37 @@ impl std::str::FromStr for ValueType {
     }
 }
 
+/// How a value given or asked for as text is typed: by the type the slave's SDO Information
+/// names for the entry (`auto`), or as a type named by the caller.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Typing {
+    /// The slave's SDO Information type.
+    Auto,
+    /// A named type.
+    As(ValueType),
+}
+
+impl std::str::FromStr for Typing {
+    type Err = ApiError;
+
+    /// `auto` or a [`ValueType`] name; an unknown name is refused naming the `value_type`
+    /// field (REST's `type`).
+    fn from_str(name: &str) -> Result<Typing, ApiError> {
+        if name.trim().eq_ignore_ascii_case("auto") {
+            return Ok(Typing::Auto);
+        }
+        name.trim().parse().map(Typing::As).map_err(|_| {
+            ApiError::invalid_field(
+                "value_type",
+                format!(
+                    "unknown value type {name:?}: use auto, bool, u8..u64, i8..i64, f32, f64, \
+                     string or hex"
+                ),
+            )
+        })
+    }
+}
+
 fn fixed<const N: usize>(bytes: &[u8]) -> Result<[u8; N], ApiError> {
     bytes
         .try_into()
@@ -173,6 +204,18 @@ pub fn for_data_type(data_type: DataType) -> ValueType {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_typing_is_auto_or_a_type_name_and_junk_names_its_field() {
+        assert_eq!("AUTO".parse::<Typing>().unwrap(), Typing::Auto);
+        assert_eq!(
+            " u16 ".parse::<Typing>().unwrap(),
+            Typing::As(ValueType::U16)
+        );
+        let err = "u7".parse::<Typing>().unwrap_err();
+        assert_eq!(err.field, Some("value_type"));
+        assert!(err.message.contains("u7"), "{err:?}");
+    }
 
     #[test]
     fn round_trips_and_range_checks() {

@@ -45,7 +45,7 @@ use tokio::sync::broadcast;
 pub use crate::error::{ApiError, ErrorKind};
 pub use crate::input::address::{SlaveName, parse_name, parse_slave};
 use crate::input::ip;
-use crate::input::value::{self, ValueType};
+use crate::input::value::{self, Typing, ValueType};
 use crate::security::Caller;
 pub use admission::Ticket;
 pub use bus::BusView;
@@ -67,14 +67,16 @@ pub enum SdoPayload<'a> {
         /// Complete access.
         complete: bool,
     },
-    /// A value as text, encoded by its type: `auto` (the type the slave's SDO Information
-    /// names) or a type name (`u8` … `u64`, `i8` … `i64`, `f32`, `f64`, `bool`, `string`,
-    /// `hex`).
+    /// A value as text, encoded by its type (the type the slave's SDO Information names, or
+    /// one the caller names).
     Value {
         /// The value as text.
         text: &'a str,
-        /// `auto` or a type name.
-        value_type: &'a str,
+        /// Its type.
+        typing: Typing,
+        /// Complete access asked for: refused (a typed value is one entry's; complete access
+        /// writes the bytes of several).
+        complete: bool,
     },
 }
 
@@ -536,38 +538,38 @@ impl Core {
         .await
     }
 
-    /// The value type `name` stands for at `index:subindex`: `auto` asks the slave (SDO
-    /// Information entry description), anything else is a type name (`u32`, `string`, ...).
+    /// The value type `typing` stands for at `index:subindex`: `auto` asks the slave (SDO
+    /// Information entry description).
     async fn value_type(
         &self,
         slave: SlaveName,
         index: u16,
         subindex: u8,
-        name: &str,
+        typing: Typing,
     ) -> Result<ValueType> {
-        if name.eq_ignore_ascii_case("auto") {
-            let entry = self
-                .call(slave, Protocol::Coe, |m| async move {
-                    m.sdo_info_entry(index, subindex, 0).await
-                })
-                .await?;
-            Ok(value::for_data_type(entry.data_type))
-        } else {
-            name.parse()
+        match typing {
+            Typing::As(ty) => Ok(ty),
+            Typing::Auto => {
+                let entry = self
+                    .call(slave, Protocol::Coe, |m| async move {
+                        m.sdo_info_entry(index, subindex, 0).await
+                    })
+                    .await?;
+                Ok(value::for_data_type(entry.data_type))
+            }
         }
     }
 
-    /// SDO upload as the caller asked: the bytes, and with `value_type` also the value as
-    /// text (`value_type` as in [`SdoPayload::Value`]).
+    /// SDO upload as the caller asked: the bytes, and with `typing` also the value as text.
     pub async fn coe_read(
         &self,
         slave: SlaveName,
         index: u16,
         subindex: u8,
         complete: bool,
-        value_type: Option<&str>,
+        typing: Option<Typing>,
     ) -> Result<Uploaded> {
-        match value_type {
+        match typing {
             None => Ok(Uploaded {
                 data: self.coe_upload(slave, index, subindex, complete).await?,
                 value: None,
@@ -600,23 +602,27 @@ impl Core {
                 self.sdo_download(slave, index, subindex, data, complete)
                     .await
             }
-            SdoPayload::Value { text, value_type } => {
-                self.coe_download_value(slave, index, subindex, text, value_type)
+            SdoPayload::Value { complete: true, .. } => Err(ApiError::invalid_field(
+                "complete_access",
+                "complete access writes bytes: give data, not a typed value",
+            )),
+            SdoPayload::Value { text, typing, .. } => {
+                self.coe_download_value(slave, index, subindex, text, typing)
                     .await
             }
         })
     }
 
-    /// SDO upload with the value as text, typed by `type_name` (as in [`SdoPayload::Value`]).
+    /// SDO upload with the value as text, typed by `typing`.
     async fn coe_upload_value(
         &self,
         slave: SlaveName,
         index: u16,
         subindex: u8,
         complete: bool,
-        type_name: &str,
+        typing: Typing,
     ) -> Result<(Vec<u8>, String)> {
-        let ty = match self.value_type(slave, index, subindex, type_name).await {
+        let ty = match self.value_type(slave, index, subindex, typing).await {
             Ok(ty) => ty,
             // The slave would not describe the entry (an SDO Information error, with or
             // without its code): a plain upload gets the slave's own SDO abort to the user,
@@ -633,17 +639,16 @@ impl Core {
         Ok((data, text))
     }
 
-    /// SDO download of a value given as text, typed by `type_name` (as in
-    /// [`SdoPayload::Value`]).
+    /// SDO download of a value given as text, typed by `typing`.
     async fn coe_download_value(
         &self,
         slave: SlaveName,
         index: u16,
         subindex: u8,
         text: &str,
-        type_name: &str,
+        typing: Typing,
     ) -> Result<()> {
-        let ty = self.value_type(slave, index, subindex, type_name).await?;
+        let ty = self.value_type(slave, index, subindex, typing).await?;
         let data = value::encode(ty, text)?;
         self.sdo_download(slave, index, subindex, &data, false)
             .await

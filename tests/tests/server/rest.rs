@@ -690,6 +690,28 @@ fn every_malformed_request_is_answered_with_problem_json_and_changes_nothing() {
             "{case}"
         );
     }
+    // A typed value: an unknown type, and complete access (which writes bytes) with a type,
+    // each refused naming its field; the entry keeps its value.
+    let sdo = "/api/v1/slaves/3/coe/sdo/0x2001/0";
+    let (_, _, kept) = answer(&ecatd, "GET", sdo, &[]);
+    for (body, field) in [
+        (r#"{"value":"5","type":"u7"}"#, "value_type"),
+        (
+            r#"{"value":"5","type":"u8","complete_access":true}"#,
+            "complete_access",
+        ),
+    ] {
+        let (status, content_type, answer) = answer(&ecatd, "PUT", sdo, &with(body));
+        let case = format!("PUT {sdo} {body}: {status} {content_type} {answer}");
+        assert_eq!(status, 400, "{case}");
+        assert_eq!(content_type, "application/problem+json", "{case}");
+        assert_eq!(answer["field"], field, "{case}");
+    }
+    let (_, _, after) = answer(&ecatd, "GET", sdo, &[]);
+    assert_eq!(
+        after["data"], kept["data"],
+        "a refused write changed the entry"
+    );
     // Every refused state change changed nothing: the slave is still in OP.
     let (_, slave) = get(&ecatd, "/api/v1/slaves/0");
     assert_eq!(slave["state"], "OP", "{slave}");

@@ -90,7 +90,7 @@ pub async fn coe_upload(
             index,
             subindex,
             q.complete_access,
-            q.value_type.as_deref(),
+            q.value_type.as_deref().map(str::parse).transpose()?,
         )
         .await?;
     Ok(Json(Upload {
@@ -121,7 +121,8 @@ pub async fn coe_download(
         }
         Some(ty) => SdoPayload::Value {
             text: &body.value,
-            value_type: ty,
+            typing: ty.parse()?,
+            complete: body.complete_access,
         },
     };
     core.coe_write(ticket, parse_name(&slave)?, index, subindex, payload)
