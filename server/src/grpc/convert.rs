@@ -4,7 +4,7 @@ use master_core::wire::register::AlState;
 use proto::v1 as pb;
 use tonic::Status;
 
-use crate::input::state::parse_state;
+use crate::service::view::ShownState;
 use crate::service::{ApiError, EventView, IdentityView, SlaveView};
 
 /// The protobuf enum of an AL state (`Unspecified` for a value outside the state machine).
@@ -26,9 +26,12 @@ pub fn state_of(value: i32) -> Option<AlState> {
         .find(|&state| pb_state(state) as i32 == value)
 }
 
-/// The protobuf enum of a view's state name (`ABSENT` and unknown values: `Unspecified`).
-pub fn al_state(name: &str) -> pb::AlState {
-    parse_state(name).map_or(pb::AlState::Unspecified, pb_state)
+/// The protobuf enum of a view's state (`ABSENT` and unknown values: `Unspecified`).
+pub fn al_state(state: ShownState) -> pb::AlState {
+    match state {
+        ShownState::Al(state) => pb_state(state),
+        ShownState::Absent => pb::AlState::Unspecified,
+    }
 }
 
 /// The AL state a request names.
@@ -53,26 +56,26 @@ pub fn slave(view: &SlaveView) -> pb::Slave {
         alias: u32::from(view.alias),
         identity: Some(identity(&view.identity)),
         name: view.name.clone(),
-        state: al_state(&view.state) as i32,
+        state: al_state(view.state) as i32,
         al_error: view.al_error,
         al_status_code: u32::from(view.al_status_code),
         al_status_text: view.al_status_text.clone(),
         mailbox_protocols: view.mailbox_protocols.clone(),
-        requested_state: al_state(&view.requested_state) as i32,
+        requested_state: al_state(view.requested_state) as i32,
         present: view.present,
     }
 }
 
 /// An event.
 pub fn event(view: &EventView) -> pb::Event {
-    let state = |s: &Option<String>| s.as_deref().map_or(pb::AlState::Unspecified, al_state) as i32;
+    let state = |s: Option<ShownState>| s.map_or(pb::AlState::Unspecified, al_state) as i32;
     pb::Event {
         kind: view.kind.clone(),
         position: u32::from(view.position),
         station: u32::from(view.station),
         name: view.name.clone(),
-        from: state(&view.from),
-        to: state(&view.to),
+        from: state(view.from),
+        to: state(view.to),
         al_status_code: view.al_status_code.map_or(0, u32::from),
         identity: view.identity.as_ref().map(identity),
         text: view.text.clone(),
@@ -100,7 +103,7 @@ mod tests {
     fn every_state_goes_to_its_enum_and_back_and_nothing_else_is_a_state() {
         for state in AlState::ALL {
             assert_eq!(state_of(pb_state(state) as i32), Some(state));
-            assert_eq!(al_state(state.name()), pb_state(state));
+            assert_eq!(al_state(ShownState::Al(state)), pb_state(state));
             assert_eq!(requested_state(pb_state(state) as i32).unwrap(), state);
         }
         assert_eq!(state_of(pb::AlState::Unspecified as i32), None);
@@ -109,7 +112,7 @@ mod tests {
             requested_state(99).unwrap_err().code(),
             tonic::Code::InvalidArgument
         );
-        assert_eq!(al_state("ABSENT"), pb::AlState::Unspecified);
+        assert_eq!(al_state(ShownState::Absent), pb::AlState::Unspecified);
         assert_eq!(pb_state(AlState::Unknown(0x6)), pb::AlState::Unspecified);
     }
 }

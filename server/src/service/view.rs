@@ -17,6 +17,53 @@ pub fn state_name(state: AlState) -> String {
     }
 }
 
+/// A state as the APIs show it: an AL state, or [`ABSENT`] for a slave that did not answer.
+/// Serialised as its name ([`state_name`]), typed everywhere else: gRPC maps it to its enum
+/// without reading the name back.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShownState {
+    /// The slave did not answer the master's last look.
+    Absent,
+    /// An AL state.
+    Al(AlState),
+}
+
+impl ShownState {
+    /// Its name: `ABSENT`, or [`state_name`].
+    pub fn name(self) -> String {
+        match self {
+            ShownState::Absent => ABSENT.to_owned(),
+            ShownState::Al(state) => state_name(state),
+        }
+    }
+}
+
+impl Serialize for ShownState {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(&self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for ShownState {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        if name == ABSENT {
+            return Ok(ShownState::Absent);
+        }
+        if let Some(raw) = name
+            .strip_prefix("UNKNOWN(0x")
+            .and_then(|rest| rest.strip_suffix(')'))
+        {
+            return u8::from_str_radix(raw, 16)
+                .map(|raw| ShownState::Al(AlState::from(raw)))
+                .map_err(serde::de::Error::custom);
+        }
+        crate::input::state::parse_state(&name)
+            .map(ShownState::Al)
+            .map_err(|err| serde::de::Error::custom(err.message))
+    }
+}
+
 /// Vendor, product, revision and serial number.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 pub struct IdentityView {
@@ -44,7 +91,8 @@ pub struct SlaveView {
     /// Name from the SII.
     pub name: String,
     /// Current AL state; [`ABSENT`] while the slave does not answer.
-    pub state: String,
+    #[schema(value_type = String)]
+    pub state: ShownState,
     /// The error indication of the AL status register.
     pub al_error: bool,
     /// AL status code.
@@ -54,7 +102,8 @@ pub struct SlaveView {
     /// Mailbox protocols (`CoE`, `SoE`, `FoE`, `VoE`, `EoE`, `AoE`).
     pub mailbox_protocols: Vec<String>,
     /// The state the master keeps the slave in.
-    pub requested_state: String,
+    #[schema(value_type = String)]
+    pub requested_state: ShownState,
     /// Whether the slave answered the last look.
     pub present: bool,
 }
@@ -91,15 +140,15 @@ impl From<&SlaveInfo> for SlaveView {
             // A lost slave's last AL state says nothing of now (issue 35: "OP" beside
             // `present: false` read as live).
             state: if info.present {
-                state_name(info.al_state)
+                ShownState::Al(info.al_state)
             } else {
-                ABSENT.to_owned()
+                ShownState::Absent
             },
             al_error: info.al_error,
             al_status_code: u16::from(info.al_status_code),
             al_status_text: info.al_status_code.description().to_owned(),
             mailbox_protocols,
-            requested_state: state_name(info.requested_state),
+            requested_state: ShownState::Al(info.requested_state),
             present: info.present,
         }
     }
@@ -118,9 +167,11 @@ pub struct EventView {
     /// Slave name, when the event has it.
     pub name: String,
     /// State before (state changes).
-    pub from: Option<String>,
+    #[schema(value_type = Option<String>)]
+    pub from: Option<ShownState>,
     /// State after (state changes, AL errors).
-    pub to: Option<String>,
+    #[schema(value_type = Option<String>)]
+    pub to: Option<ShownState>,
     /// AL status code (AL errors).
     pub al_status_code: Option<u16>,
     /// New identity (found, replaced).
@@ -264,8 +315,8 @@ impl From<&MasterEvent> for EventView {
                 from,
                 to,
             } => EventView {
-                from: Some(state_name(*from)),
-                to: Some(state_name(*to)),
+                from: Some(ShownState::Al(*from)),
+                to: Some(ShownState::Al(*to)),
                 ..base("state_changed", *position, *station, "")
             },
             MasterEvent::AlError {
@@ -275,7 +326,7 @@ impl From<&MasterEvent> for EventView {
                 state,
                 code,
             } => EventView {
-                to: Some(state_name(*state)),
+                to: Some(ShownState::Al(*state)),
                 al_status_code: Some(u16::from(*code)),
                 ..base("al_error", *position, *station, name)
             },
@@ -351,4 +402,23 @@ pub struct VoeView {
     pub vendor_type: u16,
     /// Payload, hex.
     pub data: String,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_shown_state_is_its_name_on_the_wire_and_reads_back() {
+        let mut states: Vec<ShownState> = AlState::ALL.into_iter().map(ShownState::Al).collect();
+        states.extend([ShownState::Absent, ShownState::Al(AlState::Unknown(0x6))]);
+        for state in states {
+            let json = serde_json::to_string(&state).unwrap();
+            assert_eq!(json, format!("\"{}\"", state.name()));
+            assert_eq!(serde_json::from_str::<ShownState>(&json).unwrap(), state);
+        }
+        assert_eq!(ShownState::Al(AlState::PreOp).name(), "PREOP");
+        assert_eq!(ShownState::Al(AlState::Unknown(0x6)).name(), "UNKNOWN(0x6)");
+        assert!(serde_json::from_str::<ShownState>("\"RUNNING\"").is_err());
+    }
 }
