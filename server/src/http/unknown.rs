@@ -58,7 +58,8 @@ impl QueryNames {
 
     /// The first name in `query` that the route `method path` does not declare; `None`
     /// for a route the document does not list (the dashboard, `/metrics`).
-    fn unknown<'q>(&self, method: &Method, path: &str, query: &'q str) -> Option<&'q str> {
+    /// Names are compared decoded, as the route's `Query` reads them (`%72aw` is `raw`).
+    fn unknown(&self, method: &Method, path: &str, query: &str) -> Option<String> {
         // HEAD is answered by the GET route.
         let method = if method == Method::HEAD {
             &Method::GET
@@ -66,11 +67,10 @@ impl QueryNames {
             method
         };
         let declared = self.0.get(path)?.get(method)?;
-        query
-            .split('&')
-            .filter(|pair| !pair.is_empty())
-            .map(|pair| pair.split_once('=').map_or(pair, |(name, _)| name))
-            .find(|name| !declared.contains(*name))
+        form_urlencoded::parse(query.as_bytes())
+            .map(|(name, _)| name)
+            .find(|name| !declared.contains(name.as_ref()))
+            .map(std::borrow::Cow::into_owned)
     }
 }
 
@@ -153,12 +153,22 @@ mod tests {
         assert_eq!(names.unknown(&Method::GET, slave, "raw=true"), None);
         assert_eq!(names.unknown(&Method::HEAD, slave, "raw"), None);
         assert_eq!(
-            names.unknown(&Method::GET, slave, "raw=1&slave=2"),
+            names
+                .unknown(&Method::GET, slave, "raw=1&slave=2")
+                .as_deref(),
             Some("slave")
+        );
+        // A percent-encoded name is the name it encodes, as the route's `Query` reads it.
+        assert_eq!(names.unknown(&Method::GET, slave, "%72aw=1"), None);
+        assert_eq!(
+            names.unknown(&Method::GET, slave, "r%61x=1").as_deref(),
+            Some("rax")
         );
         assert_eq!(names.unknown(&Method::GET, slave, "&&"), None);
         assert_eq!(
-            names.unknown(&Method::PUT, "/api/v1/master", "force=1"),
+            names
+                .unknown(&Method::PUT, "/api/v1/master", "force=1")
+                .as_deref(),
             Some("force")
         );
         assert_eq!(
