@@ -152,6 +152,8 @@ pub(crate) async fn serve(
         ..Default::default()
     });
     let core = Core::new(served.master, Arc::clone(&metrics.calls));
+    // The event history begins before the first scan, so that its events are kept.
+    core.event_log();
     core.set_effective_config(
         config.to_toml(),
         config

@@ -117,12 +117,14 @@ export function upload(path, bytes, progress) {
  * Reads the server-sent events of `path` under /api/v1 with `fetch` (so that the token goes
  * in a header: `EventSource` cannot send one) and calls `onEvent(data, name)` with each
  * event's JSON data and its `event:` name; `onStatus(text, error)` says whether it is live.
+ * It remembers the last event `id:` and sends it as `Last-Event-ID` when it connects again,
+ * so that nothing is missed; `lastId` is the one to start after (0: every kept event).
  * Reconnects after a second when the stream ends or the connection fails. A refusal (4xx)
  * ends it, unless `retryRefused`: then it tries again after a second, or, refused for want
  * of a token (401), when `restart()` says a new token is there. `stop()` ends it for good
  * (leaving the view), `restart()` connects again at once.
  */
-export function stream(path, onEvent, onStatus, { retryRefused = false } = {}) {
+export function stream(path, onEvent, onStatus, { retryRefused = false, lastId = null } = {}) {
   let stopped = false;
   let controller;
   let wake = null;
@@ -130,7 +132,9 @@ export function stream(path, onEvent, onStatus, { retryRefused = false } = {}) {
     while (!stopped) {
       controller = new AbortController();
       try {
-        const response = await fetch(BASE + path, { headers: headers(), signal: controller.signal });
+        const extra = { Accept: "text/event-stream" };
+        if (lastId !== null) extra["Last-Event-ID"] = String(lastId);
+        const response = await fetch(BASE + path, { headers: headers(extra), signal: controller.signal });
         if (!response.ok) throw await failure(response);
         onStatus("live");
         const reader = response.body.pipeThrough(new TextDecoderStream()).getReader();
@@ -144,6 +148,8 @@ export function stream(path, onEvent, onStatus, { retryRefused = false } = {}) {
             const block = buffer.slice(0, end).split("\n");
             buffer = buffer.slice(end + 2);
             const name = (block.find((l) => l.startsWith("event:")) || "event: message").slice(6).trim();
+            const id = block.find((l) => l.startsWith("id:"));
+            if (id) lastId = id.slice(3).trim();
             const data = block.filter((l) => l.startsWith("data:")).map((l) => l.slice(5).trimStart()).join("\n");
             if (!data) continue;
             let parsed;
@@ -193,12 +199,13 @@ export function stream(path, onEvent, onStatus, { retryRefused = false } = {}) {
 }
 
 /**
- * Listens to /api/v1/events and calls `onEvent(event)` for each; `onStatus(text)` says
- * whether it is live. Reconnects after a second when the stream ends; refused for want of a
- * token, when the token prompt's answer restarts it.
+ * Listens to /api/v1/events, the newest `history` kept events first, and calls
+ * `onEvent(event)` for each; `onStatus(text)` says whether it is live. Reconnects after a
+ * second when the stream ends, from the last event it had; refused for want of a token, when
+ * the token prompt's answer restarts it.
  */
-export function listen(onEvent, onStatus) {
-  return stream("/events", (event) => onEvent(event), onStatus, { retryRefused: true });
+export function listen(onEvent, onStatus, history) {
+  return stream(`/events?limit=${history}`, (event) => onEvent(event), onStatus, { retryRefused: true, lastId: 0 });
 }
 
 /** SHA-256 of `bytes`, hex. */

@@ -17,7 +17,7 @@ const MAX_EVENTS = 1000;
 /** What every view may use. */
 export const app = {
   role: "read",
-  /** Events received since the page opened, newest last. */
+  /** The newest events, kept by ecatd before the page opened and received since; newest last. */
   log: [],
   listeners: new Set(),
   canWrite() {
@@ -121,14 +121,14 @@ async function start() {
   setupTheme();
   const live = document.getElementById("live");
   const stream = listen((event) => {
-    event.received = new Date();
+    event.received = event.time ? new Date(event.time) : new Date();
     app.log.push(event);
     if (app.log.length > MAX_EVENTS) app.log.shift();
     app.listeners.forEach((fn) => fn(event));
   }, (status) => {
     live.textContent = `events: ${status}`;
     live.dataset.status = status;
-  });
+  }, MAX_EVENTS);
   setupToken(stream);
   await loadSession();
   window.addEventListener("hashchange", route);

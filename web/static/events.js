@@ -1,9 +1,9 @@
-// The events log: every event since the page opened, newest first, filtered by kind and
-// by text.
+// The events log: the events ecatd kept and every one since, newest first, with the time
+// ecatd published each, filtered by kind and by text.
 
 import { h, fill } from "./dom.js";
 
-const KINDS = ["all", "state_changed", "al_error", "emergency", "slave_found", "slave_lost", "slave_replaced", "lagged"];
+const KINDS = ["all", "state_changed", "al_error", "emergency", "slave_found", "slave_lost", "slave_replaced", "topology_mismatch", "startup_failed", "lagged"];
 
 function describe(e) {
   switch (e.kind) {

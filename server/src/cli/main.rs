@@ -90,6 +90,9 @@ command_set! {
     /// Request an AL state (INIT, PREOP, BOOT, SAFEOP, OP) for the selected slaves (all
     /// when none is selected).
     States(commands::states::States),
+    /// Show the events ecatd kept, with their times (`--since 10m`, `--kind`, `-p`, `-n`);
+    /// `-f` then follows the new ones.
+    Events(commands::events::Events),
     /// SDO upload: print an object entry (`0x... decimal` for integers).
     Upload(commands::coe::Upload),
     /// SDO download: write an object entry.

@@ -13,7 +13,9 @@ use tonic::{Request, Response, Status};
 use super::auth::admit;
 use super::convert::{event, requested_state, slave};
 use super::status::narrow;
+use crate::input::since::parse_since;
 use crate::security::Caller;
+use crate::service::history::EventQuery;
 use crate::service::{Core, EventView, Operation, parse_name};
 
 /// The bus service over the core.
@@ -73,9 +75,18 @@ impl BusService for Bus {
 
     async fn watch_events(
         &self,
-        _: Request<pb::WatchEventsRequest>,
+        request: Request<pb::WatchEventsRequest>,
     ) -> Reply<Self::WatchEventsStream> {
-        let stream = BroadcastStream::new(self.core.events()).map(|item| {
+        let r = request.get_ref();
+        let (mut past, live) = match r.after {
+            Some(after) => self.core.events_after(after),
+            None => (Vec::new(), self.core.events()),
+        };
+        if r.limit != 0 {
+            past.drain(..past.len().saturating_sub(r.limit as usize));
+        }
+        let past = tokio_stream::iter(past.into_iter().map(Ok));
+        let stream = past.chain(BroadcastStream::new(live)).map(|item| {
             Ok(match item {
                 Ok(view) => event(&view),
                 Err(BroadcastStreamRecvError::Lagged(missed)) => event(&EventView::lagged(missed)),
@@ -84,6 +95,24 @@ impl BusService for Bus {
         // Ends at shutdown, so that the server's graceful stop does not wait for it.
         let stream = futures_util::StreamExt::take_until(stream, self.core.stopped());
         Ok(Response::new(Box::pin(stream)))
+    }
+
+    async fn list_events(
+        &self,
+        request: Request<pb::ListEventsRequest>,
+    ) -> Reply<pb::ListEventsResponse> {
+        let r = request.get_ref();
+        let text = |s: &str| (!s.is_empty()).then(|| s.to_owned());
+        let query = EventQuery {
+            since: text(&r.since)
+                .map(|s| parse_since(&s, std::time::SystemTime::now()))
+                .transpose()?,
+            kind: text(&r.kind),
+            slave: text(&r.slave).map(|s| parse_name(&s)).transpose()?,
+            limit: Some(if r.limit == 0 { 1000 } else { r.limit as usize }),
+        };
+        let events = self.core.event_history(query)?.iter().map(event).collect();
+        Ok(Response::new(pb::ListEventsResponse { events }))
     }
 
     async fn read_register(

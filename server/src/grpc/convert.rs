@@ -84,6 +84,8 @@ pub fn event(view: &EventView) -> pb::Event {
             error_register: u32::from(e.error_register),
             data: hex::decode(&e.data).unwrap_or_default(),
         }),
+        id: view.id,
+        time: view.time.clone(),
         transfer: view.transfer.as_ref().map(|t| pb::TransferProgress {
             id: t.id,
             file: t.file.clone(),

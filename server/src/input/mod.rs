@@ -5,9 +5,11 @@
 //! Below every runtime module: the configuration, the service core and both APIs read these
 //! forms, and none of them is imported here. Files: `address` (slave names: `3`, `#0x1001`,
 //! `@7`, `alias:offset`), `value` (numbers and typed values), `ip` (dotted quads and colon
-//! MACs to [`IpSettings`](master_core::mailbox::IpSettings)), `state` (AL state names).
+//! MACs to [`IpSettings`](master_core::mailbox::IpSettings)), `state` (AL state names),
+//! `since` (a time or a span back from now).
 
 pub mod address;
 pub mod ip;
+pub mod since;
 pub mod state;
 pub mod value;

@@ -6,7 +6,8 @@
 //! (started with the first subscriber) follows both: it subscribes to the emergencies of
 //! every slave the engine owns, looks again on every master event and at a modest period
 //! (a rescan may replace a slave's mailbox without a topology event), and republishes
-//! everything as [`EventView`]s on one bounded broadcast channel.
+//! everything as [`EventView`]s through the [`EventLog`], which numbers, stamps and keeps
+//! them and sends them on one bounded broadcast channel.
 
 use std::sync::{Arc, Weak};
 use std::time::Duration;
@@ -21,6 +22,7 @@ use tokio_stream::StreamMap;
 use tokio_stream::wrappers::BroadcastStream;
 use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 
+use super::history::{self, EventLog};
 use super::view::{EmergencyView, EventView};
 
 /// Events a subscriber may fall behind by before it is told it missed some.
@@ -30,7 +32,7 @@ const RESUBSCRIBE: Duration = Duration::from_millis(200);
 
 /// The merged event stream; the task stops when the hub is dropped.
 pub struct EventHub {
-    tx: broadcast::Sender<EventView>,
+    log: Arc<EventLog>,
     task: JoinHandle<()>,
 }
 
@@ -44,23 +46,20 @@ impl EventHub {
     /// Starts following `master` (on the current tokio runtime).
     pub fn start(master: &Arc<Master>) -> EventHub {
         let (tx, _) = broadcast::channel(CAPACITY);
+        let log = Arc::new(EventLog::new(history::CAPACITY, tx));
         let weak = Arc::downgrade(master);
         // Subscribed before the first subscriber gets its receiver: an emergency raised
         // right after subscribing is not missed.
         let mut emergencies = Emergencies::new();
         subscribe_new(&weak, &mut emergencies);
-        let task = tokio::spawn(follow(weak, master.events(), emergencies, tx.clone()));
-        EventHub { tx, task }
+        let task = tokio::spawn(follow(weak, master.events(), emergencies, Arc::clone(&log)));
+        EventHub { log, task }
     }
 
-    /// Events from now on.
-    pub fn subscribe(&self) -> broadcast::Receiver<EventView> {
-        self.tx.subscribe()
-    }
-
-    /// Where the service layer publishes events of its own (FoE progress) into the stream.
-    pub fn sender(&self) -> broadcast::Sender<EventView> {
-        self.tx.clone()
+    /// The history and the stream: where the service layer publishes events of its own
+    /// (FoE progress, the application interface's), and where subscribers start.
+    pub fn log(&self) -> &Arc<EventLog> {
+        &self.log
     }
 }
 
@@ -70,12 +69,11 @@ async fn follow(
     master: Weak<Master>,
     mut events: broadcast::Receiver<master_core::master::MasterEvent>,
     mut emergencies: Emergencies,
-    tx: broadcast::Sender<EventView>,
+    log: Arc<EventLog>,
 ) {
     let mut look = tokio::time::interval(RESUBSCRIBE);
     look.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {
-        // Nobody listening is fine: the stream is "from now on".
         tokio::select! {
             event = events.recv() => {
                 let view = match event {
@@ -83,7 +81,7 @@ async fn follow(
                     Err(RecvError::Lagged(missed)) => EventView::lagged(missed),
                     Err(RecvError::Closed) => return,
                 };
-                let _ = tx.send(view);
+                log.publish(view);
                 if !subscribe_new(&master, &mut emergencies) {
                     return;
                 }
@@ -100,7 +98,7 @@ async fn follow(
                         view
                     }
                 };
-                let _ = tx.send(view);
+                log.publish(view);
             }
             _ = look.tick() => {
                 if !subscribe_new(&master, &mut emergencies) {

@@ -20,6 +20,7 @@ pub mod capture;
 pub mod domains;
 pub mod events;
 pub mod gateway;
+pub mod history;
 pub mod log_filter;
 pub mod master_view;
 pub mod operation;
@@ -337,22 +338,47 @@ impl Core {
         Ok((self.list_slaves(), failures))
     }
 
+    /// The event history and stream, started on first use (ecatd starts it at once, so
+    /// that the history begins with the first scan). Call from within the tokio runtime.
+    pub fn event_log(&self) -> &std::sync::Arc<history::EventLog> {
+        self.events
+            .get_or_init(|| events::EventHub::start(&self.master))
+            .log()
+    }
+
     /// Events from now on: the master's topology and state events and every slave's CoE
     /// emergencies ([`events`]). Call from within the tokio runtime.
     pub fn events(&self) -> broadcast::Receiver<EventView> {
-        self.events
-            .get_or_init(|| events::EventHub::start(&self.master))
-            .subscribe()
+        self.event_log().subscribe()
+    }
+
+    /// The kept events numbered after `after` (the last one a client saw), then every event
+    /// from then on, with no gap and no repeat ([`history`]).
+    pub fn events_after(&self, after: u64) -> (Vec<EventView>, broadcast::Receiver<EventView>) {
+        self.event_log().replay(after)
+    }
+
+    /// The kept events `query` wants, oldest first.
+    pub fn event_history(&self, query: history::EventQuery) -> Result<Vec<EventView>> {
+        use master_core::master::SlaveAddress;
+        let position = match query.slave {
+            None => None,
+            // A lost slave's events are still asked for by its position.
+            Some(SlaveName::Address(SlaveAddress::Position(position))) => Some(position),
+            Some(name) => Some(self.get_slave(name)?.position),
+        };
+        Ok(self.event_log().query(&history::EventFilter {
+            since: query.since,
+            kind: query.kind,
+            position,
+            limit: query.limit,
+        }))
     }
 
     /// Publishes `event` on the event stream (events of ecatd's own parts beside the
     /// master's). Call from within the tokio runtime.
     pub fn publish_event(&self, event: EventView) {
-        let hub = self
-            .events
-            .get_or_init(|| events::EventHub::start(&self.master));
-        // Nobody listening is fine: the stream is "from now on".
-        let _ = hub.sender().send(event);
+        self.event_log().publish(event);
     }
 
     /// Reads `len` bytes of ESC registers from `address` for `caller` (the API's
@@ -817,7 +843,7 @@ impl Core {
             .iter()
             .find(|s| s.station == station)
             .map_or(0, |s| s.position);
-        let events = self.events.get().map(events::EventHub::sender);
+        let events = self.events.get().map(|hub| Arc::clone(hub.log()));
         transfer::reporter(events, (position, station), name, write_size, also)
     }
 

@@ -16,8 +16,8 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use master_core::mailbox::{FoeProgress, SlaveMailbox};
-use tokio::sync::broadcast;
 
+use super::history::EventLog;
 use super::view::{EventView, TransferView};
 
 /// The slowest a transfer may be on average before its cap ends it: 4 KiB/s, a tenth of
@@ -51,7 +51,7 @@ static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 /// The progress reporter of one FoE transfer: publishes `foe_progress` events (at most every
 /// [`PROGRESS_PERIOD`], and the last one always) and passes every report on to `also`.
 pub fn reporter(
-    events: Option<broadcast::Sender<EventView>>,
+    events: Option<Arc<EventLog>>,
     (position, station): (u16, u16),
     file: &str,
     write_size: Option<usize>,
@@ -96,9 +96,7 @@ pub fn reporter(
             total: total.map(|t| t as u64),
             done,
         };
-        let view = EventView::foe_progress(position, station, text, transfer);
-        // Nobody listening is fine: the stream is "from now on".
-        let _ = events.send(view);
+        events.publish(EventView::foe_progress(position, station, text, transfer));
     })
 }
 
@@ -132,11 +130,12 @@ mod tests {
 
     #[test]
     fn events_are_spaced_and_the_last_one_always_goes_out() {
-        let (tx, mut rx) = broadcast::channel(16);
+        let (tx, mut rx) = tokio::sync::broadcast::channel(16);
+        let log = Arc::new(EventLog::new(16, tx));
         let seen = Arc::new(AtomicU64::new(0));
         let count = Arc::clone(&seen);
         let report = reporter(
-            Some(tx),
+            Some(Arc::clone(&log)),
             (0, 0x1001),
             "fw.bin",
             Some(300),
@@ -165,5 +164,10 @@ mod tests {
         assert_eq!((last.bytes, last.done, last.id), (300, true, first.id));
         assert_eq!(last.direction, "write");
         assert!(rx.try_recv().is_err());
+        // Progress is live only: not kept in the history.
+        assert!(
+            log.query(&crate::service::history::EventFilter::default())
+                .is_empty()
+        );
     }
 }

@@ -157,6 +157,14 @@ impl From<&SlaveInfo> for SlaveView {
 /// A topology or state event.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 pub struct EventView {
+    /// Number of the event, rising while ecatd runs (the server-sent event's `id`, for
+    /// `Last-Event-ID`); 0 for the `lagged` note a stream sends one subscriber.
+    #[serde(default)]
+    pub id: u64,
+    /// When ecatd published it: UTC, RFC 3339 with milliseconds (`2026-11-29T07:10:00.123Z`);
+    /// empty for a `lagged` note.
+    #[serde(default)]
+    pub time: String,
     /// `slave_found`, `slave_lost`, `slave_replaced`, `state_changed`, `al_error`,
     /// `emergency`, `foe_progress`, `lagged`.
     pub kind: String,
@@ -248,6 +256,8 @@ impl EventView {
     /// The event for a subscriber that fell behind and missed `missed` events.
     pub fn lagged(missed: u64) -> EventView {
         EventView {
+            id: 0,
+            time: String::new(),
             kind: "lagged".into(),
             position: 0,
             station: 0,
@@ -272,6 +282,8 @@ impl From<&MasterEvent> for EventView {
             serial: i.serial,
         };
         let base = |kind: &str, position: u16, station: u16, name: &str| EventView {
+            id: 0,
+            time: String::new(),
             kind: kind.into(),
             position,
             station,
@@ -350,8 +362,82 @@ impl From<&MasterEvent> for EventView {
                 position, station, ..
             } => base("startup_failed", *position, *station, ""),
         };
-        view.text = format!("{event:?}");
+        view.text = text_of(event);
         view
+    }
+}
+
+/// The event in words, for the log and the dashboard (`slave 2 (EL2008) lost`).
+fn text_of(event: &MasterEvent) -> String {
+    let slave = |position: u16, name: &str| {
+        if name.is_empty() {
+            format!("slave {position}")
+        } else {
+            format!("slave {position} ({name})")
+        }
+    };
+    let identity = |i: &master_core::master::Identity| {
+        format!(
+            "vendor {:#010x}, product {:#010x}, revision {:#010x}",
+            i.vendor_id, i.product_code, i.revision
+        )
+    };
+    match event {
+        MasterEvent::SlaveFound {
+            position,
+            identity: found,
+            name,
+            ..
+        } => format!("{} found: {}", slave(*position, name), identity(found)),
+        MasterEvent::SlaveLost { position, name, .. } => {
+            format!("{} lost", slave(*position, name))
+        }
+        MasterEvent::SlaveReplaced {
+            position,
+            old,
+            new,
+            name,
+            ..
+        } => format!(
+            "{} replaced: now {}, was {}",
+            slave(*position, name),
+            identity(new),
+            identity(old)
+        ),
+        MasterEvent::StateChanged {
+            position, from, to, ..
+        } => format!(
+            "slave {position}: {} -> {}",
+            state_name(*from),
+            state_name(*to)
+        ),
+        MasterEvent::AlError {
+            position,
+            name,
+            state,
+            code,
+            ..
+        } => format!(
+            "{} AL error in {}: {:#06x} {}",
+            slave(*position, name),
+            state_name(*state),
+            u16::from(*code),
+            code.description()
+        ),
+        MasterEvent::TopologyMismatch {
+            position, problem, ..
+        } => format!("slave {position}: {problem}"),
+        MasterEvent::StartupFailed {
+            position,
+            transition,
+            command,
+            abort_code,
+            error,
+            ..
+        } => {
+            let abort = abort_code.map_or(String::new(), |code| format!(" (abort 0x{code:08X})"));
+            format!("slave {position}: start-up {command} at {transition} failed: {error}{abort}")
+        }
     }
 }
 

@@ -927,3 +927,45 @@ fn pd_shows_forces_and_releases_named_entries_and_pdos_lists_every_slave_as_igh_
     assert_eq!(sm["pdos"][0]["entries"].as_array().map(Vec::len), Some(8));
     assert_eq!(sm["pdos"][0]["entries"][7]["name"], "Output 8");
 }
+
+/// `ecat events`: the kept events with their times, narrowed by kind and slave, as JSON too;
+/// `-f` prints them, then a state change made afterwards as it comes.
+#[test]
+fn events_shows_the_history_and_follows_the_new_ones() {
+    let ecatd = Ecatd::start(&[]);
+    let ecat = Ecat { ecatd: &ecatd };
+    let slaves = Topology::default_segment().slaves.len();
+    let found = ecat.json(&["events", "--kind", "slave_found"]);
+    let found = found.as_array().unwrap();
+    assert_eq!(found.len(), slaves, "{found:?}");
+    assert!(
+        found
+            .iter()
+            .all(|e| e["time"].as_str().unwrap().ends_with('Z'))
+    );
+    let one = ecat.ok(&["events", "-p", "2", "--kind", "state_changed", "-n", "1"]);
+    let lines: Vec<&str> = one.lines().collect();
+    assert_eq!(lines.len(), 1, "{one}");
+    assert!(
+        lines[0].contains("state_changed") && lines[0].ends_with("slave 2: SAFEOP -> OP"),
+        "{one}"
+    );
+    let (ok, _, stderr) = ecat.run(&["events", "--since", "last tuesday"]);
+    assert!(!ok && stderr.contains("since"), "{stderr}");
+
+    let follow = Streaming::start(
+        Command::new(bin_dir().join("ecat"))
+            .args(["--address", &format!("http://{}", ecatd.grpc)])
+            .args(["events", "-f", "-p", "1", "--kind", "state_changed"]),
+    );
+    // The kept ones first: slave 1 came up to OP.
+    follow.wait_for("slave 1's history", |t| {
+        t.contains("slave 1: SAFEOP -> OP").then_some(())
+    });
+    ecat.ok(&["states", "-p", "1", "SAFEOP"]);
+    follow.wait_for("the new state change", |t| {
+        t.contains("slave 1: OP -> SAFEOP").then_some(())
+    });
+    // Slave 1's only: nothing of the others.
+    assert!(!follow.text().contains("slave 2:"), "{}", follow.text());
+}

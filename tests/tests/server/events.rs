@@ -73,6 +73,8 @@ fn emergencies_reach_the_grpc_and_sse_streams() {
         "-s",
         "-N",
         "-i",
+        "-H",
+        "accept: text/event-stream",
         &format!("{}/api/v1/events", ecatd.http),
     ]));
     // Both subscribed once their response headers arrived (the handlers subscribe before
@@ -140,4 +142,105 @@ fn the_sim_route_refuses_bad_requests() {
     let short = r#"{"error_code": 1, "error_register": 0, "data": "00"}"#;
     let (status, body) = raise(&ecatd, "3", short);
     assert_eq!(status, 400, "{body}");
+}
+
+/// The event history: kept from before the first scan, numbered and stamped, answered as
+/// JSON (filtered by kind, slave, time and count) to a client that does not ask for a
+/// stream; and the stream asked with `Last-Event-ID` sends the kept events after that number
+/// first, each once, then the live ones.
+#[test]
+fn the_history_is_answered_as_json_and_the_stream_resumes_after_the_last_event_id() {
+    let ecatd = Ecatd::start(&[]);
+    let history = |query: &str| -> (u16, Value) {
+        let (status, body) = curl(&["-s", &format!("{}/api/v1/events{query}", ecatd.http)]);
+        (
+            status,
+            serde_json::from_str(&body).unwrap_or(Value::String(body)),
+        )
+    };
+    // The scan's events, kept since start-up: the default segment's slaves reached OP.
+    let (status, all) = history("");
+    assert_eq!(status, 200, "{all}");
+    let all = all.as_array().expect("a JSON list").clone();
+    let ids: Vec<u64> = all.iter().map(|e| e["id"].as_u64().unwrap()).collect();
+    assert!(
+        ids.windows(2).all(|w| w[0] < w[1]),
+        "numbered in order: {ids:?}"
+    );
+    for event in &all {
+        let time = event["time"].as_str().unwrap();
+        assert!(
+            time.len() == 24 && time.ends_with('Z') && time.starts_with("20"),
+            "UTC, RFC 3339 with milliseconds: {event}"
+        );
+    }
+    let to_op = |e: &&Value| e["kind"] == "state_changed" && e["to"] == "OP";
+    let slaves = sim::topology::Topology::default_segment().slaves.len();
+    assert_eq!(all.iter().filter(to_op).count(), slaves, "{all:#?}");
+    // Words, not Rust's debug form.
+    let text = all.iter().find(to_op).unwrap()["text"].as_str().unwrap();
+    assert!(text.ends_with("SAFEOP -> OP"), "{text}");
+
+    // A state change is kept as it happens.
+    let (status, body) = curl(&[
+        "-s",
+        "-X",
+        "PUT",
+        "-H",
+        "content-type: application/json",
+        "-d",
+        r#"{"state":"SAFEOP"}"#,
+        &format!("{}/api/v1/slaves/1/state", ecatd.http),
+    ]);
+    assert_eq!(status, 200, "{body}");
+    let (_, newest) = history("?kind=state_changed&slave=1&limit=1");
+    let newest = newest.as_array().unwrap();
+    assert_eq!(newest.len(), 1, "{newest:?}");
+    assert_eq!(newest[0]["position"], 1);
+    assert_eq!(newest[0]["to"], "SAFEOP");
+    assert!(newest[0]["id"].as_u64().unwrap() > *ids.last().unwrap());
+    // Filters: by kind, by time (a span back, a time to come), and refusals naming the field.
+    let (_, found) = history("?kind=slave_found");
+    assert_eq!(found.as_array().unwrap().len(), slaves, "{found}");
+    let (_, now) = history("");
+    let (_, recent) = history("?since=10m");
+    assert_eq!(recent, now, "everything is from the last ten minutes");
+    let (_, none) = history("?since=2999-01-01T00:00:00Z");
+    assert_eq!(none, serde_json::json!([]));
+    let (status, refused) = history("?since=yesterday-ish");
+    assert_eq!(
+        (status, &refused["field"]),
+        (400, &Value::from("since")),
+        "{refused}"
+    );
+    let (status, refused) = history("?verbose=1");
+    assert_eq!(status, 400, "{refused}");
+
+    // The stream, resumed after the third kept event: the rest, each once, in order.
+    let now: Vec<u64> = now
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["id"].as_u64().unwrap())
+        .collect();
+    let after = now[2];
+    let last = *now.last().unwrap();
+    let sse = Streaming::start(Command::new("curl").args([
+        "-s",
+        "-N",
+        "-H",
+        "accept: text/event-stream",
+        "-H",
+        &format!("last-event-id: {after}"),
+        &format!("{}/api/v1/events", ecatd.http),
+    ]));
+    sse.wait_for("the kept events after the resume point", |t| {
+        t.contains(&format!("id: {last}\n")).then_some(())
+    });
+    let sent: Vec<u64> = sse
+        .text()
+        .lines()
+        .filter_map(|l| l.strip_prefix("id:")?.trim().parse().ok())
+        .collect();
+    assert_eq!(sent, now[3..].to_vec(), "{}", sse.text());
 }

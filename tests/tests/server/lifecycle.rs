@@ -225,6 +225,8 @@ fn sigterm_with_open_event_streams_reaches_init() {
         "-s",
         "-N",
         "-i",
+        "-H",
+        "accept: text/event-stream",
         &format!("{}/api/v1/events", ecatd.http),
     ]));
     let mut grpc = Streaming::start(

@@ -294,6 +294,8 @@ fn state_changes_arrive_as_server_sent_events() {
             "-sN",
             "--max-time",
             "30",
+            "-H",
+            "accept: text/event-stream",
             &format!("{}/api/v1/events", ecatd.http),
         ])
         .stdout(Stdio::piped())

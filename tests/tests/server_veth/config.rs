@@ -552,6 +552,8 @@ fn a_slave_other_than_the_one_configured_stays_in_preop_with_event_metric_and_lo
             "-sN",
             "--max-time",
             "60",
+            "-H",
+            "accept: text/event-stream",
             &format!("{}/api/v1/events", ecatd.http),
         ])
         .stdout(Stdio::piped())

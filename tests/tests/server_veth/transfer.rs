@@ -231,7 +231,7 @@ fn progress_events(sse: &str, name: &str) -> Vec<(u64, Option<u64>, bool)> {
 fn sse(ecatd: &Ecatd) -> Streaming {
     let sse = Streaming::start(
         Command::new("curl")
-            .args(["-s", "-N", "-i"])
+            .args(["-s", "-N", "-i", "-H", "accept: text/event-stream"])
             .arg(format!("{}/api/v1/events", ecatd.http)),
     );
     sse.wait_for("the event stream's response headers", |t| {

@@ -7,6 +7,7 @@ pub mod diag;
 pub mod docs;
 pub mod domains;
 pub mod esc;
+pub mod events;
 pub mod foe;
 pub mod graph;
 pub mod ip;

@@ -1,5 +1,6 @@
 //! REST handlers under `/api/v1`: the same operations as gRPC, one core call each, one file
-//! per resource as in `grpc/` (`slaves`, `bus` (counters and the caller's role), `config`,
+//! per resource as in `grpc/` (`slaves`, `events` (the history and the live stream), `bus`
+//! (counters and the caller's role), `config`,
 //! `registers`, `sii`, `coe`, `soe`, `foe`, `voe`, `eoe`, `capture`, `domains`, `process_data`,
 //! `log_filter`). Binary values are hex strings;
 //! numbers in paths are decimal or `0x` hex; slave
@@ -15,6 +16,7 @@ pub mod coe;
 pub mod config;
 pub mod domains;
 pub mod eoe;
+pub mod events;
 pub mod foe;
 pub mod log_filter;
 pub mod process_data;
@@ -91,7 +93,7 @@ pub fn transfer_routes() -> OpenApiRouter<Core> {
 /// The routes that stream or run for as long as asked (no request time limit): events and
 /// captures.
 pub fn stream_routes() -> OpenApiRouter<Core> {
-    slaves::stream_routes()
+    events::routes()
         .merge(capture::routes())
         .merge(process_data::stream_routes())
 }

@@ -1,19 +1,14 @@
-//! The slaves and the segment: list, one slave, AL state, rescan, and the event stream.
+//! The slaves and the segment: list, one slave, AL state, rescan.
 
 use axum::extract::State;
-use axum::response::sse::{Event, KeepAlive, Sse};
-use futures_util::Stream;
 use serde::{Deserialize, Serialize};
-use tokio_stream::StreamExt;
-use tokio_stream::wrappers::BroadcastStream;
-use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::Result;
 use crate::http::extract::{Admit, Json, Path};
-use crate::service::{Core, EventView, MasterView, SlaveView};
+use crate::service::{Core, MasterView, SlaveView};
 use crate::service::{op, parse_name};
 
 /// The routes, each declared once (method and path come from the handler's annotation).
@@ -34,10 +29,6 @@ pub async fn get_master(State(core): State<Core>) -> Json<MasterView> {
 
 /// The event stream: open for as long as the client listens, so outside the request time
 /// limit.
-pub(super) fn stream_routes() -> OpenApiRouter<Core> {
-    OpenApiRouter::new().routes(routes!(events))
-}
-
 /// A requested AL state.
 #[derive(Debug, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -95,25 +86,4 @@ pub async fn rescan(
 ) -> Result<Json<RescanBody>> {
     let (slaves, failures) = core.rescan(ticket).await?;
     Ok(Json(RescanBody { slaves, failures }))
-}
-
-#[utoipa::path(get, path = "/events", tag = "bus",
-    responses((status = 200, description = "Server-sent events, one EventView as JSON each", content_type = "text/event-stream", body = EventView)))]
-/// Topology and state events and CoE emergencies as server-sent events.
-pub async fn events(
-    State(core): State<Core>,
-) -> Sse<impl Stream<Item = std::result::Result<Event, std::convert::Infallible>>> {
-    let stream = BroadcastStream::new(core.events()).map(|item| {
-        let view = match item {
-            Ok(view) => view,
-            Err(BroadcastStreamRecvError::Lagged(missed)) => EventView::lagged(missed),
-        };
-        let event = Event::default().event(view.kind.clone());
-        Ok(event
-            .json_data(&view)
-            .unwrap_or_else(|_| Event::default().comment("unencodable")))
-    });
-    // Ends at shutdown, so that the server's graceful stop does not wait for it.
-    let stream = futures_util::StreamExt::take_until(stream, core.stopped());
-    Sse::new(stream).keep_alive(KeepAlive::default())
 }
