@@ -190,6 +190,10 @@ export function stream(path, onEvent, onStatus, { retryRefused = false, lastId =
       if (wake) wake();
       else if (controller) controller.abort();
     },
+    /** Connects from now on after event `id` (the history the caller loaded ends there). */
+    resumeAfter(id) {
+      lastId = id;
+    },
     stop() {
       stopped = true;
       if (wake) wake();
@@ -199,13 +203,13 @@ export function stream(path, onEvent, onStatus, { retryRefused = false, lastId =
 }
 
 /**
- * Listens to /api/v1/events, the newest `history` kept events first, and calls
- * `onEvent(event)` for each; `onStatus(text)` says whether it is live. Reconnects after a
- * second when the stream ends, from the last event it had; refused for want of a token, when
- * the token prompt's answer restarts it.
+ * Listens to /api/v1/events after event `lastId` (the last one of the history the caller
+ * loaded; `null`: from now on) and calls `onEvent(event)` for each; `onStatus(text)` says
+ * whether it is live. Reconnects after a second when the stream ends, from the last event it
+ * had; refused for want of a token, when the token prompt's answer restarts it.
  */
-export function listen(onEvent, onStatus, history) {
-  return stream(`/events?limit=${history}`, (event) => onEvent(event), onStatus, { retryRefused: true, lastId: 0 });
+export function listen(onEvent, onStatus, lastId) {
+  return stream("/events", (event) => onEvent(event), onStatus, { retryRefused: true, lastId });
 }
 
 /** SHA-256 of `bytes`, hex. */

@@ -85,6 +85,28 @@ function askToken(reason) {
   input.focus();
 }
 
+/**
+ * Puts the events ecatd kept into the log (not passed to the views: they are history, not
+ * news); the number of the last one, or `null` when ecatd refused (no token yet).
+ */
+async function loadHistory() {
+  let kept;
+  try {
+    kept = await api(`/events?limit=${MAX_EVENTS}`);
+  } catch {
+    return null;
+  }
+  const known = new Set(app.log.map((e) => e.id));
+  for (const event of kept) {
+    if (known.has(event.id)) continue;
+    event.received = new Date(event.time);
+    app.log.push(event);
+  }
+  app.log.sort((a, b) => a.id - b.id);
+  app.log.splice(0, Math.max(0, app.log.length - MAX_EVENTS));
+  return kept.length ? kept[kept.length - 1].id : 0;
+}
+
 function setupToken(stream) {
   const dialog = document.getElementById("token-dialog");
   document.getElementById("token-button").addEventListener("click", () => askToken());
@@ -93,6 +115,8 @@ function setupToken(stream) {
     else if (dialog.returnValue === "forget") setToken("");
     else return;
     await loadSession();
+    const last = await loadHistory();
+    if (last !== null) stream.resumeAfter(last);
     stream.restart();
     route();
   });
@@ -120,6 +144,7 @@ function setupTheme() {
 async function start() {
   setupTheme();
   const live = document.getElementById("live");
+  const last = await loadHistory();
   const stream = listen((event) => {
     event.received = event.time ? new Date(event.time) : new Date();
     app.log.push(event);
@@ -128,7 +153,7 @@ async function start() {
   }, (status) => {
     live.textContent = `events: ${status}`;
     live.dataset.status = status;
-  }, MAX_EVENTS);
+  }, last);
   setupToken(stream);
   await loadSession();
   window.addEventListener("hashchange", route);

@@ -78,13 +78,8 @@ impl BusService for Bus {
         request: Request<pb::WatchEventsRequest>,
     ) -> Reply<Self::WatchEventsStream> {
         let r = request.get_ref();
-        let (mut past, live) = match r.after {
-            Some(after) => self.core.events_after(after),
-            None => (Vec::new(), self.core.events()),
-        };
-        if r.limit != 0 {
-            past.drain(..past.len().saturating_sub(r.limit as usize));
-        }
+        let limit = (r.limit != 0).then_some(r.limit as usize);
+        let (past, live) = self.core.events_from(r.after, limit);
         let past = tokio_stream::iter(past.into_iter().map(Ok));
         let stream = past.chain(BroadcastStream::new(live)).map(|item| {
             Ok(match item {

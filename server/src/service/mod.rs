@@ -352,10 +352,22 @@ impl Core {
         self.event_log().subscribe()
     }
 
-    /// The kept events numbered after `after` (the last one a client saw), then every event
-    /// from then on, with no gap and no repeat ([`history`]).
-    pub fn events_after(&self, after: u64) -> (Vec<EventView>, broadcast::Receiver<EventView>) {
-        self.event_log().replay(after)
+    /// Where a stream starts: with `after` (the last event a client saw), the kept events
+    /// numbered after it (the newest `limit` of them) and every event from then on, with no
+    /// gap and no repeat ([`history`]); without, the events from now on.
+    pub fn events_from(
+        &self,
+        after: Option<u64>,
+        limit: Option<usize>,
+    ) -> (Vec<EventView>, broadcast::Receiver<EventView>) {
+        let Some(after) = after else {
+            return (Vec::new(), self.events());
+        };
+        let (mut past, live) = self.event_log().replay(after);
+        if let Some(limit) = limit {
+            past.drain(..past.len().saturating_sub(limit));
+        }
+        (past, live)
     }
 
     /// The kept events `query` wants, oldest first.

@@ -102,13 +102,7 @@ fn live(
     after: Option<u64>,
     limit: Option<usize>,
 ) -> Sse<impl futures_util::Stream<Item = std::result::Result<Event, std::convert::Infallible>>> {
-    let (mut past, live) = match after {
-        Some(after) => core.events_after(after),
-        None => (Vec::new(), core.events()),
-    };
-    if let Some(limit) = limit {
-        past.drain(..past.len().saturating_sub(limit));
-    }
+    let (past, live) = core.events_from(after, limit);
     let past = tokio_stream::iter(past.into_iter().map(Ok::<_, BroadcastStreamRecvError>));
     let stream = past.chain(BroadcastStream::new(live)).map(|item| {
         let view = match item {
