@@ -15,7 +15,7 @@ use super::convert::{event, requested_state, slave};
 use super::status::narrow;
 use crate::input::since::parse_since;
 use crate::security::Caller;
-use crate::service::history::EventQuery;
+use crate::service::history::{self, EventQuery};
 use crate::service::{Core, EventView, Operation, parse_name};
 
 /// The bus service over the core.
@@ -104,7 +104,11 @@ impl BusService for Bus {
                 .transpose()?,
             kind: text(&r.kind),
             slave: text(&r.slave).map(|s| parse_name(&s)).transpose()?,
-            limit: Some(if r.limit == 0 { 1000 } else { r.limit as usize }),
+            limit: Some(if r.limit == 0 {
+                history::DEFAULT_LIMIT
+            } else {
+                r.limit as usize
+            }),
         };
         let events = self.core.event_history(query)?.iter().map(event).collect();
         Ok(Response::new(pb::ListEventsResponse { events }))

@@ -88,18 +88,6 @@ fn admit(caller: Option<&Caller>, operation: Operation, target: &str) -> Result<
 }
 
 impl Ticket {
-    /// A ticket for a caller the core trusts without a token (ecatd's own parts, tests).
-    pub fn local(operation: Operation) -> Ticket {
-        Ticket {
-            caller: "ecatd".into(),
-            operation,
-            call: None,
-            target: String::new(),
-            value: None,
-            finished: false,
-        }
-    }
-
     /// The caller's token name.
     pub fn caller(&self) -> &str {
         &self.caller
@@ -198,7 +186,14 @@ mod tests {
 
     #[test]
     fn a_ticket_admits_its_own_operation_only() {
-        let mut ticket = Ticket::local(Operation::CoeDownload);
+        let mut ticket = Ticket {
+            caller: "test".into(),
+            operation: Operation::CoeDownload,
+            call: None,
+            target: String::new(),
+            value: None,
+            finished: false,
+        };
         assert!(ticket.check(Operation::CoeDownload, "3").is_ok());
         let err = ticket.check(Operation::FoeWrite, "3").unwrap_err();
         assert_eq!(err.kind, crate::error::ErrorKind::Internal);

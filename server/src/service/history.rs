@@ -15,6 +15,8 @@ use super::view::EventView;
 
 /// Events kept in memory.
 pub const CAPACITY: usize = 10_000;
+/// Events a history query answers when it names no limit (REST and gRPC alike).
+pub const DEFAULT_LIMIT: usize = 1000;
 
 /// Whether events of `kind` are kept in the history.
 fn kept(kind: &str) -> bool {

@@ -20,11 +20,8 @@ use utoipa_axum::routes;
 use super::Result;
 use crate::http::extract::{Json, Query};
 use crate::input::since::parse_since;
-use crate::service::history::EventQuery;
+use crate::service::history::{DEFAULT_LIMIT, EventQuery};
 use crate::service::{ApiError, Core, EventView, parse_name};
-
-/// Events a history query answers when it names no `limit`.
-const DEFAULT_LIMIT: usize = 1000;
 
 /// The routes, each declared once (method and path come from the handler's annotation).
 pub(super) fn routes() -> OpenApiRouter<Core> {
