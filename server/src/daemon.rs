@@ -21,6 +21,7 @@ use master_core::link::CaptureHub;
 use master_core::master::Master;
 
 use crate::config::{Config, GatewaySettings, Segment};
+use crate::exit::Failure;
 use crate::security::Tokens;
 use crate::service::Core;
 use crate::signals::Signals;
@@ -28,19 +29,18 @@ use crate::sim_hooks::SimHooks;
 use crate::{grpc, http, segment};
 
 /// Runs ecatd with `config` until a signal; errors are start-up failures.
-pub async fn run(config: Config) -> Result<(), String> {
-    config.check()?;
-    config.eoe.check()?;
+pub async fn run(config: Config) -> Result<(), Failure> {
+    config.check().map_err(Failure::configuration)?;
+    config.eoe.check().map_err(Failure::configuration)?;
     crate::scheduling::warn_if_started_realtime();
     // Installed first: a signal at any point of the start-up leads to a clean shutdown.
     let mut signals = Signals::install()?;
-    let segment_config = config
-        .segment
-        .clone()
-        .ok_or("no segment: pass --simulate [TOPOLOGY] or --iface NAME")?;
+    let segment_config = config.segment.clone().ok_or_else(|| {
+        Failure::configuration("no segment: pass --simulate [TOPOLOGY] or --iface NAME")
+    })?;
     // Bind first so a taken port fails fast, before the segment is touched.
     let listeners = Listeners::bind(&config).await?;
-    let setup = config.segment_setup()?;
+    let setup = config.segment_setup().map_err(Failure::configuration)?;
     if !config.eni_unused.is_empty() {
         tracing::info!(
             eni = %config.eni.as_ref().map(|p| p.display().to_string()).unwrap_or_default(),
@@ -133,7 +133,7 @@ pub(crate) async fn serve(
     served: Served,
     host: Host,
     shutdown: impl Future<Output = &'static str>,
-) -> Result<(), String> {
+) -> Result<(), Failure> {
     let Listeners {
         grpc: grpc_listener,
         http: http_listener,
@@ -153,7 +153,8 @@ pub(crate) async fn serve(
     });
     let core = Core::new(served.master, Arc::clone(&metrics.calls));
     // The event history begins before the first scan, so that its events are kept.
-    core.event_log();
+    core.start_events(&config.events)
+        .map_err(Failure::configuration)?;
     core.set_effective_config(
         config.to_toml(),
         config
@@ -263,7 +264,9 @@ pub(crate) async fn serve(
                         let _ = grpc_task.await;
                         let _ = http_task.await;
                         findings.abort();
-                        return Err(format!("the configuration does not fit the segment: {err}"));
+                        return Err(Failure::configuration(format!(
+                            "the configuration does not fit the segment: {err}"
+                        )));
                     }
                     Err(err) => {
                         tracing::error!(%err, "scan failed; the APIs stay up, retry with Rescan")
@@ -286,6 +289,10 @@ pub(crate) async fn serve(
                 && let Err(err) = start_gateway(&core, settings).await
             {
                 tracing::error!(%err, "mailbox gateway not started");
+                core.publish_event(crate::service::view::EventView::note(
+                    "gateway_failed",
+                    format!("mailbox gateway not started: {err}"),
+                ));
             }
             if host == Host::Daemon {
                 // The scan ran its frames through the bus thread: it has applied its
@@ -297,10 +304,17 @@ pub(crate) async fn serve(
             }
             core.set_ready(true);
             tracing::info!("ready");
-            if host == Host::Daemon {
-                crate::systemd::notify("READY=1");
-            }
-            Some((background, app))
+            let watchdog = (host == Host::Daemon)
+                .then(|| {
+                    crate::systemd::notify(sd_notify::NotifyState::Ready);
+                    let master = Arc::clone(core.master());
+                    crate::systemd::start_watchdog(move || {
+                        let s = master.bus().stats();
+                        s.frames_sent + s.link_errors + s.datagrams_failed + s.cycles_run
+                    })
+                })
+                .flatten();
+            Some((background, app, watchdog))
         }
     };
     let signal = match signal {
@@ -308,7 +322,7 @@ pub(crate) async fn serve(
         None => shutdown.await,
     };
     if host == Host::Daemon {
-        crate::systemd::notify("STOPPING=1");
+        crate::systemd::notify(sd_notify::NotifyState::Stopping);
     }
     let deadline = Instant::now() + Duration::from_millis(config.shutdown_timeout_ms);
     tracing::info!(
@@ -334,11 +348,23 @@ pub(crate) async fn serve(
         }
     }
     if let Some(mut gateway) = core.take_gateway() {
+        if gateway.is_running() {
+            core.publish_event(crate::service::view::EventView::note(
+                "gateway_stopped",
+                "mailbox gateway stopped (ecatd shuts down)".into(),
+            ));
+        }
         // Stopping joins the gateway's thread: off the async workers.
         let _ = tokio::task::spawn_blocking(move || gateway.stop()).await;
     }
     let (background, app) = match background {
-        Some((background, app)) => (Some(background), app),
+        Some((background, app, watchdog)) => {
+            // systemd stops watching at STOPPING=1.
+            if let Some(watchdog) = watchdog {
+                watchdog.abort();
+            }
+            (Some(background), app)
+        }
         None => (None, None),
     };
     if let Some(app) = app {

@@ -143,7 +143,7 @@ impl Embedded {
         if result.is_ok() {
             tracing::info!("stopped");
         }
-        result
+        result.map_err(|failure| failure.to_string())
     }
 }
 

@@ -113,9 +113,29 @@ impl ApiError {
         self
     }
 
+    /// The protocol's code in hex at its own width, as the protocol's documents and IgH print
+    /// it: a CoE abort code or FoE error code (32 bits) as `0x06020000` (`0x%08X`), an AL
+    /// status, mailbox, SoE or EoE code (16 bits) as `0x001B`.
+    pub fn code_hex(&self) -> Option<String> {
+        let code = self.code?;
+        Some(match self.tag {
+            "sdo_abort" | "foe_error" => format!("0x{code:08X}"),
+            _ => format!("0x{code:04X}"),
+        })
+    }
+
     /// The `google.rpc.ErrorInfo` reason: the tag in UPPER_SNAKE_CASE (`SDO_ABORT`).
     pub fn reason(&self) -> String {
         self.tag.to_ascii_uppercase()
+    }
+
+    /// Names the request field an invalid argument came from (a BadRequest violation in
+    /// gRPC, `field` in a problem document), unless it names one already.
+    pub fn in_field(mut self, field: &'static str) -> ApiError {
+        if self.kind == ErrorKind::InvalidArgument && self.field.is_none() {
+            self.field = Some(field);
+        }
+        self
     }
 
     /// A malformed request field.

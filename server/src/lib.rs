@@ -13,6 +13,7 @@ pub mod daemon;
 pub mod embed;
 pub mod eoe;
 pub mod error;
+pub mod exit;
 /// The input parsers driven by arbitrary bytes, for the fuzz target `server_input`.
 #[doc(hidden)]
 pub mod fuzzing;

@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use server::config::{Args, Config};
+use server::exit::{CONFIGURATION, FAILURE};
 
 fn main() -> ExitCode {
     let args = Args::parse();
@@ -11,7 +12,7 @@ fn main() -> ExitCode {
         Ok(config) => config,
         Err(err) => {
             eprintln!("ecatd: {err}");
-            return ExitCode::from(2);
+            return ExitCode::from(CONFIGURATION);
         }
     };
     if args.print_config {
@@ -22,7 +23,7 @@ fn main() -> ExitCode {
         // `load` checked the file, the ENI and the segment's configuration; the rest here.
         if let Err(err) = config.check() {
             eprintln!("ecatd: {err}");
-            return ExitCode::from(2);
+            return ExitCode::from(CONFIGURATION);
         }
         for unused in &config.eni_unused {
             println!("ENI element not used: {unused}");
@@ -39,7 +40,7 @@ fn main() -> ExitCode {
         server::logging::init(config.log_format, &config.log, config.audit_log.as_deref())
     {
         eprintln!("ecatd: {err}");
-        return ExitCode::from(2);
+        return ExitCode::from(CONFIGURATION);
     }
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .worker_threads(config.api_threads)
@@ -49,7 +50,7 @@ fn main() -> ExitCode {
         Ok(runtime) => runtime,
         Err(err) => {
             eprintln!("ecatd: cannot start the runtime: {err}");
-            return ExitCode::from(1);
+            return ExitCode::from(FAILURE);
         }
     };
     let result = runtime.block_on(server::daemon::run(config));
@@ -61,7 +62,7 @@ fn main() -> ExitCode {
         Err(err) => {
             tracing::error!(%err, "ecatd failed");
             eprintln!("ecatd: {err}");
-            ExitCode::from(1)
+            err.exit_code()
         }
     }
 }

@@ -95,7 +95,7 @@ pub enum MailboxError {
         code: SoeError,
     },
     /// The slave ended an FoE transfer with an error.
-    #[error("FoE error {:#06x} {}: {text}", u32::from(*code), code.description())]
+    #[error("FoE error {:#06x} {}{}", u32::from(*code), code.description(), foe_text(*code, text))]
     Foe {
         /// The slave's error code.
         code: FoeError,
@@ -132,3 +132,36 @@ pub enum MailboxError {
 
 /// Result of a mailbox operation.
 pub type Result<T> = core::result::Result<T, MailboxError>;
+
+/// The slave's own words after an FoE error's standard text, unless they only repeat it
+/// (a slave commonly sends the code's name as the text: "Not found: Not found" says nothing).
+fn foe_text(code: FoeError, text: &str) -> String {
+    let text = text.trim();
+    if text.is_empty() || text.eq_ignore_ascii_case(code.description()) {
+        String::new()
+    } else {
+        format!(": {text}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_foe_error_shows_the_slave_s_text_only_when_it_adds_something() {
+        let err = |text: &str| {
+            MailboxError::Foe {
+                code: FoeError::NotFound,
+                text: text.into(),
+            }
+            .to_string()
+        };
+        assert_eq!(err("Not found"), "FoE error 0x8001 Not found");
+        assert_eq!(err(""), "FoE error 0x8001 Not found");
+        assert_eq!(
+            err("no file firmware.bin"),
+            "FoE error 0x8001 Not found: no file firmware.bin"
+        );
+    }
+}

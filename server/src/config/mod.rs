@@ -12,6 +12,7 @@ pub mod capture;
 pub mod duration;
 pub mod eni;
 pub mod eoe;
+pub mod events;
 pub mod groups;
 pub mod limits;
 pub mod slaves;
@@ -453,6 +454,8 @@ pub struct Config {
     pub eoe: eoe::EoeSettings,
     /// The rolling capture (`[capture]`).
     pub capture: capture::CaptureSettings,
+    /// The event history and its journal (`[events]`).
+    pub events: events::EventSettings,
     /// The application interface (`[app]`, docs/application.md).
     pub app: app::AppSettings,
     /// Connection limits of the HTTP and gRPC servers (`[limits]`).
@@ -490,6 +493,7 @@ impl Default for Config {
             group: Vec::new(),
             eoe: Default::default(),
             capture: capture::CaptureSettings::default(),
+            events: events::EventSettings::default(),
             app: app::AppSettings::default(),
             limits: limits::LimitSettings::default(),
             file: None,
@@ -626,6 +630,7 @@ impl Config {
     pub fn segment_setup(&self) -> Result<SegmentSetup, String> {
         self.bus.check()?;
         self.capture.check()?;
+        self.events.check()?;
         self.app.check()?;
         let mut slave_configs = Vec::new();
         let mut pdos = Vec::new();

@@ -36,7 +36,12 @@ pub fn al_state(state: ShownState) -> pb::AlState {
 
 /// The AL state a request names.
 pub fn requested_state(value: i32) -> Result<AlState, Status> {
-    state_of(value).ok_or_else(|| Status::from(ApiError::invalid(format!("no AL state {value}"))))
+    state_of(value).ok_or_else(|| {
+        Status::from(ApiError::invalid_field(
+            "state",
+            format!("no AL state {value}"),
+        ))
+    })
 }
 
 fn identity(id: &IdentityView) -> pb::Identity {

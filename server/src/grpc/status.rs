@@ -1,7 +1,8 @@
 //! [`ApiError`] as a gRPC status: the code from
 //! [`ErrorKind::grpc`](crate::service::ErrorKind::grpc), the message, and a
 //! `google.rpc.ErrorInfo` detail (domain `ecat.v1`, reason = the error's tag in
-//! UPPER_SNAKE_CASE, metadata `code` / `code_text` for the protocol's own error code) and,
+//! UPPER_SNAKE_CASE, metadata `code` (hex at the protocol's width, `0x06020000`) / `code_text`
+//! for the protocol's own error code) and,
 //! for an invalid argument, a `google.rpc.BadRequest` naming the field.
 
 use std::collections::HashMap;
@@ -15,8 +16,8 @@ use crate::service::ApiError;
 impl From<ApiError> for Status {
     fn from(err: ApiError) -> Status {
         let mut metadata = HashMap::new();
-        if let Some(code) = err.code {
-            metadata.insert("code".to_owned(), format!("{code:#x}"));
+        if let Some(code) = err.code_hex() {
+            metadata.insert("code".to_owned(), code);
             metadata.insert("code_text".to_owned(), err.code_text.clone());
         }
         let mut details = ErrorDetails::with_error_info(err.reason(), "ecat.v1", metadata);

@@ -29,25 +29,28 @@ pub struct IpView {
 
 /// Parses the text forms; empty strings count as absent.
 pub fn to_settings(view: &IpView) -> Result<IpSettings, ApiError> {
-    let addr = |field: &Option<String>, what: &str| -> Result<Option<Ipv4Addr>, ApiError> {
-        match field.as_deref().filter(|s| !s.is_empty()) {
+    let addr = |value: &Option<String>,
+                field: &'static str,
+                what: &str|
+     -> Result<Option<Ipv4Addr>, ApiError> {
+        match value.as_deref().filter(|s| !s.is_empty()) {
             None => Ok(None),
             Some(text) => text
                 .parse()
                 .map(Some)
-                .map_err(|_| ApiError::invalid(format!("bad {what} {text:?}"))),
+                .map_err(|_| ApiError::invalid_field(field, format!("bad {what} {text:?}"))),
         }
     };
     let mac = match view.mac.as_deref().filter(|s| !s.is_empty()) {
         None => None,
-        Some(text) => Some(parse_mac(text).map_err(ApiError::invalid)?),
+        Some(text) => Some(parse_mac(text).map_err(|err| ApiError::invalid_field("mac", err))?),
     };
     Ok(IpSettings {
         mac,
-        ip: addr(&view.ip, "IP address")?,
-        subnet_mask: addr(&view.subnet_mask, "subnet mask")?,
-        default_gateway: addr(&view.default_gateway, "default gateway")?,
-        dns_server: addr(&view.dns_server, "DNS server")?,
+        ip: addr(&view.ip, "ip", "IP address")?,
+        subnet_mask: addr(&view.subnet_mask, "subnet_mask", "subnet mask")?,
+        default_gateway: addr(&view.default_gateway, "default_gateway", "default gateway")?,
+        dns_server: addr(&view.dns_server, "dns_server", "DNS server")?,
         dns_name: view.dns_name.clone().filter(|s| !s.is_empty()),
     })
 }

@@ -13,9 +13,10 @@ pub fn parse_state(name: &str) -> Result<AlState, ApiError> {
         .into_iter()
         .find(|state| state.name() == wanted)
         .ok_or_else(|| {
-            ApiError::invalid(format!(
-                "unknown AL state {name:?}: use INIT, PREOP, BOOT, SAFEOP or OP"
-            ))
+            ApiError::invalid_field(
+                "state",
+                format!("unknown AL state {name:?}: use INIT, PREOP, BOOT, SAFEOP or OP"),
+            )
         })
 }
 

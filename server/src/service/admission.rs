@@ -32,6 +32,8 @@ pub struct Ticket {
     target: String,
     value: Option<(usize, String)>,
     finished: bool,
+    /// Where the outcome is also published, as a `write` event (none in unit tests).
+    events: Option<std::sync::Arc<super::history::EventLog>>,
 }
 
 impl Core {
@@ -39,7 +41,14 @@ impl Core {
     /// `operation`: a ticket for a write token, PERMISSION_DENIED (and a `warn` audit line)
     /// for a read token, UNAUTHENTICATED without a caller.
     pub fn admit(&self, caller: Option<&Caller>, operation: Operation) -> Result<Ticket> {
-        admit(caller, operation, "")
+        self.with_events(admit(caller, operation, ""))
+    }
+
+    fn with_events(&self, ticket: Result<Ticket>) -> Result<Ticket> {
+        ticket.map(|mut ticket| {
+            ticket.events = Some(std::sync::Arc::clone(self.event_log()));
+            ticket
+        })
     }
 
     /// [`Core::admit`] where the core knows the target before it admits (a read whose effect
@@ -50,7 +59,7 @@ impl Core {
         operation: Operation,
         target: &str,
     ) -> Result<Ticket> {
-        admit(caller, operation, target)
+        self.with_events(admit(caller, operation, target))
     }
 }
 
@@ -84,6 +93,7 @@ fn admit(caller: Option<&Caller>, operation: Operation, target: &str) -> Result<
         target: String::new(),
         value: None,
         finished: false,
+        events: None,
     })
 }
 
@@ -145,6 +155,22 @@ impl Ticket {
             outcome,
             "write finished"
         );
+        if let Some(events) = &self.events {
+            let on = if self.target.is_empty() {
+                String::new()
+            } else {
+                format!(" on {}", self.target)
+            };
+            let size = size.map_or(String::new(), |size| format!(", {size} bytes"));
+            events.publish(super::view::EventView::note(
+                "write",
+                format!(
+                    "{}{on} by {}{size}: {outcome}",
+                    self.operation.name(),
+                    self.caller
+                ),
+            ));
+        }
     }
 }
 
@@ -193,6 +219,7 @@ mod tests {
             target: String::new(),
             value: None,
             finished: false,
+            events: None,
         };
         assert!(ticket.check(Operation::CoeDownload, "3").is_ok());
         let err = ticket.check(Operation::FoeWrite, "3").unwrap_err();

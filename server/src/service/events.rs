@@ -7,7 +7,8 @@
 //! every slave the engine owns, looks again on every master event and at a modest period
 //! (a rescan may replace a slave's mailbox without a topology event), and republishes
 //! everything as [`EventView`]s through the [`EventLog`], which numbers, stamps and keeps
-//! them and sends them on one bounded broadcast channel.
+//! them and sends them on one bounded broadcast channel. The same task looks at the bus's
+//! fault counters ([`super::bus_fault`]).
 
 use std::sync::{Arc, Weak};
 use std::time::Duration;
@@ -22,6 +23,7 @@ use tokio_stream::StreamMap;
 use tokio_stream::wrappers::BroadcastStream;
 use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 
+use super::bus_fault::FaultWatch;
 use super::history::{self, EventLog};
 use super::view::{EmergencyView, EventView};
 
@@ -43,10 +45,37 @@ impl Drop for EventHub {
 }
 
 impl EventHub {
-    /// Starts following `master` (on the current tokio runtime).
+    /// Starts following `master` (on the current tokio runtime), keeping the default
+    /// history and no journal.
     pub fn start(master: &Arc<Master>) -> EventHub {
         let (tx, _) = broadcast::channel(CAPACITY);
-        let log = Arc::new(EventLog::new(history::CAPACITY, tx));
+        EventHub::start_with(master, EventLog::new(history::CAPACITY, tx))
+    }
+
+    /// Starts following `master` with the history and journal of `settings` (the journal
+    /// read back first).
+    pub fn start_configured(
+        master: &Arc<Master>,
+        settings: &crate::config::events::EventSettings,
+    ) -> Result<EventHub, String> {
+        let (tx, _) = broadcast::channel(CAPACITY);
+        let journal = super::journal::Journal::open(settings)?;
+        if let Some((_, restored)) = &journal {
+            tracing::info!(
+                events = restored.events.len(),
+                last_id = restored.last_id,
+                skipped_lines = restored.skipped,
+                "event journal read"
+            );
+        }
+        Ok(EventHub::start_with(
+            master,
+            EventLog::with_journal(settings.history, tx, journal),
+        ))
+    }
+
+    fn start_with(master: &Arc<Master>, log: EventLog) -> EventHub {
+        let log = Arc::new(log);
         let weak = Arc::downgrade(master);
         // Subscribed before the first subscriber gets its receiver: an emergency raised
         // right after subscribing is not missed.
@@ -73,6 +102,10 @@ async fn follow(
 ) {
     let mut look = tokio::time::interval(RESUBSCRIBE);
     look.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut faults = match master.upgrade() {
+        Some(master) => FaultWatch::new(&master.bus().stats()),
+        None => return,
+    };
     loop {
         tokio::select! {
             event = events.recv() => {
@@ -103,6 +136,11 @@ async fn follow(
             _ = look.tick() => {
                 if !subscribe_new(&master, &mut emergencies) {
                     return;
+                }
+                if let Some(master) = master.upgrade()
+                    && let Some(view) = faults.look(&master.bus().stats())
+                {
+                    log.publish(view);
                 }
             }
         }

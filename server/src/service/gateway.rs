@@ -9,6 +9,7 @@ use master_core::gateway::{FailureCounts, MailboxGateway, MailboxGatewayStats};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
+use super::view::EventView;
 use super::{ApiError, Core, ErrorKind, Operation, Result, Ticket};
 
 /// The gateway: whether it runs, where, with which settings, and its statistics.
@@ -279,6 +280,10 @@ impl Core {
                     tracing::warn!(wanted, bound = bound.port(), "mailbox gateway port taken; fell back to a free port");
                 }
                 tracing::info!(gateway = %bound, master_number = gateway.config().master_number, workers = gateway.config().workers, "mailbox gateway serving");
+                core.publish_event(EventView::note(
+                    "gateway_started",
+                    format!("mailbox gateway serving on udp {bound}"),
+                ));
             }
             Ok(GatewayView::of(Some(gateway)))
         })
@@ -298,6 +303,10 @@ impl Core {
             if gateway.is_running() {
                 gateway.stop();
                 tracing::info!("mailbox gateway stopped");
+                core.publish_event(EventView::note(
+                    "gateway_stopped",
+                    "mailbox gateway stopped (by a request)".into(),
+                ));
             }
             Ok(GatewayView::of(Some(gateway)))
         })

@@ -11,9 +11,10 @@ use std::time::SystemTime;
 
 use tokio::sync::broadcast;
 
+use super::journal::{Journal, Restored};
 use super::view::EventView;
 
-/// Events kept in memory.
+/// Events kept in memory unless `[events] history` says otherwise.
 pub const CAPACITY: usize = 10_000;
 /// Events a history query answers when it names no limit (REST and gRPC alike).
 pub const DEFAULT_LIMIT: usize = 1000;
@@ -65,18 +66,54 @@ pub struct EventLog {
     inner: Mutex<Inner>,
     capacity: usize,
     tx: broadcast::Sender<EventView>,
+    journal: Option<Journal>,
+}
+
+impl std::fmt::Debug for EventLog {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EventLog")
+            .field("capacity", &self.capacity)
+            .field("journal", &self.journal.is_some())
+            .finish_non_exhaustive()
+    }
 }
 
 impl EventLog {
     /// A log keeping `capacity` events (at least one) that sends every event on `tx`.
     pub fn new(capacity: usize, tx: broadcast::Sender<EventView>) -> EventLog {
+        EventLog::with_journal(capacity, tx, None)
+    }
+
+    /// A log that starts from what `journal` held and appends every kept event to it.
+    pub fn with_journal(
+        capacity: usize,
+        tx: broadcast::Sender<EventView>,
+        journal: Option<(Journal, Restored)>,
+    ) -> EventLog {
+        let capacity = capacity.max(1);
+        let (journal, restored) = match journal {
+            Some((journal, restored)) => (Some(journal), restored),
+            None => (None, Restored::default()),
+        };
+        let skip = restored.events.len().saturating_sub(capacity);
+        let kept = restored
+            .events
+            .into_iter()
+            .skip(skip)
+            .map(|view| Kept {
+                // An unreadable time sorts as the oldest: `since` leaves it out.
+                at: humantime::parse_rfc3339(&view.time).unwrap_or(SystemTime::UNIX_EPOCH),
+                view,
+            })
+            .collect();
         EventLog {
             inner: Mutex::new(Inner {
-                last_id: 0,
-                kept: VecDeque::new(),
+                last_id: restored.last_id,
+                kept,
             }),
-            capacity: capacity.max(1),
+            capacity,
             tx,
+            journal,
         }
     }
 
@@ -95,6 +132,9 @@ impl EventLog {
         if kept(&view.kind) {
             if inner.kept.len() == self.capacity {
                 inner.kept.pop_front();
+            }
+            if let Some(journal) = &self.journal {
+                journal.append(&view);
             }
             inner.kept.push_back(Kept {
                 at: now,

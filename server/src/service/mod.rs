@@ -15,12 +15,14 @@
 
 pub mod admission;
 pub mod bus;
+pub mod bus_fault;
 pub mod calls;
 pub mod capture;
 pub mod domains;
 pub mod events;
 pub mod gateway;
 pub mod history;
+pub mod journal;
 pub mod log_filter;
 pub mod master_view;
 pub mod operation;
@@ -340,6 +342,20 @@ impl Core {
 
     /// The event history and stream, started on first use (ecatd starts it at once, so
     /// that the history begins with the first scan). Call from within the tokio runtime.
+    /// Starts the event history with `settings` (its size, its journal read back); before
+    /// anything else asks for events. Refused when the journal cannot be read or written.
+    pub fn start_events(
+        &self,
+        settings: &crate::config::events::EventSettings,
+    ) -> std::result::Result<(), String> {
+        let hub = events::EventHub::start_configured(&self.master, settings)?;
+        self.events
+            .set(hub)
+            .map_err(|_| "the event history was started already".to_owned())
+    }
+
+    /// The event history and stream (started with the defaults if
+    /// [`start_events`](Self::start_events) was not called).
     pub fn event_log(&self) -> &std::sync::Arc<history::EventLog> {
         self.events
             .get_or_init(|| events::EventHub::start(&self.master))
@@ -687,7 +703,7 @@ impl Core {
         typing: Typing,
     ) -> Result<()> {
         let ty = self.value_type(slave, index, subindex, typing).await?;
-        let data = value::encode(ty, text)?;
+        let data = value::encode(ty, text).map_err(|err| err.in_field("value"))?;
         self.sdo_download(slave, index, subindex, &data, false)
             .await
     }
@@ -695,7 +711,10 @@ impl Core {
     /// The object list of type `list` (1 all, 2 RxPDO, 3 TxPDO, 4 backup, 5 settings).
     pub async fn coe_object_list(&self, slave: SlaveName, list: u16) -> Result<Vec<u16>> {
         if !(1..=5).contains(&list) {
-            return Err(ApiError::invalid("object list type must be 1..=5"));
+            return Err(ApiError::invalid_field(
+                "list",
+                "object list type must be 1..=5",
+            ));
         }
         self.call(slave, Protocol::Coe, |m| async move {
             m.sdo_info_od_list(OdListType::from(list)).await

@@ -166,7 +166,10 @@ pub struct EventView {
     #[serde(default)]
     pub time: String,
     /// `slave_found`, `slave_lost`, `slave_replaced`, `state_changed`, `al_error`,
-    /// `emergency`, `foe_progress`, `lagged`.
+    /// `topology_mismatch`, `startup_failed`, `emergency`, `bus_fault`, `bus_recovered`,
+    /// `gateway_started`, `gateway_stopped`, `gateway_failed`, `write`, the application
+    /// interface's (`app_*`, `process_data_*`), `foe_progress`, `lagged`
+    /// (docs/operations.md, "APIs").
     pub kind: String,
     /// Ring position.
     pub position: u16,
@@ -249,6 +252,16 @@ impl EventView {
         EventView {
             kind: event.kind().into(),
             text: event.text(),
+            ..EventView::lagged(0)
+        }
+    }
+
+    /// An event of ecatd itself, about no slave (`gateway_started`, `bus_fault`, `write`,
+    /// ...), with its words.
+    pub fn note(kind: &str, text: String) -> EventView {
+        EventView {
+            kind: kind.into(),
+            text,
             ..EventView::lagged(0)
         }
     }

@@ -15,7 +15,7 @@ use thiserror::Error;
 use crate::device::coe::{CoeService, EmergencyTrigger, SharedDictionary};
 use crate::device::coe_quirks::CoeQuirks;
 use crate::device::dio::{DigitalInputs, DigitalOutputs, InputDriver, OutputProbe};
-use crate::device::eoe::{EoeService, HostPort, IpConfig};
+use crate::device::eoe::{EoeService, HostPort, IpConfig, factory_mac};
 use crate::device::foe::{BusyPhase, FileStore, FoeFile, FoeService};
 use crate::device::voe::VoeEcho;
 use crate::device::{Drive, MailboxStack, SlaveDevice};
@@ -257,6 +257,7 @@ fn build_slave(
         if has(Protocol::Eoe) {
             let config = IpConfig {
                 ip: spec.eoe.and_then(|e| e.ip),
+                factory_mac: Some(factory_mac(position as u16)),
                 ..IpConfig::default()
             };
             let port = HostPort::default();

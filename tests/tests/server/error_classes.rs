@@ -148,7 +148,18 @@ fn each_class_of_fault_has_its_code_through_grpc_and_rest() {
         assert_eq!(info["reason"], f.reason, "{}", f.what);
         assert_eq!(info["domain"], "ecat.v1");
         if let Some(code) = f.protocol_code {
-            assert_eq!(info["metadata"]["code"], format!("{code:#x}"), "{}", f.what);
+            // At the protocol's width: 32-bit abort codes as IgH's 0x%08X, 16-bit codes 0x%04X.
+            let width = if matches!(f.reason, "SDO_ABORT" | "FOE_ERROR") {
+                8
+            } else {
+                4
+            };
+            assert_eq!(
+                info["metadata"]["code"],
+                format!("0x{code:0width$X}"),
+                "{}",
+                f.what
+            );
         }
         let violation = details
             .iter()

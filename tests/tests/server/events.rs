@@ -244,3 +244,92 @@ fn the_history_is_answered_as_json_and_the_stream_resumes_after_the_last_event_i
         .collect();
     assert_eq!(sent, now[3..].to_vec(), "{}", sse.text());
 }
+
+/// With `[events] journal`, the history and the numbering survive a restart: the events of
+/// the first run are answered by the second with their numbers and times, the new ones are
+/// numbered after them, and a stream resumed with a number from the first run misses nothing.
+#[test]
+fn the_journal_keeps_the_history_and_the_numbering_across_a_restart() {
+    let dir = std::env::temp_dir().join(format!("ecatd-journal-e2e-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let config = dir.join("ecatd.toml");
+    let journal = dir.join("events.jsonl");
+    std::fs::write(
+        &config,
+        format!(
+            "[events]\nhistory = 500\njournal = \"{}\"\n",
+            journal.display()
+        ),
+    )
+    .unwrap();
+    let history = |ecatd: &Ecatd| -> Vec<Value> {
+        let (status, body) = curl(&["-s", &format!("{}/api/v1/events?limit=500", ecatd.http)]);
+        assert_eq!(status, 200, "{body}");
+        serde_json::from_str::<Value>(&body)
+            .unwrap()
+            .as_array()
+            .unwrap()
+            .clone()
+    };
+    let mut first = Ecatd::start(&["--config", config.to_str().unwrap()]);
+    let before = history(&first);
+    let slaves = sim::topology::Topology::default_segment().slaves.len();
+    assert!(before.len() >= 2 * slaves, "the scan's events: {before:#?}");
+    assert!(first.stop(), "ecatd stops cleanly");
+    // Each kept event is one JSON line in the file.
+    let lines = std::fs::read_to_string(&journal).unwrap();
+    let written: Vec<Value> = lines
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(written[..before.len()], before[..], "{lines}");
+
+    let second = Ecatd::start(&["--config", config.to_str().unwrap()]);
+    let after = history(&second);
+    assert_eq!(
+        after[..before.len()],
+        before[..],
+        "the first run's events, as they were"
+    );
+    let last_before = before.last().unwrap()["id"].as_u64().unwrap();
+    let new_ids: Vec<u64> = after[before.len()..]
+        .iter()
+        .map(|e| e["id"].as_u64().unwrap())
+        .collect();
+    assert!(!new_ids.is_empty(), "the second scan's events");
+    assert_eq!(
+        new_ids[0],
+        last_before + 1,
+        "numbering goes on: {new_ids:?}"
+    );
+    // A client of the first run resumes where it was.
+    let resume = before[before.len() - 2]["id"].as_u64().unwrap();
+    let last = after.last().unwrap()["id"].as_u64().unwrap();
+    let sse = Streaming::start(Command::new("curl").args([
+        "-s",
+        "-N",
+        "-H",
+        "accept: text/event-stream",
+        "-H",
+        &format!("last-event-id: {resume}"),
+        &format!("{}/api/v1/events", second.http),
+    ]));
+    sse.wait_for("the events after the resume point", |t| {
+        t.contains(&format!("id: {last}\n")).then_some(())
+    });
+    let sent: Vec<u64> = sse
+        .text()
+        .lines()
+        .filter_map(|l| l.strip_prefix("id:")?.trim().parse().ok())
+        .collect();
+    let want: Vec<u64> = after
+        .iter()
+        .map(|e| e["id"].as_u64().unwrap())
+        .filter(|id| *id > resume)
+        .collect();
+    assert_eq!(sent, want, "{}", sse.text());
+    drop(sse);
+    drop(second);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

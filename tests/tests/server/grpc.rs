@@ -257,7 +257,10 @@ fn mailbox_calls_match_the_simulator() {
     );
     assert_eq!(info["reason"], "SDO_ABORT");
     assert_eq!(info["domain"], "ecat.v1");
-    assert_eq!(info["metadata"]["code"], "0x6020000");
+    assert_eq!(
+        info["metadata"]["code"], "0x06020000",
+        "0x%08X, as IgH prints it"
+    );
     assert_eq!(
         info["metadata"]["code_text"],
         "Object does not exist in the object dictionary"

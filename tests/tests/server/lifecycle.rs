@@ -96,7 +96,10 @@ fn bad_configuration_is_refused() {
         .args(["--config", "/nonexistent/ecatd.toml", "--print-config"])
         .output()
         .unwrap();
-    assert_eq!(output.status.code(), Some(2));
+    assert_eq!(
+        output.status.code(),
+        Some(i32::from(server::exit::CONFIGURATION))
+    );
     assert!(String::from_utf8_lossy(&output.stderr).contains("/nonexistent/ecatd.toml"));
 }
 
@@ -131,7 +134,10 @@ fn the_api_runtime_has_the_configured_threads_one_by_default() {
         .output()
         .unwrap();
     std::fs::remove_file(&file).unwrap();
-    assert_eq!(output.status.code(), Some(2));
+    assert_eq!(
+        output.status.code(),
+        Some(i32::from(server::exit::CONFIGURATION))
+    );
     assert!(
         String::from_utf8_lossy(&output.stderr).contains("api_threads must be 1 to 64, not 0"),
         "{}",
@@ -347,4 +353,93 @@ fn a_second_sigterm_exits_at_once() {
     assert!(log.contains("second signal"), "{log}");
     std::fs::remove_file(&topology).unwrap();
     std::fs::remove_file(&config).unwrap();
+}
+
+/// The next datagram systemd's notify socket receives, within a deadline.
+fn next_notification(
+    socket: &std::os::unix::net::UnixDatagram,
+    log: impl Fn() -> String,
+) -> String {
+    let mut buf = [0u8; 256];
+    match socket.recv(&mut buf) {
+        Ok(n) => String::from_utf8_lossy(&buf[..n]).trim_end().to_owned(),
+        Err(err) => panic!("no notification ({err}):\n{}", log()),
+    }
+}
+
+#[test]
+fn systemd_hears_ready_then_watchdog_pings_while_the_bus_runs_then_stopping() {
+    let dir = std::env::temp_dir().join(format!("ecatd-notify-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("notify.sock");
+    let socket = std::os::unix::net::UnixDatagram::bind(&path).unwrap();
+    socket
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    // A 400 ms watchdog: pings every 200 ms, while the watch keeps the bus busy (100 ms).
+    let mut ecatd = Ecatd::start_with_env(
+        &["--simulate"],
+        &[],
+        &[
+            ("NOTIFY_SOCKET", path.to_str().unwrap()),
+            ("WATCHDOG_USEC", "400000"),
+        ],
+    );
+    assert_eq!(next_notification(&socket, || ecatd.log()), "READY=1");
+    for _ in 0..3 {
+        assert_eq!(next_notification(&socket, || ecatd.log()), "WATCHDOG=1");
+    }
+    let exit = ecatd.terminate(SHUTDOWN + MARGIN).expect("ecatd exits");
+    assert_eq!(exit.code(), Some(0), "{}", ecatd.log());
+    // Pings already in the socket may come first; STOPPING=1 comes, and nothing after it.
+    let mut said = Vec::new();
+    loop {
+        let note = next_notification(&socket, || ecatd.log());
+        let stopping = note == "STOPPING=1";
+        said.push(note);
+        if stopping {
+            break;
+        }
+        assert!(said.len() < 50, "no STOPPING=1 in {said:?}");
+    }
+    socket
+        .set_read_timeout(Some(Duration::from_millis(1)))
+        .unwrap();
+    let mut buf = [0u8; 64];
+    assert!(
+        socket.recv(&mut buf).is_err(),
+        "a notification after STOPPING=1"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_configuration_error_exits_78_and_a_taken_port_exits_1() {
+    let output = Command::new(bin_dir().join("ecatd"))
+        .args([
+            "--grpc-listen",
+            "127.0.0.1:0",
+            "--http-listen",
+            "127.0.0.1:0",
+        ])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(78), "{said}");
+    assert!(said.contains("no segment: pass --simulate"), "{said}");
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().to_string();
+    let output = Command::new(bin_dir().join("ecatd"))
+        .args([
+            "--simulate",
+            "--grpc-listen",
+            &port,
+            "--http-listen",
+            "127.0.0.1:0",
+        ])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{said}");
+    assert!(said.contains(&port), "{said}");
 }

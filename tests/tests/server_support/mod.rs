@@ -122,7 +122,15 @@ impl Ecatd {
     /// [`Ecatd::start_with`] that returns as soon as ecatd listens, before its start-up
     /// scan ends (to stop it during the scan).
     pub fn start_listening(segment: &[&str], extra: &[&str]) -> Ecatd {
-        Ecatd::spawn(segment, extra, None)
+        Ecatd::spawn(segment, extra, None, &[])
+    }
+
+    /// [`Ecatd::start_with`] with `env` added to ecatd's environment (what a service
+    /// manager such as systemd passes, e.g. `NOTIFY_SOCKET`).
+    pub fn start_with_env(segment: &[&str], extra: &[&str], env: &[(&str, &str)]) -> Ecatd {
+        let mut ecatd = Ecatd::spawn(segment, extra, None, env);
+        ecatd.wait_ready(Instant::now() + DEADLINE);
+        ecatd
     }
 
     /// [`Ecatd::start_with`] with `setup` run in ecatd's process between fork and exec:
@@ -134,7 +142,7 @@ impl Ecatd {
         extra: &[&str],
         setup: Box<dyn FnMut() -> std::io::Result<()> + Send + Sync>,
     ) -> Ecatd {
-        let mut ecatd = Ecatd::spawn(segment, extra, Some(setup));
+        let mut ecatd = Ecatd::spawn(segment, extra, Some(setup), &[]);
         ecatd.wait_ready(Instant::now() + DEADLINE);
         ecatd
     }
@@ -143,6 +151,7 @@ impl Ecatd {
         segment: &[&str],
         extra: &[&str],
         setup: Option<Box<dyn FnMut() -> std::io::Result<()> + Send + Sync>>,
+        env: &[(&str, &str)],
     ) -> Ecatd {
         let veth = (on_veth() && segment.first() == Some(&"--simulate")).then(|| {
             let rig = ecat_tests::rig::HostRig::new();
@@ -202,6 +211,7 @@ impl Ecatd {
             vec!["--app-socket".into(), app_socket.display().to_string()]
         };
         let mut child = command
+            .envs(env.iter().copied())
             .args(segment)
             .args(gateway)
             .args(&app)

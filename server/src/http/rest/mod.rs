@@ -41,7 +41,7 @@ fn num<T: TryFrom<u64>>(text: &str, field: &str) -> Result<T> {
 }
 
 fn unhex(text: &str) -> Result<Vec<u8>> {
-    hex::decode(text.trim()).map_err(|_| ApiError::invalid("data must be hex"))
+    hex::decode(text.trim()).map_err(|_| ApiError::invalid_field("data", "data must be hex"))
 }
 
 /// Bytes as hex.

@@ -28,10 +28,11 @@ pub enum Answer {
     IcmpEcho(Vec<u8>),
 }
 
-/// The reply the slave sends to `frame`, if it answers it at all. Without a MAC and an IP
-/// address configured the slave is not on the network yet and answers nothing.
+/// The reply the slave sends to `frame`, if it answers it at all. Without an IP address (and
+/// without a MAC, set or from the factory) the slave is not on the network yet and answers
+/// nothing.
 pub fn answer(frame: &[u8], config: &IpConfig) -> Option<Answer> {
-    let (Some(mac), Some(ip)) = (config.mac, config.ip) else {
+    let (Some(mac), Some(ip)) = (config.station_mac(), config.ip) else {
         return None;
     };
     let packet = SlicedPacket::from_ethernet(frame).ok()?;

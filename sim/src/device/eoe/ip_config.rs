@@ -20,6 +20,18 @@ pub struct IpConfig {
     pub dns_server: Option<Ipv4Addr>,
     /// DNS name (at most 32 bytes, no NUL).
     pub dns_name: Option<Vec<u8>>,
+    /// The device's own MAC address, burnt in at the factory: the one it answers on until a
+    /// Set IP parameter request gives it another (`mac`). Not part of Get IP parameter's
+    /// answer, which says what the master set.
+    pub factory_mac: Option<[u8; 6]>,
+}
+
+/// The factory MAC of the simulated EoE device of the slave at ring `position`:
+/// `02:45:43:53:PP:PP` (locally administered, unicast; "ECS" for EtherCAT simulator, then the
+/// position, big-endian).
+pub fn factory_mac(position: u16) -> [u8; 6] {
+    let [high, low] = position.to_be_bytes();
+    [0x02, 0x45, 0x43, 0x53, high, low]
 }
 
 impl IpConfig {
@@ -43,6 +55,11 @@ impl IpConfig {
         if let Some(name) = params.dns_name {
             self.dns_name = Some(name.to_vec());
         }
+    }
+
+    /// The MAC the device answers on: the one the master set, else its factory MAC.
+    pub fn station_mac(&self) -> Option<[u8; 6]> {
+        self.mac.or(self.factory_mac)
     }
 
     /// The settings as the body of a Get IP parameter response.

@@ -39,7 +39,7 @@ use crate::device::{DeviceContext, OutboxFull};
 
 pub use endpoint::Answer;
 pub use host_port::{HostEvent, HostPort};
-pub use ip_config::IpConfig;
+pub use ip_config::{IpConfig, factory_mac};
 use tcp_host::TcpHost;
 
 /// Frames kept for [`EoeService::take_received`] before the oldest are dropped.
@@ -157,7 +157,7 @@ impl EoeService {
         if !self.tcp_enabled {
             return None;
         }
-        let (Some(mac), Some(ip)) = (self.config.mac, self.config.ip) else {
+        let (Some(mac), Some(ip)) = (self.config.station_mac(), self.config.ip) else {
             self.tcp.0 = None;
             return None;
         };
