@@ -8,6 +8,7 @@ use serde_json::{Value, json};
 
 use crate::Run;
 use crate::client::Clients;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::{failed, num, typed, unhex};
 use crate::select::Selection;
@@ -145,7 +146,7 @@ fn igh_value(ty: &str, data: &[u8], value: &str) -> String {
 }
 
 impl Run for Upload {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "upload").await?;
         let c = session.clients().await?;
         let index = num(&self.index, "index")?;
@@ -176,7 +177,7 @@ impl Run for Upload {
 }
 
 impl Run for Download {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "download").await?;
         let (data, value, value_type) = if self.complete {
             // Complete access takes raw bytes only.
@@ -204,7 +205,7 @@ impl Run for Download {
 }
 
 impl Run for Sdos {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "sdos").await?;
         let c = session.clients().await?;
         let list = c

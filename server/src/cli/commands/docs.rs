@@ -4,6 +4,7 @@
 use clap::CommandFactory;
 use serde_json::json;
 
+use crate::failure::Failure;
 use crate::out::{Out, bytes};
 use crate::session::Session;
 use crate::{Cli, Run};
@@ -20,7 +21,7 @@ pub struct Completion {
 pub struct Man {}
 
 impl Run for Completion {
-    async fn run(self, _: &mut Session) -> Result<Out, String> {
+    async fn run(self, _: &mut Session) -> Result<Out, Failure> {
         let mut script = Vec::new();
         clap_complete::generate(self.shell, &mut Cli::command(), "ecat", &mut script);
         Ok(bytes(
@@ -31,7 +32,7 @@ impl Run for Completion {
 }
 
 impl Run for Man {
-    async fn run(self, _: &mut Session) -> Result<Out, String> {
+    async fn run(self, _: &mut Session) -> Result<Out, Failure> {
         let mut page = Vec::new();
         clap_mangen::Man::new(Cli::command())
             .render(&mut page)

@@ -4,6 +4,7 @@ use proto::v1 as pb;
 use serde_json::json;
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::failed;
 use crate::select::Selection;
@@ -36,7 +37,7 @@ pub struct Ip {
 }
 
 impl Run for Ip {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let setting = [
             &self.ip,
             &self.mask,

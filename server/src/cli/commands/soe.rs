@@ -5,6 +5,7 @@ use serde_json::json;
 use server::input::value::{decode, encode};
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::{failed, idn, typed};
 use crate::select::Selection;
@@ -45,7 +46,7 @@ pub struct SoeWrite {
 }
 
 impl Run for SoeRead {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let ty = typed(&self.ty)?;
         let idn = idn(&self.idn)?;
         let slave = self.select.one(session, "soe_read").await?;
@@ -71,7 +72,7 @@ impl Run for SoeRead {
 }
 
 impl Run for SoeWrite {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let data = encode(typed(&self.ty)?, &self.value).map_err(|e| e.message)?;
         let idn = idn(&self.idn)?;
         let slave = self.select.one(session, "soe_write").await?;
