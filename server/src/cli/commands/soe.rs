@@ -17,8 +17,8 @@ pub struct SoeRead {
     /// The slave.
     #[command(flatten)]
     pub select: Selection,
-    /// Drive number.
-    #[arg(long, default_value = "0")]
+    /// Drive number (IgH's `-d`; default 0).
+    #[arg(short = 'd', long, default_value = "0")]
     pub drive: u8,
     /// The IDN: `S-0-0011`, `P-0-0100` or a number (`0x8064`).
     pub idn: String,
@@ -33,8 +33,8 @@ pub struct SoeWrite {
     /// The slave.
     #[command(flatten)]
     pub select: Selection,
-    /// Drive number.
-    #[arg(long, default_value = "0")]
+    /// Drive number (IgH's `-d`; default 0).
+    #[arg(short = 'd', long, default_value = "0")]
     pub drive: u8,
     /// The IDN: `S-0-0011`, `P-0-0100` or a number.
     pub idn: String,
