@@ -136,6 +136,9 @@ command_set! {
     /// Show each slave's SyncManagers, the PDOs assigned to them and their entries, with
     /// their names (IgH's `pdos`; every slave when none is selected).
     Pdos(commands::pd::Pdos),
+    /// Print each slave's PDO assignment as the C structures of IgH's application
+    /// interface (`ec_pdo_entry_info_t`, `ec_pdo_info_t`, `ec_sync_info_t`).
+    Cstruct(commands::cstruct::Cstruct),
     /// Show the process data's named entries with their live values (slave, index:sub,
     /// name, type, direction, value, forced by); `--watch [INTERVAL]` follows them,
     /// `--force -p SLAVE INDEX SUB VALUE [--override]` forces an output, `--release -p
@@ -184,7 +187,8 @@ command_set! {
     Graph(commands::graph::Graph),
     /// The mailbox gateway's state and statistics; `start` or `stop` it.
     Gateway(gateway::Gateway),
-    /// The configuration ecatd runs with (IgH's `config`).
+    /// The slave configurations (IgH's `config`: alias:position, vendor/product, attached
+    /// slave, state; `-v` details); `--toml` the whole configuration ecatd runs with.
     Config(config::Config),
     /// The EoE interfaces: name, MAC, state, slave and counters.
     Eoe(eoe::Eoe),
