@@ -90,9 +90,8 @@ fn master_zero_abbreviations_and_a_bare_address_are_taken() {
         ok(bare, &["up", "-p", "0", "0x1018", "1"]),
         ok(bare, &["upload", "-p", "0", "0x1018", "1"])
     );
-    assert_eq!(
+    assert!(
         json(bare, &["pd", "-p", "0"])["entries"].is_array(),
-        true,
         "pd is pd, not pdos"
     );
     let ambiguous = ecat(bare, &["s"]);
