@@ -44,8 +44,11 @@ use crate::session::Session;
 )]
 pub struct Cli {
     /// ecatd's gRPC address: `host:port`, `http://host:port` or `https://host:port`.
+    // Its own id: a global option shares its id with the commands' arguments, and
+    // `reg_read` has an argument `address` (the register's).
     #[arg(
-        long,
+        id = "ecatd_address",
+        long = "address",
         global = true,
         env = "ECAT_ADDRESS",
         default_value = "http://127.0.0.1:50051"
@@ -64,6 +67,7 @@ pub struct Cli {
     /// IgH's master index: ecatd runs one master, index 0 (`0`, `-` or a list such as
     /// `0,0-0`); another index is refused (run `ecat --address` of that master's ecatd).
     #[arg(
+        id = "master_index",
         short = 'm',
         long = "master",
         global = true,
@@ -258,6 +262,27 @@ mod tests {
     #[test]
     fn the_command_line_is_consistent() {
         super::Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn the_global_address_is_not_a_register_address() {
+        use clap::Parser;
+        let cli = super::Cli::try_parse_from([
+            "ecat",
+            "reg_read",
+            "-p",
+            "1",
+            "0x0130",
+            "2",
+            "--address",
+            "ecatd:1",
+        ])
+        .expect("parses");
+        assert_eq!(cli.address, "ecatd:1");
+        match cli.command {
+            super::Command::RegRead(read) => assert_eq!(read.address, "0x0130"),
+            other => panic!("not reg_read: {other:?}"),
+        }
     }
 
     #[test]
