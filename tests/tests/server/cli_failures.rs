@@ -98,6 +98,10 @@ fn each_class_of_failure_has_its_exit_status_and_json_form() {
         "refused",
     );
     assert!(soe["abort_code"].as_str().is_some(), "{soe}");
+    // An AL state the slave refuses, with its AL status code (the DO8 has no bootstrap).
+    let al = fails_as(address, &["states", "-p", "1", "BOOT"], 4, "refused");
+    assert_eq!(al["reason"], "STATE_REFUSED", "{al}");
+    assert_eq!(al["abort_code"], "0x00000013", "{al}");
 
     // Unreachable: nothing listens at the address.
     let nobody = format!("127.0.0.1:{}", closed_port());
