@@ -2,12 +2,28 @@
 
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::{CommandFactory, Parser};
 use server::config::{Args, Config};
 use server::exit::{CONFIGURATION, FAILURE};
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    if let Some(shell) = args.completions {
+        clap_complete::generate(shell, &mut Args::command(), "ecatd", &mut std::io::stdout());
+        return ExitCode::SUCCESS;
+    }
+    if args.man {
+        return match clap_mangen::Man::new(Args::command())
+            .section("8")
+            .render(&mut std::io::stdout())
+        {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(err) => {
+                eprintln!("ecatd: man page: {err}");
+                ExitCode::from(FAILURE)
+            }
+        };
+    }
     let config = match Config::load(&args) {
         Ok(config) => config,
         Err(err) => {

@@ -13,6 +13,8 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
 use tonic::{Request, Status};
 
+use crate::failure::Failure;
+
 /// Adds `authorization: Bearer <token>` when a token is given.
 #[derive(Clone)]
 pub struct Auth(Option<MetadataValue<tonic::metadata::Ascii>>);
@@ -50,39 +52,61 @@ pub struct Clients {
     pub pd: ProcessDataServiceClient<Svc>,
 }
 
-/// Connects to `address` (`http://host:port`); over TLS trusting the CA certificate in
-/// `tls_ca` (PEM) when given.
+/// The URI to connect to: `address` as given with `http://` or `https://`, or `host:port`
+/// without a scheme (as grpcurl and IgH users write it), taken as `http://` (`https://` with
+/// a CA certificate).
+pub fn endpoint_uri(address: &str, tls: bool) -> String {
+    let scheme = if tls { "https" } else { "http" };
+    match address.split_once("://") {
+        Some(("http", rest)) if tls => format!("https://{rest}"),
+        Some(_) => address.to_owned(),
+        None => format!("{scheme}://{address}"),
+    }
+}
+
+/// Connects to `address` (`http://host:port`, `https://host:port` or `host:port`); over TLS
+/// trusting the CA certificate in `tls_ca` (PEM) when given.
 pub async fn connect(
     address: &str,
     token: Option<&str>,
     tls_ca: Option<&std::path::Path>,
-) -> Result<Clients, String> {
-    let address = match (tls_ca, address.strip_prefix("http://")) {
-        (Some(_), Some(rest)) => format!("https://{rest}"),
-        _ => address.to_owned(),
-    };
+) -> Result<Clients, Failure> {
+    let address = endpoint_uri(address, tls_ca.is_some());
     let address = address.as_str();
     let mut endpoint = Channel::from_shared(address.to_owned())
         .map_err(|err| format!("bad address {address}: {err}"))?;
     if let Some(path) = tls_ca {
-        let pem = std::fs::read(path)
-            .map_err(|err| format!("cannot read the CA certificate {}: {err}", path.display()))?;
+        let pem = std::fs::read(path).map_err(|err| {
+            Failure::other(format!(
+                "cannot read the CA certificate {}: {err}",
+                path.display()
+            ))
+        })?;
         let tls = tonic::transport::ClientTlsConfig::new()
             .ca_certificate(tonic::transport::Certificate::from_pem(pem));
         endpoint = endpoint
             .tls_config(tls)
             .map_err(|err| format!("TLS: {err}"))?;
     }
-    let channel = endpoint
-        .connect()
-        .await
-        .map_err(|err| format!("cannot connect to {address}: {err}"))?;
+    let channel = endpoint.connect().await.map_err(|err| {
+        // tonic's transport error names only its kind; its causes say why (refused, ...).
+        let mut cause = String::new();
+        let mut next = std::error::Error::source(&err);
+        while let Some(source) = next {
+            let text = format!(": {source}");
+            if !cause.ends_with(&text) {
+                cause.push_str(&text);
+            }
+            next = source.source();
+        }
+        Failure::unreachable(format!("cannot connect to {address}: {err}{cause}"))
+    })?;
     let auth = Auth(match token {
         None => None,
         Some(t) => Some(
             format!("Bearer {t}")
                 .parse()
-                .map_err(|_| "the token has characters a header cannot carry".to_owned())?,
+                .map_err(|_| "the token has characters a header cannot carry")?,
         ),
     });
     Ok(Clients {

@@ -7,6 +7,7 @@ use serde_json::{Value, json};
 
 use crate::Run;
 use crate::client::Clients;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::failed;
 use crate::session::Session;
@@ -16,14 +17,14 @@ use crate::session::Session;
 pub struct Eoe {}
 
 impl Run for Eoe {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let (json, human) = run(session.clients().await?).await?;
         Ok(out(json, human))
     }
 }
 
 /// Lists the interfaces: JSON and a table.
-async fn run(c: &mut Clients) -> Result<(Value, String), String> {
+async fn run(c: &mut Clients) -> Result<(Value, String), Failure> {
     let list = c
         .eoe
         .list_interfaces(pb::ListInterfacesRequest {})

@@ -6,6 +6,7 @@ use serde_json::{Value, json};
 
 use crate::Run;
 use crate::client::Clients;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::session::Session;
 
@@ -18,7 +19,7 @@ pub struct Gateway {
 }
 
 impl Run for Gateway {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let (json, human) = run(session.clients().await?, self.action).await?;
         Ok(out(json, human))
     }
@@ -34,7 +35,7 @@ pub enum Action {
 }
 
 /// Runs `action` (none: show) and returns the gateway's state as JSON and as a table.
-pub async fn run(c: &mut Clients, action: Option<Action>) -> Result<(Value, String), String> {
+pub async fn run(c: &mut Clients, action: Option<Action>) -> Result<(Value, String), Failure> {
     let answer = match action {
         None => c.gateway.get_gateway(pb::GetGatewayRequest {}).await,
         Some(Action::Start) => c.gateway.start_gateway(pb::StartGatewayRequest {}).await,

@@ -4,17 +4,21 @@
 //! name of the common syntax (`-p station:1004`, `-p alias:0x777+2`).
 //!
 //! Files: `session` (the connection), `select` (slave selection), `parse` (argument
-//! forms), `out` (printing), `progress` (transfer progress bars), one file per command group
+//! forms), `out` (printing), `failure` (the classes of failure and their exit status),
+//! `master_index` (IgH's `-m`), `abbrev` (abbreviated commands), `progress` (transfer progress bars), one file per command group
 //! under `commands/`, `gateway` (the mailbox gateway command), `diag_message` (decoding the
 //! diagnosis history for `diag`), `esi` (the ESI fragment `xml` prints).
 
+mod abbrev;
 mod client;
 mod commands;
 mod config;
 mod diag_message;
 mod eoe;
 mod esi;
+mod failure;
 mod gateway;
+mod master_index;
 mod out;
 mod parse;
 mod progress;
@@ -25,35 +29,69 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+use crate::failure::{Class, Failure};
 use crate::out::Out;
 use crate::session::Session;
 
 /// Command line.
 #[derive(Debug, Parser)]
-#[command(name = "ecat", version, about = "Command-line client of ecatd (gRPC)")]
+#[command(
+    name = "ecat",
+    version,
+    about = "Command-line client of ecatd (gRPC)",
+    infer_subcommands = true,
+    after_help = EXIT_STATUS
+)]
 pub struct Cli {
-    /// ecatd's gRPC address.
-    #[arg(long, env = "ECAT_ADDRESS", default_value = "http://127.0.0.1:50051")]
+    /// ecatd's gRPC address: `host:port`, `http://host:port` or `https://host:port`.
+    // Its own id: a global option shares its id with the commands' arguments, and
+    // `reg_read` has an argument `address` (the register's).
+    #[arg(
+        id = "ecatd_address",
+        long = "address",
+        global = true,
+        env = "ECAT_ADDRESS",
+        default_value = "http://127.0.0.1:50051"
+    )]
     pub address: String,
     /// Bearer token.
-    #[arg(long, env = "ECAT_TOKEN")]
+    #[arg(long, global = true, env = "ECAT_TOKEN")]
     pub token: Option<String>,
     /// Connect over TLS, trusting this CA certificate (PEM); an `http://` address is then
     /// taken as `https://`.
-    #[arg(long, env = "ECAT_TLS_CA", value_name = "FILE")]
+    #[arg(long, global = true, env = "ECAT_TLS_CA", value_name = "FILE")]
     pub tls_ca: Option<std::path::PathBuf>,
-    /// JSON output.
+    /// JSON output; a failure is then one JSON object on standard error.
     #[arg(long, global = true)]
     pub json: bool,
+    /// IgH's master index: ecatd runs one master, index 0 (`0`, `-` or a list such as
+    /// `0,0-0`); another index is refused (run `ecat --address` of that master's ecatd).
+    #[arg(
+        id = "master_index",
+        short = 'm',
+        long = "master",
+        global = true,
+        value_name = "INDICES",
+        default_value = "0",
+        value_parser = master_index::parse
+    )]
+    pub master: u32,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
 }
 
+/// The exit status table `ecat --help` ends with (`failure::Class`; a unit test keeps
+/// them equal).
+const EXIT_STATUS: &str = "Exit status: 0 success, 1 other, 2 usage, 3 not_found, \
+4 refused (by the slave: SDO/SoE/FoE abort, AL state), 5 timeout, 6 unreachable, \
+7 permission. With --json a failure is a JSON object on standard error: class, exit_code, \
+message, and when known status, grpc_code, reason, abort_code (\"0x06020000\").";
+
 /// A command: its arguments, and what running it prints.
 pub(crate) trait Run {
     /// Runs the command (connecting through `session` if it needs ecatd).
-    async fn run(self, session: &mut Session) -> Result<Out, String>;
+    async fn run(self, session: &mut Session) -> Result<Out, Failure>;
 }
 
 /// Declares the command set: each line is a doc comment and `Name(path::Args)`, the name
@@ -69,7 +107,7 @@ macro_rules! command_set {
             $( $(#[$meta])* $variant($args), )*
         }
 
-        async fn dispatch(command: Command, session: &mut Session) -> Result<Out, String> {
+        async fn dispatch(command: Command, session: &mut Session) -> Result<Out, Failure> {
             match command {
                 $( Command::$variant(args) => args.run(session).await, )*
             }
@@ -102,6 +140,9 @@ command_set! {
     /// Show each slave's SyncManagers, the PDOs assigned to them and their entries, with
     /// their names (IgH's `pdos`; every slave when none is selected).
     Pdos(commands::pd::Pdos),
+    /// Print each slave's PDO assignment as the C structures of IgH's application
+    /// interface (`ec_pdo_entry_info_t`, `ec_pdo_info_t`, `ec_sync_info_t`).
+    Cstruct(commands::cstruct::Cstruct),
     /// Show the process data's named entries with their live values (slave, index:sub,
     /// name, type, direction, value, forced by); `--watch [INTERVAL]` follows them,
     /// `--force -p SLAVE INDEX SUB VALUE [--override]` forces an output, `--release -p
@@ -150,41 +191,68 @@ command_set! {
     Graph(commands::graph::Graph),
     /// The mailbox gateway's state and statistics; `start` or `stop` it.
     Gateway(gateway::Gateway),
-    /// The configuration ecatd runs with (IgH's `config`).
+    /// The slave configurations (IgH's `config`: alias:position, vendor/product, attached
+    /// slave, state; `-v` details); `--toml` the whole configuration ecatd runs with.
     Config(config::Config),
     /// The EoE interfaces: name, MAC, state, slave and counters.
     Eoe(eoe::Eoe),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
-    Completion(commands::docs::Completion),
-    /// Print the man page (roff).
+    #[command(alias = "completion")]
+    Completions(commands::docs::Completion),
+    /// Print the man page of ecat or of one command (roff); `--out DIR` writes every page.
     Man(commands::docs::Man),
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let json = args
+        .iter()
+        .take_while(|arg| *arg != "--")
+        .any(|arg| arg == "--json");
+    let cli = match Cli::try_parse_from(&args) {
+        Ok(cli) => cli,
+        Err(err) => return refused_command_line(abbrev::ambiguity(err), json),
+    };
     let runtime = match tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
     {
         Ok(runtime) => runtime,
-        Err(err) => {
-            eprintln!("ecat: {err}");
-            return ExitCode::from(1);
-        }
+        Err(err) => return report(&Failure::other(err.to_string()), json),
     };
     let mut session = Session::new(cli.address, cli.token, cli.tls_ca);
-    let json = cli.json;
     session.set_json(json);
     match runtime
         .block_on(dispatch(cli.command, &mut session))
         .and_then(|out| out.print(json))
     {
         Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            eprintln!("ecat: {err}");
-            ExitCode::from(1)
-        }
+        Err(failure) => report(&failure, json),
     }
+}
+
+/// A command line clap did not take: `--help` and `--version` print and succeed; an error
+/// is a usage failure (clap's status 2), as JSON with `--json`.
+fn refused_command_line(err: clap::Error, json: bool) -> ExitCode {
+    if !err.use_stderr() || !json {
+        // Prints help to standard output, an error to standard error.
+        let _ = err.print();
+        return ExitCode::from(u8::try_from(err.exit_code()).unwrap_or(2));
+    }
+    let text = err.render().to_string();
+    let message = text.trim_end().trim_start_matches("error: ");
+    report(&Failure::new(Class::Usage, message), json)
+}
+
+/// Prints a failure to standard error (a JSON object with `--json`) and gives its exit
+/// status.
+fn report(failure: &Failure, json: bool) -> ExitCode {
+    if json {
+        eprintln!("{}", failure.json());
+    } else {
+        eprintln!("ecat: {failure}");
+    }
+    ExitCode::from(failure.class.exit_code())
 }
 
 #[cfg(test)]
@@ -194,5 +262,34 @@ mod tests {
     #[test]
     fn the_command_line_is_consistent() {
         super::Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn the_global_address_is_not_a_register_address() {
+        use clap::Parser;
+        let cli = super::Cli::try_parse_from([
+            "ecat",
+            "reg_read",
+            "-p",
+            "1",
+            "0x0130",
+            "2",
+            "--address",
+            "ecatd:1",
+        ])
+        .expect("parses");
+        assert_eq!(cli.address, "ecatd:1");
+        match cli.command {
+            super::Command::RegRead(read) => assert_eq!(read.address, "0x0130"),
+            other => panic!("not reg_read: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn help_lists_every_exit_status() {
+        for class in super::Class::ALL {
+            let entry = format!("{} {}", class.exit_code(), class.name());
+            assert!(super::EXIT_STATUS.contains(&entry), "{entry} missing");
+        }
     }
 }

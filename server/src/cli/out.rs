@@ -5,6 +5,8 @@ use std::io::Write;
 
 use serde_json::Value;
 
+use crate::failure::Failure;
+
 /// The human form of a result.
 pub enum Human {
     /// Lines of text (nothing printed when empty).
@@ -50,7 +52,7 @@ pub fn bytes(json: Value, data: Vec<u8>) -> Out {
 
 impl Out {
     /// Prints the JSON or the human form to standard output.
-    pub fn print(self, json: bool) -> Result<(), String> {
+    pub fn print(self, json: bool) -> Result<(), Failure> {
         let mut stdout = std::io::stdout().lock();
         let written = if matches!(self.human, Human::Printed) {
             Ok(())
@@ -66,6 +68,6 @@ impl Out {
         };
         written
             .and_then(|()| stdout.flush())
-            .map_err(|err| format!("standard output: {err}"))
+            .map_err(|err| Failure::other(format!("standard output: {err}")))
     }
 }

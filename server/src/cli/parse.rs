@@ -5,9 +5,11 @@ use proto::v1 as pb;
 use server::input::value::{ValueType, parse_number};
 use tonic::Status;
 
-/// A failed call as the command line reports it: code name and message.
-pub fn failed(status: Status) -> String {
-    format!("{:?}: {}", status.code(), status.message())
+use crate::failure::Failure;
+
+/// A failed call as the command line reports it: classed by what ecatd answered.
+pub fn failed(status: Status) -> Failure {
+    Failure::from(status)
 }
 
 /// A number in the one syntax.

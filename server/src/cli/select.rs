@@ -3,6 +3,7 @@
 //! (`station:1004`, `alias:0x777+2`, `0x777:2`). A command for one slave refuses to guess
 //! when nothing is selected and the segment has more than one slave.
 
+use crate::failure::Failure;
 use crate::parse::num;
 use crate::session::Session;
 
@@ -25,7 +26,7 @@ pub struct Selection {
 
 impl Selection {
     /// The slave name the options give, if any.
-    pub fn given(&self) -> Result<Option<String>, String> {
+    pub fn given(&self) -> Result<Option<String>, Failure> {
         Ok(match (&self.alias, &self.position) {
             (None, None) => None,
             (None, Some(name)) => Some(name.clone()),
@@ -40,19 +41,20 @@ impl Selection {
 
     /// The one slave a command works on: the one selected, or the only slave of the
     /// segment; refused when nothing is selected and the segment has several.
-    pub async fn one(&self, session: &mut Session, command: &str) -> Result<String, String> {
+    pub async fn one(&self, session: &mut Session, command: &str) -> Result<String, Failure> {
         if let Some(name) = self.given()? {
             return Ok(name);
         }
         let slaves = session.slaves().await?;
         match slaves.as_slice() {
             [only] => Ok(only.position.to_string()),
-            [] => Err(format!("{command}: the segment has no slaves")),
+            [] => Err(format!("{command}: the segment has no slaves").into()),
             many => Err(format!(
                 "{command} works on one slave and the segment has {}: select it with \
                  -p POSITION (or -a ALIAS, -p station:ADDRESS)",
                 many.len()
-            )),
+            )
+            .into()),
         }
     }
 }

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use proto::v1 as pb;
 
 use crate::client::{Clients, connect};
+use crate::failure::Failure;
 use crate::parse::failed;
 
 /// One invocation's connection.
@@ -41,7 +42,7 @@ impl Session {
     }
 
     /// The gRPC clients, connecting on the first call.
-    pub async fn clients(&mut self) -> Result<&mut Clients, String> {
+    pub async fn clients(&mut self) -> Result<&mut Clients, Failure> {
         if self.clients.is_none() {
             let clients =
                 connect(&self.address, self.token.as_deref(), self.tls_ca.as_deref()).await?;
@@ -51,7 +52,7 @@ impl Session {
     }
 
     /// The slaves ecatd knows, in ring order.
-    pub async fn slaves(&mut self) -> Result<Vec<pb::Slave>, String> {
+    pub async fn slaves(&mut self) -> Result<Vec<pb::Slave>, Failure> {
         Ok(self
             .clients()
             .await?

@@ -123,6 +123,13 @@ pub struct Args {
     /// it is good, 2 when not.
     #[arg(long, conflicts_with = "print_config")]
     pub check_config: bool,
+    /// Print a shell completion script for ecatd (bash, zsh, fish, elvish, powershell) and
+    /// exit.
+    #[arg(long, value_name = "SHELL")]
+    pub completions: Option<clap_complete::Shell>,
+    /// Print ecatd's man page (roff) and exit.
+    #[arg(long, conflicts_with = "completions")]
+    pub man: bool,
 }
 
 /// The state ecatd leaves the slaves in when it stops.

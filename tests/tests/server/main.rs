@@ -15,6 +15,8 @@ mod auth;
 mod call_it;
 mod capture;
 mod cli;
+mod cli_failures;
+mod cli_igh;
 mod embedded;
 mod eoe;
 mod error_classes;

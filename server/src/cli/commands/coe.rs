@@ -8,6 +8,7 @@ use serde_json::{Value, json};
 
 use crate::Run;
 use crate::client::Clients;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::{failed, num, typed, unhex};
 use crate::select::Selection;
@@ -55,11 +56,12 @@ pub struct Download {
 /// `ecat sdos`.
 #[derive(Debug, clap::Args)]
 pub struct Sdos {
-    /// The slave.
+    /// The slave (every slave with CoE when none is selected, each under IgH's
+    /// `=== Master 0, Slave N ===` when there are several).
     #[command(flatten)]
     pub select: Selection,
-    /// Objects only, without their entries.
-    #[arg(long)]
+    /// Objects only, without their entries (IgH's `-q`).
+    #[arg(short, long)]
     pub quiet: bool,
 }
 
@@ -145,7 +147,7 @@ fn igh_value(ty: &str, data: &[u8], value: &str) -> String {
 }
 
 impl Run for Upload {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "upload").await?;
         let c = session.clients().await?;
         let index = num(&self.index, "index")?;
@@ -176,7 +178,7 @@ impl Run for Upload {
 }
 
 impl Run for Download {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "download").await?;
         let (data, value, value_type) = if self.complete {
             // Complete access takes raw bytes only.
@@ -204,66 +206,99 @@ impl Run for Download {
 }
 
 impl Run for Sdos {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
-        let slave = self.select.one(session, "sdos").await?;
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
+        let slaves = match self.select.given()? {
+            Some(slave) => vec![slave],
+            // IgH lists every slave's dictionary; a slave without CoE has none.
+            None => session
+                .slaves()
+                .await?
+                .iter()
+                .filter(|s| s.mailbox_protocols.iter().any(|p| p == "CoE"))
+                .map(|s| s.position.to_string())
+                .collect(),
+        };
+        let headers = slaves.len() > 1;
         let c = session.clients().await?;
-        let list = c
+        let mut human = Vec::new();
+        let mut json = Vec::new();
+        for slave in slaves {
+            if headers {
+                human.push(format!("=== Master 0, Slave {slave} ==="));
+            }
+            let objects = dictionary(c, &slave, self.quiet, &mut human).await?;
+            if !headers {
+                return Ok(out(Value::Array(objects), human.join("\n")));
+            }
+            json.push(json!({"slave": slave.parse::<u32>().ok(), "objects": objects}));
+        }
+        Ok(out(Value::Array(json), human.join("\n")))
+    }
+}
+
+/// One slave's dictionary (SDO Information): IgH's lines added to `human`, the objects as
+/// JSON returned; `quiet` leaves the entries out.
+async fn dictionary(
+    c: &mut Clients,
+    slave: &str,
+    quiet: bool,
+    human: &mut Vec<String>,
+) -> Result<Vec<Value>, Failure> {
+    let list = c
+        .coe
+        .object_list(pb::ObjectListRequest {
+            slave: slave.to_owned(),
+            list: 1,
+        })
+        .await
+        .map_err(failed)?
+        .into_inner();
+    let mut objects = Vec::new();
+    for index in list.indices {
+        let o = c
             .coe
-            .object_list(pb::ObjectListRequest {
-                slave: slave.clone(),
-                list: 1,
+            .object_description(pb::ObjectDescriptionRequest {
+                slave: slave.to_owned(),
+                index,
             })
             .await
             .map_err(failed)?
             .into_inner();
-        let mut objects = Vec::new();
-        let mut human = Vec::new();
-        for index in list.indices {
-            let o = c
-                .coe
-                .object_description(pb::ObjectDescriptionRequest {
-                    slave: slave.clone(),
-                    index,
-                })
-                .await
-                .map_err(failed)?
-                .into_inner();
-            human.push(format!("SDO 0x{:04x}, \"{}\"", o.index, o.name));
-            let mut entries = Vec::new();
-            if !self.quiet {
-                for subindex in 0..=o.max_subindex {
-                    // A gap in a record's subindices answers with an abort: not an entry.
-                    let Ok(e) = c
-                        .coe
-                        .entry_description(pb::EntryDescriptionRequest {
-                            slave: slave.clone(),
-                            index,
-                            subindex,
-                        })
-                        .await
-                    else {
-                        continue;
-                    };
-                    let e = e.into_inner();
-                    human.push(format!(
-                        "  0x{:04x}:{:02x}, {}, {}, {} bit, \"{}\"",
-                        e.index,
-                        e.subindex,
-                        access(e.access),
-                        igh_type(e.data_type),
-                        e.bit_length,
-                        e.description
-                    ));
-                    entries.push(json!({"subindex": e.subindex, "access": access(e.access),
-                        "data_type": igh_type(e.data_type), "bit_length": e.bit_length,
-                        "name": e.description}));
-                }
+        human.push(format!("SDO 0x{:04x}, \"{}\"", o.index, o.name));
+        let mut entries = Vec::new();
+        if !quiet {
+            for subindex in 0..=o.max_subindex {
+                // A gap in a record's subindices answers with an abort: not an entry.
+                let Ok(e) = c
+                    .coe
+                    .entry_description(pb::EntryDescriptionRequest {
+                        slave: slave.to_owned(),
+                        index,
+                        subindex,
+                    })
+                    .await
+                else {
+                    continue;
+                };
+                let e = e.into_inner();
+                human.push(format!(
+                    "  0x{:04x}:{:02x}, {}, {}, {} bit, \"{}\"",
+                    e.index,
+                    e.subindex,
+                    access(e.access),
+                    igh_type(e.data_type),
+                    e.bit_length,
+                    e.description
+                ));
+                entries.push(json!({"subindex": e.subindex, "access": access(e.access),
+                    "data_type": igh_type(e.data_type), "bit_length": e.bit_length,
+                    "name": e.description}));
             }
-            objects.push(
-                json!({"index": o.index, "name": o.name, "data_type": o.data_type_name,
-                "max_subindex": o.max_subindex, "entries": entries}),
-            );
         }
-        Ok(out(Value::Array(objects), human.join("\n")))
+        objects.push(
+            json!({"index": o.index, "name": o.name, "data_type": o.data_type_name,
+            "max_subindex": o.max_subindex, "entries": entries}),
+        );
     }
+    Ok(objects)
 }

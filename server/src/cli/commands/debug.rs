@@ -6,6 +6,7 @@ use proto::v1 as pb;
 use serde_json::json;
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::failed;
 use crate::session::Session;
@@ -29,7 +30,7 @@ fn from_level(text: &str) -> &str {
 }
 
 impl Run for Debug {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let bus = &mut session.clients().await?.bus;
         let filter = match self.filter {
             None => {

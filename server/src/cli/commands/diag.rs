@@ -9,6 +9,7 @@ use serde_json::json;
 use crate::Run;
 use crate::client::Clients;
 use crate::diag_message::{FIRST_MESSAGE, Message};
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::failed;
 use crate::select::Selection;
@@ -25,7 +26,7 @@ pub struct Diag {
     pub select: Selection,
 }
 
-async fn entry(c: &mut Clients, slave: &str, subindex: u8) -> Result<Vec<u8>, String> {
+async fn entry(c: &mut Clients, slave: &str, subindex: u8) -> Result<Vec<u8>, Failure> {
     c.coe
         .upload(pb::UploadRequest {
             slave: slave.to_owned(),
@@ -36,7 +37,7 @@ async fn entry(c: &mut Clients, slave: &str, subindex: u8) -> Result<Vec<u8>, St
         })
         .await
         .map(|r| r.into_inner().data)
-        .map_err(|status| format!("0x10F3:{subindex:02X}: {}", failed(status)))
+        .map_err(|status| failed(status).context(format!("0x10F3:{subindex:02X}")))
 }
 
 fn first_u(data: &[u8]) -> u64 {
@@ -47,14 +48,15 @@ fn first_u(data: &[u8]) -> u64 {
 }
 
 impl Run for Diag {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "diag").await?;
         let c = session.clients().await?;
         let highest = first_u(&entry(c, &slave, 0).await?) as u8;
         if highest < FIRST_MESSAGE - 1 {
             return Err(format!(
                 "slave {slave}: 0x10F3 has {highest} entries, not a diagnosis history"
-            ));
+            )
+            .into());
         }
         let max = first_u(&entry(c, &slave, 1).await?);
         let newest = first_u(&entry(c, &slave, 2).await?) as u8;

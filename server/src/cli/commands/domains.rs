@@ -8,6 +8,7 @@ use proto::v1 as pb;
 use serde_json::{Value, json};
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, bytes, out};
 use crate::parse::{failed, num};
 use crate::session::Session;
@@ -34,7 +35,7 @@ pub struct Data {
     pub hex: bool,
 }
 
-async fn domains(session: &mut Session, only: Option<&str>) -> Result<Vec<pb::Domain>, String> {
+async fn domains(session: &mut Session, only: Option<&str>) -> Result<Vec<pb::Domain>, Failure> {
     let only: Option<u32> = only.map(|d| num(d, "domain")).transpose()?;
     let all = session
         .clients()
@@ -54,7 +55,8 @@ async fn domains(session: &mut Session, only: Option<&str>) -> Result<Vec<pb::Do
                 return Err(format!(
                     "no domain {index}: the segment has {count} (0..={})",
                     count.saturating_sub(1)
-                ));
+                )
+                .into());
             }
             Ok(one)
         }
@@ -101,7 +103,7 @@ fn domain_json(d: &pb::Domain) -> Value {
 }
 
 impl Run for Domains {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let list = domains(session, self.domain.as_deref()).await?;
         let mut human = Vec::new();
         for d in &list {
@@ -151,7 +153,7 @@ impl Run for Domains {
 }
 
 impl Run for Data {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let list = domains(session, self.domain.as_deref()).await?;
         let json = Value::Array(
             list.iter()

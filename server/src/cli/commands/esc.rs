@@ -8,6 +8,7 @@ use proto::v1 as pb;
 use serde_json::{Value, json};
 
 use crate::client::Clients;
+use crate::failure::Failure;
 use crate::parse::failed;
 
 /// What `slaves -v` prints below the identity, and its JSON.
@@ -39,7 +40,7 @@ pub async fn register(
     slave: &str,
     address: u32,
     length: u32,
-) -> Result<Vec<u8>, String> {
+) -> Result<Vec<u8>, Failure> {
     Ok(c.bus
         .read_register(pb::ReadRegisterRequest {
             slave: slave.to_owned(),
@@ -53,12 +54,12 @@ pub async fn register(
 }
 
 /// Reads the details of `s`.
-pub async fn details(c: &mut Clients, s: &pb::Slave) -> Result<Details, String> {
+pub async fn details(c: &mut Clients, s: &pb::Slave) -> Result<Details, Failure> {
     let name = format!("pos:{}", s.position);
     let info = register(c, &name, 0x0000, 10).await?;
     let dl = register(c, &name, 0x0110, 2).await?;
     let (Some(info), Some(dl)) = (info.get(..10), dl.get(..2)) else {
-        return Err(format!("slave {}: short register read", s.position));
+        return Err(format!("slave {}: short register read", s.position).into());
     };
     let status = DlStatus::decode(u16::from_le_bytes([dl[0], dl[1]]));
     let features = u16::from_le_bytes([info[8], info[9]]);
@@ -121,7 +122,7 @@ pub async fn details(c: &mut Clients, s: &pb::Slave) -> Result<Details, String> 
 }
 
 /// The mailbox lines from the SII's words 0x0014-0x001C.
-async fn mailboxes(c: &mut Clients, name: &str, s: &pb::Slave) -> Result<(String, Value), String> {
+async fn mailboxes(c: &mut Clients, name: &str, s: &pb::Slave) -> Result<(String, Value), Failure> {
     let sii = c
         .bus
         .read_sii(pb::ReadSiiRequest {

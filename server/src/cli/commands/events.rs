@@ -8,6 +8,7 @@ use proto::v1 as pb;
 use serde_json::{Value, json};
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out, printed};
 use crate::parse::failed;
 use crate::select::Selection;
@@ -34,7 +35,7 @@ pub struct Events {
 }
 
 impl Run for Events {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.given()?.unwrap_or_default();
         let kind = self.kind.clone().unwrap_or_default();
         let kept = session
@@ -110,7 +111,7 @@ fn kept_position(slave: &str) -> Option<u32> {
     slave.strip_prefix("pos:").unwrap_or(slave).parse().ok()
 }
 
-fn print(event: &pb::Event, json: bool) -> Result<(), String> {
+fn print(event: &pb::Event, json: bool) -> Result<(), Failure> {
     let mut stdout = std::io::stdout().lock();
     let text = if json {
         event_json(event).to_string()
@@ -119,7 +120,7 @@ fn print(event: &pb::Event, json: bool) -> Result<(), String> {
     };
     writeln!(stdout, "{text}")
         .and_then(|()| stdout.flush())
-        .map_err(|err| format!("standard output: {err}"))
+        .map_err(|err| Failure::other(format!("standard output: {err}")))
 }
 
 /// One event as a line: time, kind, text.

@@ -9,6 +9,7 @@ use serde_json::json;
 use tokio_stream::StreamExt;
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, bytes, out};
 use crate::parse::failed;
 use crate::progress::bar;
@@ -51,7 +52,7 @@ pub struct FoeWrite {
 }
 
 impl Run for FoeRead {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "foe_read").await?;
         let mut stream = session
             .clients()
@@ -74,7 +75,8 @@ impl Run for FoeRead {
         progress.finish_and_clear();
         match self.output {
             Some(path) => {
-                std::fs::write(&path, &data).map_err(|e| format!("{}: {e}", path.display()))?;
+                std::fs::write(&path, &data)
+                    .map_err(|e| Failure::other(format!("{}: {e}", path.display())))?;
                 Ok(out(
                     json!({"bytes": data.len()}),
                     format!("{} bytes", data.len()),
@@ -86,10 +88,11 @@ impl Run for FoeRead {
 }
 
 impl Run for FoeWrite {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "foe_write").await?;
         let file = &self.file;
-        let data = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
+        let data =
+            std::fs::read(file).map_err(|e| Failure::other(format!("{}: {e}", file.display())))?;
         let name = match self.name {
             Some(name) => name,
             None => file

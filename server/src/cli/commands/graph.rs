@@ -7,6 +7,7 @@ use serde_json::json;
 
 use super::slaves::display_name;
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::session::Session;
 
@@ -15,7 +16,7 @@ use crate::session::Session;
 pub struct Graph {}
 
 impl Run for Graph {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slaves = session.slaves().await?;
         let c = session.clients().await?;
         let mut open = Vec::new();

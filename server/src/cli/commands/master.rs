@@ -4,6 +4,7 @@ use proto::v1 as pb;
 use serde_json::json;
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::failed;
 use crate::session::Session;
@@ -31,7 +32,7 @@ fn master_json(m: &pb::GetMasterResponse) -> serde_json::Value {
 }
 
 impl Run for MasterCmd {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let m = session
             .clients()
             .await?
@@ -68,7 +69,7 @@ impl Run for MasterCmd {
 }
 
 impl Run for Rescan {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let r = session
             .clients()
             .await?
@@ -89,7 +90,7 @@ impl Run for Rescan {
 }
 
 impl Run for Version {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let client = env!("CARGO_PKG_VERSION");
         // The client's version prints even when ecatd cannot be reached.
         let server = match session.clients().await {

@@ -2,6 +2,7 @@
 //! [`Run`](crate::Run).
 
 pub mod coe;
+pub mod cstruct;
 pub mod debug;
 pub mod diag;
 pub mod docs;

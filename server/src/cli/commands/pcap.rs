@@ -9,6 +9,7 @@ use proto::v1 as pb;
 use serde_json::json;
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, bytes, out};
 use crate::parse::{failed, num};
 use crate::progress::bar;
@@ -33,7 +34,7 @@ pub struct Pcap {
 }
 
 impl Run for Pcap {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let frames = match &self.count {
             Some(text) => num(text, "count")?,
             None => 0,
@@ -73,7 +74,8 @@ impl Run for Pcap {
         let json = json!({"frames": count, "dropped": dropped, "bytes": data.len()});
         match self.file {
             Some(path) => {
-                std::fs::write(&path, &data).map_err(|e| format!("{}: {e}", path.display()))?;
+                std::fs::write(&path, &data)
+                    .map_err(|e| Failure::other(format!("{}: {e}", path.display())))?;
                 Ok(out(json, format!("{count} frames, {dropped} dropped")))
             }
             None => Ok(bytes(json, data)),

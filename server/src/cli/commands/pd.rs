@@ -10,6 +10,7 @@ use proto::v1 as pb;
 use serde_json::{Value, json};
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out, printed};
 use crate::parse::{failed, num};
 use crate::select::Selection;
@@ -71,7 +72,7 @@ pub struct Pdos {
 }
 
 impl Run for Pd {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         if self.force {
             return self.force(session).await;
         }
@@ -111,13 +112,13 @@ impl Run for Pd {
 
 impl Pd {
     /// The output the positional arguments name: index and subindex.
-    fn output(&self) -> Result<(u32, u32), String> {
+    fn output(&self) -> Result<(u32, u32), Failure> {
         let index = self.index.as_deref().ok_or("INDEX is missing")?;
         let subindex = self.subindex.as_deref().ok_or("SUB is missing")?;
         Ok((num(index, "index")?, num(subindex, "subindex")?))
     }
 
-    async fn force(self, session: &mut Session) -> Result<Out, String> {
+    async fn force(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "pd --force").await?;
         let (index, subindex) = self.output()?;
         let value = force_value(self.value.as_deref().unwrap_or_default())?;
@@ -141,7 +142,7 @@ impl Pd {
         Ok(out(force_json(&forced), ""))
     }
 
-    async fn release(self, session: &mut Session) -> Result<Out, String> {
+    async fn release(self, session: &mut Session) -> Result<Out, Failure> {
         if self.index.is_none() {
             return self.release_all(session).await;
         }
@@ -163,7 +164,7 @@ impl Pd {
 
     /// Releases every forced output of the selected slave, or of every slave: nothing
     /// forced is nothing to do, so running it again is no error.
-    async fn release_all(self, session: &mut Session) -> Result<Out, String> {
+    async fn release_all(self, session: &mut Session) -> Result<Out, Failure> {
         let position = selected_position(&self.select, session).await?;
         let c = session.clients().await?;
         let forced =
@@ -196,7 +197,7 @@ impl Pd {
 async fn selected_position(
     select: &Selection,
     session: &mut Session,
-) -> Result<Option<u32>, String> {
+) -> Result<Option<u32>, Failure> {
     let Some(slave) = select.given()? else {
         return Ok(None);
     };
@@ -212,7 +213,7 @@ async fn selected_position(
 }
 
 /// `pd --forced`: the forced outputs, of the selected slave or of every slave.
-async fn forced(select: &Selection, session: &mut Session) -> Result<Out, String> {
+async fn forced(select: &Selection, session: &mut Session) -> Result<Out, Failure> {
     let position = selected_position(select, session).await?;
     let forced: Vec<pb::PdForce> = session
         .clients()
@@ -269,7 +270,7 @@ fn raw_of(value: Option<&pb::PdValue>, bits: u32) -> Vec<u8> {
 
 /// `--watch`'s interval in milliseconds (0: ecatd's default): `250ms`, `1s`, or a number of
 /// milliseconds.
-fn interval_ms(text: &str) -> Result<u32, String> {
+fn interval_ms(text: &str) -> Result<u32, Failure> {
     if text.is_empty() {
         return Ok(0);
     }
@@ -281,17 +282,15 @@ fn interval_ms(text: &str) -> Result<u32, String> {
     // Rounded up: ecatd then refuses what is too short rather than being asked for less.
     let ms = interval.as_micros().div_ceil(1000);
     match u32::try_from(ms) {
-        Ok(0) => Err(format!(
-            "--watch {text:?}: the interval must be at least 1ms"
-        )),
+        Ok(0) => Err(format!("--watch {text:?}: the interval must be at least 1ms").into()),
         Ok(ms) => Ok(ms),
-        Err(_) => Err(format!("--watch {text:?}: too long")),
+        Err(_) => Err(format!("--watch {text:?}: too long").into()),
     }
 }
 
 /// A value to force: `true`/`false`, an integer (decimal or `0x` hex, either with a `-`),
 /// else a floating-point number.
-fn force_value(text: &str) -> Result<pb::force_request::Value, String> {
+fn force_value(text: &str) -> Result<pb::force_request::Value, Failure> {
     use pb::force_request::Value as V;
     match text.to_ascii_lowercase().as_str() {
         "true" => return Ok(V::BoolValue(true)),
@@ -319,17 +318,19 @@ fn force_value(text: &str) -> Result<pb::force_request::Value, String> {
         };
         return value
             .map(V::IntValue)
-            .ok_or_else(|| format!("{text} is out of range"));
+            .ok_or_else(|| format!("{text} is out of range").into());
     }
     text.parse::<f64>()
         .ok()
         .filter(|v| v.is_finite())
         .map(V::RealValue)
-        .ok_or_else(|| format!("{text:?} is not a value: give an integer, a number, true or false"))
+        .ok_or_else(|| {
+            format!("{text:?} is not a value: give an integer, a number, true or false").into()
+        })
 }
 
 /// Follows the values until ecatd ends the stream (its shutdown) or the command is stopped.
-async fn watch(session: &mut Session, slave: String, interval_ms: u32) -> Result<Out, String> {
+async fn watch(session: &mut Session, slave: String, interval_ms: u32) -> Result<Out, Failure> {
     let json = session.json();
     let mut stream = session
         .clients()
@@ -373,7 +374,7 @@ async fn watch(session: &mut Session, slave: String, interval_ms: u32) -> Result
         };
         written
             .and_then(|()| stdout.flush())
-            .map_err(|err| format!("standard output: {err}"))?;
+            .map_err(|err| Failure::other(format!("standard output: {err}")))?;
     }
     Ok(printed())
 }
@@ -517,7 +518,7 @@ fn table(entries: &[pb::PdEntryValue]) -> String {
 }
 
 impl Run for Pdos {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.given()?.unwrap_or_default();
         let layout = session
             .clients()

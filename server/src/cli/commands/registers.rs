@@ -10,6 +10,7 @@ use serde_json::{Value, json};
 use server::input::value::ValueType;
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::{failed, num, typed, unhex};
 use crate::select::Selection;
@@ -62,10 +63,10 @@ pub struct RegRdwr {
 }
 
 /// Register data from the command line: a value of `ty`, or hex bytes.
-fn register_data(data: &str, ty: Option<&str>) -> Result<Vec<u8>, String> {
+fn register_data(data: &str, ty: Option<&str>) -> Result<Vec<u8>, Failure> {
     match ty {
-        Some(ty) => server::input::value::encode(typed(ty)?, data).map_err(|e| e.message),
-        None => unhex(data),
+        Some(ty) => server::input::value::encode(typed(ty)?, data).map_err(|e| e.message.into()),
+        None => Ok(unhex(data)?),
     }
 }
 
@@ -82,7 +83,7 @@ fn type_size(ty: ValueType) -> Option<u32> {
 
 /// Register bytes as the command prints them: the value of `ty`, or hex (`0x` and the
 /// bytes in address order, as IgH prints raw registers).
-fn show(data: &[u8], ty: Option<&str>) -> Result<(serde_json::Value, String), String> {
+fn show(data: &[u8], ty: Option<&str>) -> Result<(serde_json::Value, String), Failure> {
     match ty {
         Some(ty) => {
             let ty = typed(ty)?;
@@ -115,7 +116,7 @@ pub struct Alias {
 pub struct Crc {}
 
 impl Run for RegRead {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "reg_read").await?;
         let length: u32 = match (&self.length, &self.ty) {
             (Some(length), _) => num(length, "length")?,
@@ -142,7 +143,7 @@ impl Run for RegRead {
 }
 
 impl Run for RegWrite {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "reg_write").await?;
         let data = register_data(&self.data, self.ty.as_deref())?;
         session
@@ -161,7 +162,7 @@ impl Run for RegWrite {
 }
 
 impl Run for RegRdwr {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "reg_rdwr").await?;
         let data = register_data(&self.data, self.ty.as_deref())?;
         let r = session
@@ -182,7 +183,7 @@ impl Run for RegRdwr {
 }
 
 impl Run for Alias {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "alias").await?;
         let r = session
             .clients()
@@ -203,7 +204,7 @@ impl Run for Alias {
 }
 
 impl Run for Crc {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slaves = session.slaves().await?;
         let c = session.clients().await?;
         let mut human = vec![

@@ -9,6 +9,7 @@ use proto::v1 as pb;
 use serde_json::json;
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, bytes, out};
 use crate::parse::failed;
 use crate::select::Selection;
@@ -43,7 +44,7 @@ pub struct SiiWrite {
 }
 
 impl Run for SiiRead {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let slave = self.select.one(session, "sii_read").await?;
         let r = session
             .clients()
@@ -55,7 +56,8 @@ impl Run for SiiRead {
             .into_inner();
         match self.output {
             Some(path) => {
-                std::fs::write(&path, &r.data).map_err(|e| format!("{}: {e}", path.display()))?;
+                std::fs::write(&path, &r.data)
+                    .map_err(|e| Failure::other(format!("{}: {e}", path.display())))?;
                 Ok(out(
                     json!({"bytes": r.data.len()}),
                     format!("{} bytes", r.data.len()),
@@ -68,21 +70,22 @@ impl Run for SiiRead {
 
 /// Reads the image and checks it: an even size of at least the configuration area, and
 /// the checksum right (or fixed with `fix`, or not checked with `force`).
-fn image(file: &std::path::Path, fix: bool, force: bool) -> Result<Vec<u8>, String> {
+fn image(file: &std::path::Path, fix: bool, force: bool) -> Result<Vec<u8>, Failure> {
     let mut data = if file.as_os_str() == "-" {
         let mut data = Vec::new();
         std::io::Read::read_to_end(&mut std::io::stdin(), &mut data)
-            .map_err(|e| format!("standard input: {e}"))?;
+            .map_err(|e| Failure::other(format!("standard input: {e}")))?;
         data
     } else {
-        std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?
+        std::fs::read(file).map_err(|e| Failure::other(format!("{}: {e}", file.display())))?
     };
     if data.len() < CHECKSUM_OFFSET + 2 || !data.len().is_multiple_of(2) {
         return Err(format!(
             "{}: {} bytes is no SII image (an even number, at least 16)",
             file.display(),
             data.len()
-        ));
+        )
+        .into());
     }
     let want = crc8(&data[..CHECKSUM_SPAN]);
     let have = data[CHECKSUM_OFFSET];
@@ -94,14 +97,15 @@ fn image(file: &std::path::Path, fix: bool, force: bool) -> Result<Vec<u8>, Stri
                 "{}: SII checksum 0x{have:02x} is wrong (words 0-6 give 0x{want:02x}); \
                  --fix to correct it, --force to write it as it is",
                 file.display()
-            ));
+            )
+            .into());
         }
     }
     Ok(data)
 }
 
 impl Run for SiiWrite {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let data = image(&self.file, self.fix, self.force)?;
         let slave = self.select.one(session, "sii_write").await?;
         session

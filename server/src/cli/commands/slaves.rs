@@ -6,6 +6,7 @@ use proto::v1 as pb;
 use serde_json::{Value, json};
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::{failed, slave_state_text};
 use crate::select::Selection;
@@ -84,7 +85,7 @@ fn table(slaves: &[pb::Slave], relpos: &[(u32, u32)]) -> String {
 }
 
 impl Run for Slaves {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let all = session.slaves().await?;
         let c = session.clients().await?;
         let relpos = alias_relpos(&all);

@@ -5,6 +5,7 @@ use serde_json::json;
 use server::input::value::{decode, encode};
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::{failed, idn, typed};
 use crate::select::Selection;
@@ -16,8 +17,8 @@ pub struct SoeRead {
     /// The slave.
     #[command(flatten)]
     pub select: Selection,
-    /// Drive number.
-    #[arg(long, default_value = "0")]
+    /// Drive number (IgH's `-d`; default 0).
+    #[arg(short = 'd', long, default_value = "0")]
     pub drive: u8,
     /// The IDN: `S-0-0011`, `P-0-0100` or a number (`0x8064`).
     pub idn: String,
@@ -32,8 +33,8 @@ pub struct SoeWrite {
     /// The slave.
     #[command(flatten)]
     pub select: Selection,
-    /// Drive number.
-    #[arg(long, default_value = "0")]
+    /// Drive number (IgH's `-d`; default 0).
+    #[arg(short = 'd', long, default_value = "0")]
     pub drive: u8,
     /// The IDN: `S-0-0011`, `P-0-0100` or a number.
     pub idn: String,
@@ -45,7 +46,7 @@ pub struct SoeWrite {
 }
 
 impl Run for SoeRead {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let ty = typed(&self.ty)?;
         let idn = idn(&self.idn)?;
         let slave = self.select.one(session, "soe_read").await?;
@@ -71,7 +72,7 @@ impl Run for SoeRead {
 }
 
 impl Run for SoeWrite {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let data = encode(typed(&self.ty)?, &self.value).map_err(|e| e.message)?;
         let idn = idn(&self.idn)?;
         let slave = self.select.one(session, "soe_write").await?;

@@ -6,6 +6,7 @@ use serde_json::Value;
 
 use super::slaves::slave_json;
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::{failed, state};
 use crate::select::Selection;
@@ -22,7 +23,7 @@ pub struct States {
 }
 
 impl Run for States {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let target = state(&self.state)? as i32;
         let c = session.clients().await?;
         let slaves = match self.select.given()? {

@@ -4,6 +4,7 @@ use proto::v1 as pb;
 use serde_json::json;
 
 use crate::Run;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::{failed, num, unhex};
 use crate::select::Selection;
@@ -24,7 +25,7 @@ pub struct Voe {
 }
 
 impl Run for Voe {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let request = pb::VoeRequest {
             slave: self.select.one(session, "voe").await?,
             vendor_id: num(&self.vendor_id, "vendor id")?,

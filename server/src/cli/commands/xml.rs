@@ -5,6 +5,7 @@ use serde_json::{Value, json};
 
 use crate::Run;
 use crate::esi;
+use crate::failure::Failure;
 use crate::out::{Out, out};
 use crate::parse::failed;
 use crate::select::Selection;
@@ -19,7 +20,7 @@ pub struct Xml {
 }
 
 impl Run for Xml {
-    async fn run(self, session: &mut Session) -> Result<Out, String> {
+    async fn run(self, session: &mut Session) -> Result<Out, Failure> {
         let names: Vec<String> = match self.select.given()? {
             Some(name) => vec![name],
             None => session
