@@ -8,6 +8,7 @@ use tonic::{Request, Response, Status};
 
 use super::auth::admit;
 use super::status::narrow;
+use crate::input::soe_value;
 use crate::service::{Core, IpView, Operation, parse_name};
 
 /// The SoE, VoE and EoE services over the core.
@@ -22,21 +23,29 @@ type Reply<T> = Result<Response<T>, Status>;
 impl SoeService for Protocols {
     async fn read(&self, request: Request<pb::SoeReadRequest>) -> Reply<pb::SoeReadResponse> {
         let r = request.get_ref();
-        let data = self
+        let (data, value) = self
             .core
-            .soe_read(
+            .soe_read_as(
                 parse_name(&r.slave)?,
                 narrow(r.drive, "drive")?,
                 narrow(r.idn, "idn")?,
                 narrow(r.elements, "elements")?,
+                soe_value::parse_type(&r.value_type)?,
             )
             .await?;
-        Ok(Response::new(pb::SoeReadResponse { data }))
+        Ok(Response::new(pb::SoeReadResponse {
+            data,
+            value: value.unwrap_or_default(),
+        }))
     }
 
     async fn write(&self, request: Request<pb::SoeWriteRequest>) -> Reply<pb::SoeWriteResponse> {
         let ticket = admit(&self.core, &request, Operation::SoeWrite)?;
         let r = request.get_ref();
+        let data = match soe_value::parse_type(&r.value_type)? {
+            Some(ty) => soe_value::encode(ty, &r.value)?,
+            None => r.data.clone(),
+        };
         self.core
             .soe_write(
                 ticket,
@@ -44,7 +53,7 @@ impl SoeService for Protocols {
                 narrow(r.drive, "drive")?,
                 narrow(r.idn, "idn")?,
                 narrow(r.elements, "elements")?,
-                &r.data,
+                &data,
             )
             .await?;
         Ok(Response::new(pb::SoeWriteResponse {}))

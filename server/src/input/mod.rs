@@ -11,5 +11,6 @@
 pub mod address;
 pub mod ip;
 pub mod since;
+pub mod soe_value;
 pub mod state;
 pub mod value;

@@ -772,6 +772,22 @@ impl Core {
         .await
     }
 
+    /// [`Core::soe_read`], and with `ty` the value as text ([`crate::input::soe_value`]).
+    pub async fn soe_read_as(
+        &self,
+        slave: SlaveName,
+        drive: u8,
+        idn: u16,
+        elements: u8,
+        ty: Option<value::ValueType>,
+    ) -> Result<(Vec<u8>, Option<String>)> {
+        let data = self.soe_read(slave, drive, idn, elements).await?;
+        let value = ty
+            .map(|ty| crate::input::soe_value::decode(ty, &data))
+            .transpose()?;
+        Ok((data, value))
+    }
+
     /// Writes the `elements` (0: the value) of IDN `idn` of drive `drive`.
     pub async fn soe_write(
         &self,

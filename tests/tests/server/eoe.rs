@@ -189,3 +189,46 @@ bridge = "eoebr0"
     });
     assert_eq!(ecatd.ping("10.76.0.2", 10, 56), 10, "{}", ecatd.log());
 }
+
+/// The simulated device has a factory MAC, as a real one does: `ecat ip` with an address
+/// alone (IgH's `ethercat ip` makes the MAC optional) puts it on the network, and ping
+/// reaches it through `eoe0s0` on the embedded default segment.
+#[test]
+fn set_ip_without_a_mac_is_enough_to_ping_the_device() {
+    let config = tempfile_path::write(
+        r#"
+[eoe]
+name_scheme = "position"
+
+[[eoe.slave]]
+slave = "0"
+host_address = "10.78.0.1/24"
+"#,
+    );
+    let mut ecatd = EcatdInNs::start(
+        server_support::bin_dir(),
+        &["--simulate", "--config", config.0.to_str().unwrap()],
+    );
+    ecatd.wait_until("eoe0s0 up with its address", |e| {
+        e.carrier("eoe0s0")
+            && e.link("eoe0s0")
+                .is_some_and(|(_, addr)| addr.contains("10.78.0.1/24"))
+    });
+    // Nothing set yet: the device is not on the network.
+    assert_eq!(ecatd.ping("10.78.0.2", 2, 56), 0);
+    let ecat = server_support::bin_dir().join("ecat");
+    let out = ecatd.run(
+        ecat.to_str().unwrap(),
+        &["ip", "-p", "0", "--ip", "10.78.0.2/24"],
+    );
+    assert!(
+        out.status.success(),
+        "ecat ip: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(ecatd.ping("10.78.0.2", 5, 56), 5, "{}", ecatd.log());
+    // It answered on its factory MAC, 02:45:43:53:00:00 for position 0 (docs/eoe.md).
+    let neighbours = ecatd.run("ip", &["neigh", "show", "10.78.0.2", "dev", "eoe0s0"]);
+    let neighbours = String::from_utf8_lossy(&neighbours.stdout);
+    assert!(neighbours.contains("02:45:43:53:00:00"), "{neighbours}");
+}

@@ -946,3 +946,23 @@ fn a_request_that_does_not_parse_is_an_invalid_argument() {
     let list = call(&ecatd.grpc, &[], "ecat.v1.BusService/ListSlaves", "{}").unwrap();
     assert!(!list["slaves"].as_array().unwrap().is_empty());
 }
+
+/// proto3's JSON leaves zero values out (the first slave has no `position`); grpcurl's
+/// `-emit-defaults`, as docs/call-it.md says, prints them.
+#[test]
+fn grpcurl_shows_position_zero_with_emit_defaults() {
+    let ecatd = Ecatd::start(&[]);
+    let first = |text: &str| -> Value {
+        let v: Value = serde_json::from_str(text).unwrap();
+        v["slaves"][0].clone()
+    };
+    let plain = first(&grpcurl(&[&ecatd.grpc, "ecat.v1.BusService/ListSlaves"]));
+    assert_eq!(plain.get("position"), None, "proto3 JSON omits 0: {plain}");
+    let full = first(&grpcurl(&[
+        "-emit-defaults",
+        &ecatd.grpc,
+        "ecat.v1.BusService/ListSlaves",
+    ]));
+    assert_eq!(full["position"], 0, "{full}");
+    assert_eq!(full["station"], plain["station"]);
+}

@@ -2,7 +2,8 @@
 
 use proto::v1 as pb;
 use serde_json::json;
-use server::input::value::{decode, encode};
+// SoE's own text forms: a string travels with its length header.
+use server::input::soe_value::{decode, encode};
 
 use crate::Run;
 use crate::failure::Failure;
@@ -59,6 +60,7 @@ impl Run for SoeRead {
                 drive: u32::from(self.drive),
                 idn,
                 elements: 0,
+                value_type: String::new(),
             })
             .await
             .map_err(failed)?
@@ -86,6 +88,8 @@ impl Run for SoeWrite {
                 idn,
                 elements: 0,
                 data,
+                value: String::new(),
+                value_type: String::new(),
             })
             .await
             .map_err(failed)?;
