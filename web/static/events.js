@@ -1,7 +1,8 @@
 // The events log: the events ecatd kept and every one since, newest first, with the time
 // ecatd published each (UTC) and its text. Filters by kind, slave and time ask ecatd
-// (GET /api/v1/events?kind=&slave=&since=: the server reads slave names and spans as every
-// other client's query does), again at each new event; the text filter narrows what is shown.
+// (GET /api/v1/events?kind=&slave=&since=: the server reads slave addresses and spans as
+// every other client's query does; a slave's name is looked up in the segment first), again
+// at each new event; the text filter narrows what is shown.
 
 import { api } from "./api.js";
 import { h, fill } from "./dom.js";
@@ -38,9 +39,34 @@ function kindOptions(select, log) {
   select.value = chosen;
 }
 
+/** How ecatd names a slave in a query: a position, `#station`, `@alias`, `alias:offset`. */
+const ADDRESS = /^\s*(pos:|station:|alias:|#|@)?(0x[0-9a-f]+|[0-9]+)([:+](0x[0-9a-f]+|[0-9]+))?\s*$/i;
+
+/**
+ * The kept events `params` select, of the slave `who` names: an address goes to ecatd as it
+ * is; other text is a slave's name (`DI8`), matched against the segment's names, one query
+ * per slave it matches.
+ */
+async function history(params, who) {
+  if (!who || ADDRESS.test(who)) {
+    if (who) params.set("slave", who);
+    return api(`/events?${params}`);
+  }
+  const slaves = await api("/slaves");
+  const named = slaves.filter((sl) => (sl.name || "").toLowerCase().includes(who.toLowerCase()));
+  if (!named.length) throw new Error(`no slave is named ${JSON.stringify(who)} (or give its position)`);
+  const found = [];
+  for (const sl of named) {
+    params.set("slave", String(sl.position));
+    found.push(...(await api(`/events?${params}`)));
+  }
+  found.sort((a, b) => a.id - b.id);
+  return found.slice(-LIMIT);
+}
+
 export function show(view, app) {
   const kind = h("select", { id: "event-kind" });
-  const slave = h("input", { id: "event-slave", type: "text", size: 10, placeholder: "3 or a name", spellcheck: false });
+  const slave = h("input", { id: "event-slave", type: "text", size: 10, placeholder: "3, #0x3ec, @7, DI8", spellcheck: false });
   const since = h("input", { id: "event-since", type: "text", size: 22, placeholder: "10m, 1h, 2026-11-29T07:00:00Z", spellcheck: false });
   const text = h("input", { id: "event-filter", type: "search", placeholder: "slave, state, code…", "aria-label": "Filter events by text" });
   const clear = h("button", { type: "button", id: "event-clear" }, "Clear filters");
@@ -83,10 +109,9 @@ export function show(view, app) {
     body.dataset.filtered = "pending";
     const params = new URLSearchParams({ limit: String(LIMIT) });
     if (kind.value) params.set("kind", kind.value);
-    if (slave.value.trim()) params.set("slave", slave.value.trim());
     if (since.value.trim()) params.set("since", since.value.trim());
     try {
-      const found = await api(`/events?${params}`);
+      const found = await history(params, slave.value.trim());
       if (mine !== asked) return;
       answered = found;
       problem.hidden = true;
@@ -94,7 +119,7 @@ export function show(view, app) {
       if (mine !== asked) return;
       // A filter ecatd cannot read (`since=yesterday`): said, and nothing shown as if it matched.
       answered = [];
-      problem.textContent = `ecatd refused the filter: ${err.message}`;
+      problem.textContent = `filter not applied: ${err.message}`;
       problem.hidden = false;
     }
     render();
