@@ -263,8 +263,8 @@ function entryRow(e, ctx) {
 }
 
 /** #/process-data (every slave) and #/process-data/3 (one). */
-export async function showProcessData(view, app, slaveText) {
-  const only = slaveText === undefined || slaveText === "" ? null : Number(slaveText);
+export async function showProcessData(view, app, positionText) {
+  const only = positionText === undefined || positionText === "" ? null : Number(positionText);
   const [slaves, layout] = await Promise.all([api("/slaves"), api("/process-data/layout")]);
   const names = new Map(slaves.map((sl) => [sl.position, sl.name || "(no name)"]));
   const pick = h("select", {
@@ -279,7 +279,7 @@ export async function showProcessData(view, app, slaveText) {
   const live = h("span", { id: "pd-live", class: "live", role: "status" }, "connecting…");
   const head = h("div", { class: "view-head" }, h("h2", {}, "Process data"), pick, live, cycle);
   if (only !== null && !names.has(only)) {
-    fill(view, head, errorLine(`no slave at position ${slaveText}`));
+    fill(view, head, errorLine(`no slave at position ${positionText}`));
     return null;
   }
   const entries = layout.entries.filter((e) => only === null || e.slave === only);
