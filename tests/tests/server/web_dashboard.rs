@@ -938,7 +938,9 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
 
     // Release from the page, behind a confirmation too: cancelled, the output stays forced.
     b.click(&format!("{output2} button.release"));
-    b.wait("the release confirmation", PATIENCE, |b| b.find("#confirm-cancel"));
+    b.wait("the release confirmation", PATIENCE, |b| {
+        b.find("#confirm-cancel")
+    });
     let asked = b.text("#confirm-dialog");
     for part in [name(1).as_str(), "0x7000:02 Output 2", "engineer"] {
         assert!(asked.contains(part), "{part:?} in {asked:?}");
@@ -956,7 +958,9 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
         1
     );
     b.click(&format!("{output2} button.release"));
-    b.wait("the release confirmation", PATIENCE, |b| b.find("#confirm-ok"));
+    b.wait("the release confirmation", PATIENCE, |b| {
+        b.find("#confirm-ok")
+    });
     b.click("#confirm-ok");
     b.wait("output 2 released", PATIENCE, |_| {
         (get_json(&ecatd, READ_TOKEN, "/process-data/forced") == serde_json::json!([]))
@@ -1014,7 +1018,9 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
         b.find("#force-dialog").is_none().then_some(())
     });
     b.click(&format!("{output3} button.release"));
-    b.wait("the release confirmation", PATIENCE, |b| b.find("#confirm-ok"));
+    b.wait("the release confirmation", PATIENCE, |b| {
+        b.find("#confirm-ok")
+    });
     b.click("#confirm-ok");
     b.wait("output 3 released", PATIENCE, |_| {
         (get_json(&ecatd, READ_TOKEN, "/process-data/forced") == serde_json::json!([]))
@@ -1136,8 +1142,11 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
         assert!(c[1].as_str().unwrap().contains("write token"), "{c}");
     }
     assert!(
-        b.find(&format!("{} button.release:not([hidden])", row(do8, 0x7000, 8)))
-            .is_some(),
+        b.find(&format!(
+            "{} button.release:not([hidden])",
+            row(do8, 0x7000, 8)
+        ))
+        .is_some(),
         "the forced output's Release is shown (disabled)"
     );
     assert_eq!(b.text("#read-only-badge"), "read-only");
@@ -1349,7 +1358,12 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
     });
     b.click("#request-state-2");
     let asked = confirmation(&mut b);
-    for part in [named(2).as_str(), "NowOP", "Requested stateSAFEOP", "Request SAFEOP"] {
+    for part in [
+        named(2).as_str(),
+        "NowOP",
+        "Requested stateSAFEOP",
+        "Request SAFEOP",
+    ] {
         assert!(asked.contains(part), "{part:?} in {asked:?}");
     }
     assert_eq!(
@@ -1402,7 +1416,10 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
     assert!(asked.contains(&format!("all {count}: ")), "{asked}");
     for p in 0..count {
         let name = slaves[p]["name"].as_str().unwrap();
-        assert!(asked.contains(&format!("{p} {name}")), "{name} in {asked:?}");
+        assert!(
+            asked.contains(&format!("{p} {name}")),
+            "{name} in {asked:?}"
+        );
     }
     answer(&mut b, "#confirm-cancel");
     assert_eq!(state_of(2)["state"], "SAFEOP");
@@ -1501,7 +1518,10 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
         assert!(!controls.is_empty(), "{view} draws its write controls");
         for c in &controls {
             assert_eq!(c[0], true, "{view}: {c}");
-            assert!(c[1].as_str().unwrap().contains("write token"), "{view}: {c}");
+            assert!(
+                c[1].as_str().unwrap().contains("write token"),
+                "{view}: {c}"
+            );
         }
         controls.len()
     };
@@ -1589,7 +1609,10 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
         serde_json::json!([]),
     );
     b.type_into("#event-slave", &format!("{short}\u{E007}"));
-    assert_eq!(ids(&filtered(&mut b, "the log of the DI8 by name")), ids(&of_2));
+    assert_eq!(
+        ids(&filtered(&mut b, "the log of the DI8 by name")),
+        ids(&of_2)
+    );
     // And by kind: its state changes (SAFEOP, then OP again, above).
     b.click("#event-kind option[value=\"state_changed\"]");
     let changes = b.wait("the state changes of slave 2", PATIENCE, |b| {
@@ -1619,9 +1642,14 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
     let since = filtered(&mut b, "the changes since the last one");
     assert_eq!(
         ids(&since),
-        expected_ids(&format!("slave=2&kind=state_changed&since={last}&limit=1000"))
+        expected_ids(&format!(
+            "slave=2&kind=state_changed&since={last}&limit=1000"
+        ))
     );
-    assert!(!since.is_empty() && since.len() < changes.len(), "{since:?}");
+    assert!(
+        !since.is_empty() && since.len() < changes.len(),
+        "{since:?}"
+    );
     // A span ecatd cannot read: said, and no event shown as if it matched.
     b.phase("events-bad");
     b.js(
