@@ -1414,8 +1414,8 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
     let all = format!("Request OP for all {count} slaves");
     assert!(asked.contains(&all), "{all:?} in {asked:?}");
     assert!(asked.contains(&format!("all {count}: ")), "{asked}");
-    for p in 0..count {
-        let name = slaves[p]["name"].as_str().unwrap();
+    for (p, slave) in slaves.iter().enumerate() {
+        let name = slave["name"].as_str().unwrap();
         assert!(
             asked.contains(&format!("{p} {name}")),
             "{name} in {asked:?}"
