@@ -7,7 +7,9 @@
 //! The process-data page (`#/process-data`) is driven from here over WebDriver directly
 //! ([`Browser`]: chromedriver's W3C protocol with ureq), against an ecatd with its
 //! application interface on a socket of its own: live values, the force dialog, the
-//! override when a control program owns the outputs, the segment's key values.
+//! override when a control program owns the outputs, the segment's key values. So are the
+//! guardrails of issue 36 (no preselected state, a confirmation before each write, the
+//! read-only mode, the events filters), each checked against ecatd's own state.
 //!
 //! Needs `chromium`, `chromium-driver` and the venv of `scripts/test` (tests/README.md).
 
