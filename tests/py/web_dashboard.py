@@ -122,6 +122,20 @@ def raise_emergency(position, code, register, data):
         return response.status
 
 
+def confirm(d, timeout=DEADLINE_S):
+    """Presses Confirm in the write confirmation; the dialog's text."""
+    wait("the confirmation", lambda: js(d, "const c = document.getElementById('confirm-dialog'); return c && c.open"), timeout)
+    text = d.find_element(By.ID, "confirm-dialog").text
+    d.find_element(By.ID, "confirm-ok").click()
+    wait("the confirmation to close", lambda: not d.find_elements(By.ID, "confirm-dialog"))
+    return text
+
+
+WRITE_CONTROLS = """return [...document.querySelectorAll('.write')]
+    .flatMap(el => el.matches('button, input, select') ? [el] : [...el.querySelectorAll('button, input, select')])
+    .map(el => ({disabled: el.disabled, title: el.title}))"""
+
+
 def open_object(d, index):
     node = wait(f"object {index}", lambda: d.find_element(By.ID, f"object-{index}"))
     wait(f"object {index}'s description", lambda: "…" not in node.find_element(By.TAG_NAME, "summary").text)
@@ -175,6 +189,7 @@ def main():
         OUT["emergency_raised"] = raise_emergency(0, ARGS["emergency_code"], 0x11, "0102030405")
         wait("the emergency in the log", lambda: d.find_elements(By.CSS_SELECTOR, "#events tr.event-emergency"))
         Select(d.find_element(By.ID, "event-kind")).select_by_value("emergency")
+        wait("ecatd's answer to the filter", lambda: js(d, "return document.querySelector('#events tbody').dataset.filtered") == "server")
         OUT["events_filtered"] = wait("the filtered log", lambda: (rows := [r.text for r in d.find_elements(By.CSS_SELECTOR, "#events tbody tr")]) and rows)
         shot(d, "events")
 
@@ -187,6 +202,8 @@ def main():
         editor.clear()
         editor.send_keys(str(ARGS["coe_write_value"]))
         d.find_element(By.CSS_SELECTOR, "#entry-2001-00 button.write-value").click()
+        # The confirmation names slave, object and value; nothing is written before it.
+        OUT["coe_confirm"] = confirm(d)
         OUT["coe_write_status"] = wait("the write's result", lambda: (t := d.find_element(By.CSS_SELECTOR, "#entry-2001-00 .write-status").text) not in ("", "writing…") and t)
         OUT["coe_2001_00_shown"] = wait("0x2001:00 read back", lambda: d.find_element(By.CSS_SELECTOR, "#entry-2001-00 output").text == str(ARGS["coe_write_value"]) and str(ARGS["coe_write_value"]))
         js(d, "arguments[0].scrollIntoView()", d.find_element(By.ID, "object-1018"))
@@ -203,6 +220,7 @@ def main():
         name.send_keys(ARGS["foe_name"])
         d.find_element(By.ID, "foe-file").send_keys(ARGS["foe_file"])
         d.find_element(By.ID, "foe-write").click()
+        OUT["foe_confirm"] = confirm(d, timeout=120)
         status = d.find_element(By.ID, "foe-status")
         wait("the FoE write", lambda: status.text.startswith(("done", "failed")), timeout=120)
         OUT["foe_write"] = {
@@ -265,23 +283,25 @@ def main():
         viewport(d, 1280, 800)
         logs(d, "theme")
 
-        # Read-only: the read token sees no write control anywhere.
+        # Read-only: the read token sees every write control disabled, and the badge.
         d.find_element(By.ID, "token-button").click()
         token_dialog(d, ARGS["read_token"])
         OUT["read_role_label"] = wait("the read-only label", lambda: "read only" in d.find_element(By.ID, "role").text and d.find_element(By.ID, "role").text)
-        controls = "button.write-value, .write, #foe-write, #gateway-toggle, .state-control, .all-states"
+        OUT["read_only_badge"] = d.find_element(By.ID, "read-only-badge").text if d.find_element(By.ID, "read-only-badge").is_displayed() else ""
         go(d, "#/segment")
         wait("the segment", lambda: len(slaves_shown(d)) == ARGS["slave_count"])
-        OUT["read_only_segment_controls"] = len(d.find_elements(By.CSS_SELECTOR, controls))
+        OUT["read_only_segment_controls"] = js(d, WRITE_CONTROLS)
         go(d, "#/slave/3")
         open_object(d, "2001")
         OUT["read_only_value"] = read_entry(d, "entry-2001-00")
-        OUT["read_only_slave_controls"] = len(d.find_elements(By.CSS_SELECTOR, controls))
+        wait("0x2001:00's editor", lambda: d.find_element(By.CSS_SELECTOR, "#entry-2001-00 .editor"))
+        OUT["read_only_slave_controls"] = js(d, WRITE_CONTROLS)
         js(d, "arguments[0].scrollIntoView()", d.find_element(By.ID, "object-1018"))
         shot(d, "slave-read-only", top=False)
         go(d, "#/gateway")
         wait("the gateway", lambda: d.find_element(By.ID, "failure-rate").text != "–")
-        OUT["read_only_gateway_controls"] = len(d.find_elements(By.CSS_SELECTOR, controls))
+        wait("the gateway's control", lambda: d.find_elements(By.ID, "gateway-toggle"))
+        OUT["read_only_gateway_controls"] = js(d, WRITE_CONTROLS)
         logs(d, "read-only")
     finally:
         d.quit()

@@ -10,13 +10,15 @@ import * as gateway from "./gateway.js";
 import * as bus from "./bus.js";
 import * as processData from "./process-data.js";
 import * as events from "./events.js";
+import { closeConfirmation, NEEDS_WRITE } from "./guard.js";
 
 const VIEWS = { segment, slave, "process-data": { show: processData.showProcessData }, gateway, bus, events };
 const MAX_EVENTS = 1000;
 
 /** What every view may use. */
 export const app = {
-  role: "read",
+  /** `write`, `read`, or `none` (ecatd wants a token and has none that it accepts). */
+  role: "none",
   /** The newest events, kept by ecatd before the page opened and received since; newest last. */
   log: [],
   listeners: new Set(),
@@ -34,16 +36,25 @@ let current = null;
 /** Counts routings: a view whose show() ends after the next routing is stopped at once. */
 let routing = 0;
 
+/**
+ * Who the caller is (GET /api/v1/session): the role decides whether write controls are
+ * enabled. A refusal (tokens on, none or a wrong one given) is the role "none": read-only.
+ */
 async function loadSession() {
+  const label = document.getElementById("role");
   try {
     const session = await api("/session");
     app.role = session.role;
-    document.getElementById("role").textContent = `${session.caller} (${session.role === "write" ? "read and write" : "read only"})`;
+    label.textContent = `${session.caller} (${session.role === "write" ? "read and write" : "read only"})`;
   } catch (err) {
-    app.role = "read";
-    document.getElementById("role").textContent = err.status === 401 ? "no token" : "";
+    app.role = "none";
+    label.textContent = err.status === 401 ? "no token" : "";
   }
-  document.body.classList.toggle("read-only", app.role !== "write");
+  const readOnly = !app.canWrite();
+  document.body.classList.toggle("read-only", readOnly);
+  const badge = document.getElementById("read-only-badge");
+  badge.hidden = !readOnly;
+  badge.title = app.role === "none" ? "No token: every write control is disabled" : NEEDS_WRITE;
 }
 
 async function route() {
@@ -52,6 +63,8 @@ async function route() {
   const module = VIEWS[name] || segment;
   if (current && current.stop) current.stop();
   current = null;
+  // A confirmation of the view left is a Cancel: nothing is sent.
+  closeConfirmation();
   app.listeners.clear();
   document.querySelectorAll("nav a").forEach((a) => {
     const active = a.dataset.view === name || (name === "slave" && a.dataset.view === "segment");

@@ -1,10 +1,11 @@
 // The CoE object dictionary as a tree, from SDO Information (spec-notes §coe.info): the
 // object list, each object's description, and its entries' descriptions when opened.
 // Values are read on demand and decoded by their data type; a writable entry gets an editor
-// for its type (write role only).
+// for its type, behind a confirmation (disabled without the write role).
 
 import { api } from "./api.js";
 import { h, fill, hex, errorLine } from "./dom.js";
+import { confirmWrite, slaveText, writeControl } from "./guard.js";
 
 const OBJECT_CODES = { 7: "VAR", 8: "ARRAY", 9: "RECORD" };
 /** Object access bits 3-5: writable in PREOP, SAFEOP, OP (spec-notes §coe.info). */
@@ -31,7 +32,8 @@ function editor(entry, label) {
   });
 }
 
-function entryRow(position, entry, app) {
+function entryRow(slave, entry, app) {
+  const position = slave.position;
   const id = `entry-${entry.index.toString(16).padStart(4, "0")}-${sub(entry.subindex).toLowerCase()}`;
   const label = `${hex(entry.index)}:${sub(entry.subindex)}`;
   const output = h("output", { class: "value", "aria-live": "polite" }, "not read");
@@ -53,13 +55,32 @@ function entryRow(position, entry, app) {
     h("span", { class: "entry-type" }, `${entry.data_type_name}, ${entry.bit_length} bit, ${writable ? "read/write" : "read only"}`),
     h("button", { type: "button", class: "read", onclick: read, "aria-label": `Read ${label}` }, "Read"),
     output);
-  if (writable && app.canWrite()) {
+  if (writable) {
     const input = editor(entry, `New value for ${label}`);
     const status = h("span", { class: "write-status", role: "status" });
     const write = async () => {
+      const value = input.value;
+      if (value.trim() === "" && !entry.data_type_name.toUpperCase().includes("STRING")) {
+        status.textContent = "enter a value first";
+        return;
+      }
+      const rows = [["Slave", slaveText(slave.position, slave.name, slave.station)],
+        ["Object", `${label} ${entry.description || "(no name)"}`], ["Type", `${entry.data_type_name}, ${entry.bit_length} bit`]];
+      if (output.dataset.hex !== undefined) rows.push(["Now", output.textContent]);
+      rows.push(["New value", value]);
+      const asked = await confirmWrite({
+        title: "Write a CoE entry",
+        intro: `ecatd writes the value to slave ${slave.position} with an SDO download.`,
+        rows,
+        confirm: "Write value",
+      });
+      if (!asked) {
+        status.textContent = "not written";
+        return;
+      }
       status.textContent = "writing…";
       try {
-        await api(`/slaves/${position}/coe/sdo/${hex(entry.index)}/${entry.subindex}`, { method: "PUT", body: { value: input.value, type: "auto" } });
+        await api(`/slaves/${position}/coe/sdo/${hex(entry.index)}/${entry.subindex}`, { method: "PUT", body: { value, type: "auto" } });
         status.textContent = "written";
         await read();
       } catch (err) {
@@ -69,19 +90,20 @@ function entryRow(position, entry, app) {
     input.addEventListener("keydown", (e) => {
       if (e.key === "Enter") write();
     });
-    row.append(h("span", { class: "entry-write write" }, input, h("button", { type: "button", class: "write-value", onclick: write }, "Write"), status));
+    row.append(writeControl(h("span", { class: "entry-write" }, input, h("button", { type: "button", class: "write-value", onclick: write }, "Write…"), status), app));
   }
   return row;
 }
 
-async function openObject(position, object, body, app) {
+async function openObject(slave, object, body, app) {
+  const position = slave.position;
   const subs = object.object_code === 7 ? [0] : Array.from({ length: object.max_subindex + 1 }, (_, i) => i);
   fill(body, h("p", { class: "muted" }, "reading entries…"));
   const rows = [];
   for (const n of subs) {
     try {
       const entry = await api(`/slaves/${position}/coe/od/${hex(object.index)}/${n}`);
-      rows.push(entryRow(position, entry, app));
+      rows.push(entryRow(slave, entry, app));
     } catch (err) {
       rows.push(h("div", { class: "entry" }, h("code", {}, `${hex(object.index)}:${sub(n)}`), " ", errorLine(err)));
     }
@@ -89,8 +111,9 @@ async function openObject(position, object, body, app) {
   fill(body, rows);
 }
 
-/** The dictionary of the slave at `position`, into `container`. */
-export async function dictionary(container, position, app) {
+/** The dictionary of `slave` (as GET /slaves/{position} answers it), into `container`. */
+export async function dictionary(container, slave, app) {
+  const position = slave.position;
   fill(container, h("p", { class: "muted" }, "reading the object list…"));
   let list;
   try {
@@ -109,7 +132,7 @@ export async function dictionary(container, position, app) {
     node.addEventListener("toggle", () => {
       if (node.open && !node.dataset.loaded && node.object) {
         node.dataset.loaded = "1";
-        openObject(position, node.object, body, app);
+        openObject(slave, node.object, body, app);
       }
     });
     tree.append(node);

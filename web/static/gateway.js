@@ -4,6 +4,7 @@
 import { api } from "./api.js";
 import { h, fill, section, facts, errorLine } from "./dom.js";
 import { LineChart, bars } from "./chart.js";
+import { confirmWrite, writeControl } from "./guard.js";
 
 const PERIOD_MS = 1000;
 const REASONS = ["malformed", "unknown_address", "unsupported_protocol", "timeout", "denied", "busy", "oversized", "other"];
@@ -64,20 +65,35 @@ export async function show(view, app) {
       ["Retries answered", String(st.retries_answered)],
     ]));
     fill(reasons, bars(REASONS.map((r) => [r.replace(/_/g, " "), st.failures[r]])));
-    if (app.canWrite() && g.enabled) {
-      fill(controls, h("button", {
+    if (g.enabled && (!controls.firstChild || controls.dataset.running !== String(g.running))) {
+      // Drawn again only when the state changes: a poll must not take the focus away.
+      controls.dataset.running = String(g.running);
+      const action = g.running ? "Stop gateway" : "Start gateway";
+      const status = h("span", { class: "muted", role: "status" });
+      fill(controls, writeControl(h("button", {
         type: "button",
-        class: "write",
         id: "gateway-toggle",
         onclick: async () => {
+          const asked = await confirmWrite({
+            title: action,
+            intro: g.running
+              ? "ecatd stops answering ETG.8200 requests; tools that use the gateway lose their access to the slaves' mailboxes."
+              : "ecatd answers ETG.8200 requests again.",
+            rows: [["Gateway", `${g.bound_address || g.configured_address}, UDP port ${g.port}, master ${g.master_number}`], ["Now", g.running ? "running" : "stopped"]],
+            confirm: action,
+          });
+          if (!asked) {
+            status.textContent = "not changed";
+            return;
+          }
           try {
             await api(g.running ? "/gateway/stop" : "/gateway/start", { method: "POST", body: {} });
           } catch (err) {
-            fill(controls, errorLine(err));
+            status.textContent = `refused: ${err.message}`;
           }
           poll();
         },
-      }, g.running ? "Stop gateway" : "Start gateway"));
+      }, `${action}…`), app), status);
     }
   };
   await poll();

@@ -6,6 +6,7 @@
 import { api, stream } from "./api.js";
 import { h, fill, hex, section, facts, errorLine, lamp, setLamp, Modal } from "./dom.js";
 import { LineChart } from "./chart.js";
+import { confirmWrite, slaveText, writeControl } from "./guard.js";
 
 /** How often the page asks for changed values (ms): at least ten updates a second. */
 const STREAM_MS = 100;
@@ -216,10 +217,14 @@ function entryRow(e, ctx) {
       });
       release = h("button", {
         type: "button",
-        class: "write release",
+        class: "release",
         hidden: true,
         "aria-label": `Release ${e.name} (slave ${e.slave}, ${objectName(e)})`,
         onclick: async () => {
+          if (!(await ctx.confirmRelease(row.entry))) {
+            status.textContent = "not released";
+            return;
+          }
           status.textContent = "releasing…";
           try {
             await api(outputPath(e), { method: "DELETE" });
@@ -230,9 +235,9 @@ function entryRow(e, ctx) {
           }
         },
       }, "Release");
-      cell.append(h("span", { class: "write force-controls" }, input,
+      cell.append(writeControl(h("span", { class: "force-controls" }, input,
         h("button", { type: "button", class: "force", "aria-label": `Force ${e.name} (slave ${e.slave}, ${objectName(e)})…`, onclick: force }, "Force…"),
-        release), status);
+        release), ctx.app), status);
     }
     tr.append(cell);
   }
@@ -258,8 +263,8 @@ function entryRow(e, ctx) {
 }
 
 /** #/process-data (every slave) and #/process-data/3 (one). */
-export async function showProcessData(view, app, slaveText) {
-  const only = slaveText === undefined || slaveText === "" ? null : Number(slaveText);
+export async function showProcessData(view, app, positionText) {
+  const only = positionText === undefined || positionText === "" ? null : Number(positionText);
   const [slaves, layout] = await Promise.all([api("/slaves"), api("/process-data/layout")]);
   const names = new Map(slaves.map((sl) => [sl.position, sl.name || "(no name)"]));
   const pick = h("select", {
@@ -274,7 +279,7 @@ export async function showProcessData(view, app, slaveText) {
   const live = h("span", { id: "pd-live", class: "live", role: "status" }, "connecting…");
   const head = h("div", { class: "view-head" }, h("h2", {}, "Process data"), pick, live, cycle);
   if (only !== null && !names.has(only)) {
-    fill(view, head, errorLine(`no slave at position ${slaveText}`));
+    fill(view, head, errorLine(`no slave at position ${positionText}`));
     return null;
   }
   const entries = layout.entries.filter((e) => only === null || e.slave === only);
@@ -289,8 +294,16 @@ export async function showProcessData(view, app, slaveText) {
   const trendBox = h("div", { id: "pd-trend" });
   const rows = new Map();
   const ctx = {
-    /** Whether the slave's table has the Force column: write role, and outputs to force. */
-    forceColumn: (position) => app.canWrite() && entries.some((e) => e.slave === position && e.direction === "out"),
+    app,
+    /** Whether the slave's table has the Force column: outputs to force (disabled without the write role). */
+    forceColumn: (position) => entries.some((e) => e.slave === position && e.direction === "out"),
+    confirmRelease: (e) => confirmWrite({
+      title: "Release a forced output",
+      intro: "From the next cycle on, the output takes what the control program writes again; with no program, it keeps the value it has.",
+      rows: [["Slave", slaveText(e.slave, names.get(e.slave), e.station)], ["Object", `${objectName(e)} ${e.name}`],
+        ["Forced value", valueText(e)], ["Forced by", e.forced_by || "–"]],
+      confirm: "Release",
+    }),
     confirmForce: (e, value) => confirmForce(e, names.get(e.slave), value, (m) => {
       modal = m;
     }),
@@ -313,7 +326,7 @@ export async function showProcessData(view, app, slaveText) {
         only === null ? [" · ", h("a", { href: `#/process-data/${position}`, class: "muted-link" }, "only this slave")] : ""),
       h("div", { class: "table-scroll" },
         // Without a Force column beside tables that have one, the Trend column takes its width.
-        h("table", { class: `table pd-table${app.canWrite() && !ctx.forceColumn(position) ? " no-force" : ""}` },
+        h("table", { class: `table pd-table${entries.some((e) => e.direction === "out") && !ctx.forceColumn(position) ? " no-force" : ""}` },
           h("thead", {}, h("tr", {}, ["Name", "Object", "Type", "Direction", "Value", "Trend", ctx.forceColumn(position) ? "Force" : null]
             .filter(Boolean).map((t) => h("th", { scope: "col" }, t)))),
           h("tbody", {}, mine.map((r) => r.tr))))));

@@ -7,6 +7,7 @@
 import { api, stream } from "./api.js";
 import { h, fill, hex, errorLine } from "./dom.js";
 import { keyValues } from "./process-data.js";
+import { confirmWrite, slaveText, writeControl } from "./guard.js";
 
 export const STATES = ["INIT", "PREOP", "BOOT", "SAFEOP", "OP"];
 
@@ -48,28 +49,66 @@ function portList(links) {
       `P${p.n} `, p.communication ? "up" : p.link ? "link" : "no link", p.loopClosed ? " (closed)" : "")));
 }
 
-function stateControl(label, target, onDone) {
-  const select = h("select", { "aria-label": `Requested state for ${label}` },
-    STATES.map((st) => h("option", { value: st, selected: st === "OP" }, st)));
+/**
+ * A state request: a select with no state chosen (a placeholder), and a button that stays
+ * disabled until one is; pressing it asks `confirmation(state)` (the dialog's text, async:
+ * it may read the segment first) and, confirmed, `request(state)`. Read-only: drawn
+ * disabled. The choice goes back to the placeholder after each request.
+ */
+export function stateControl(app, { label, id, confirmation, request, onDone = () => {} }) {
+  const select = h("select", { "aria-label": `Requested state for ${label}`, class: "state-choice" },
+    h("option", { value: "", selected: true }, "choose a state"),
+    STATES.map((st) => h("option", { value: st }, st)));
   const status = h("span", { class: "muted", role: "status" });
   const button = h("button", {
     type: "button",
-    class: "write",
+    class: "request-state",
+    disabled: true,
     onclick: async () => {
+      const state = select.value;
+      if (!state) return;
       button.disabled = true;
-      status.textContent = "requesting…";
+      let asked;
       try {
-        await target(select.value);
-        status.textContent = `requested ${select.value}`;
+        asked = await confirmWrite(await confirmation(state));
+      } catch (err) {
+        status.textContent = `not requested: ${err.message}`;
+        button.disabled = false;
+        return;
+      }
+      if (!asked) {
+        status.textContent = "not requested";
+        button.disabled = false;
+        return;
+      }
+      status.textContent = `requesting ${state}…`;
+      try {
+        await request(state);
+        status.textContent = `requested ${state}`;
       } catch (err) {
         status.textContent = `refused: ${err.message}`;
       } finally {
-        button.disabled = false;
+        select.value = "";
+        button.disabled = true;
         onDone();
       }
     },
-  }, "Request");
-  return h("span", { class: "state-control" }, select, button, status);
+  }, id === "all" ? "Request for all" : "Request state");
+  if (id) button.id = `request-state-${id}`;
+  select.addEventListener("change", () => {
+    button.disabled = !select.value || !app.canWrite();
+  });
+  return writeControl(h("span", { class: "state-control" }, select, button, status), app);
+}
+
+/** The confirmation of a state request for `slave` (as GET /slaves answers it). */
+export function stateConfirmation(slave, state) {
+  return {
+    title: "Request a state",
+    intro: `ecatd asks slave ${slave.position} to go to ${state}.`,
+    rows: [["Slave", slaveText(slave.position, slave.name, slave.station)], ["Now", slave.state], ["Requested state", state]],
+    confirm: `Request ${state}`,
+  };
 }
 
 export async function show(view, app) {
@@ -82,13 +121,48 @@ export async function show(view, app) {
     keyValues(position, [...(pd.get(position) || new Map()).values()]));
   const head = h("div", { class: "view-head" }, h("h2", {}, "Segment"), summary);
   fill(view, head, list);
-  if (app.canWrite()) {
-    head.append(h("div", { class: "all-states" }, "All slaves: ",
-      stateControl("all slaves", async (state) => {
+  let allConfirmed = [];
+  /** Each slave's state control, kept across redraws (a chosen state survives an event). */
+  const controls = new Map();
+  /** The newest GET /slaves answer per position, for the confirmations. */
+  const latest = new Map();
+  const controlOf = (position) => {
+    if (!controls.has(position)) {
+      controls.set(position, stateControl(app, {
+        label: `slave ${position}`,
+        id: String(position),
+        confirmation: (state) => stateConfirmation(latest.get(position), state),
+        request: (state) => api(`/slaves/${position}/state`, { method: "PUT", body: { state } }),
+        onDone: () => refresh(),
+      }));
+    }
+    return controls.get(position);
+  };
+  head.append(h("div", { class: "all-states" }, "All slaves: ",
+    stateControl(app, {
+      label: "all slaves",
+      id: "all",
+      confirmation: async (state) => {
+        // Named from what ecatd has now, not from what the page drew earlier; the request
+        // goes to exactly the slaves the dialog named.
         const slaves = await api("/slaves");
-        for (const sl of slaves) await api(`/slaves/${sl.position}/state`, { method: "PUT", body: { state } });
-      }, () => refresh())));
-  }
+        allConfirmed = slaves;
+        return {
+          title: "Request a state for all slaves",
+          intro: `ecatd asks each of the ${slaves.length} slaves of the segment, one after the other, to go to ${state}.`,
+          rows: [
+            ["Slaves", `all ${slaves.length}: ${slaves.map((sl) => `${sl.position} ${sl.name || "(no name)"}`).join(", ")}`],
+            ["Now", [...new Set(slaves.map((sl) => sl.state))].join(", ")],
+            ["Requested state", state],
+          ],
+          confirm: `Request ${state} for all ${slaves.length} slaves`,
+        };
+      },
+      request: async (state) => {
+        for (const sl of allConfirmed) await api(`/slaves/${sl.position}/state`, { method: "PUT", body: { state } });
+      },
+      onDone: () => refresh(),
+    })));
 
   async function readLinks(slaves) {
     for (const sl of slaves) {
@@ -109,6 +183,7 @@ export async function show(view, app) {
       return;
     }
     if (slaves.some((sl) => !links.has(sl.position))) await readLinks(slaves);
+    for (const sl of slaves) latest.set(sl.position, sl);
     const errors = slaves.filter((sl) => sl.al_error || !sl.present).length;
     summary.textContent = `${slaves.length} slaves, ${errors} in error or missing`;
     fill(list, slaves.map((sl) => {
@@ -126,7 +201,7 @@ export async function show(view, app) {
           h("dt", {}, "Mailbox"), h("dd", {}, sl.mailbox_protocols.join(" ") || "none")),
         keyBox(sl.position),
         portList(link),
-        app.canWrite() ? stateControl(`slave ${sl.position}`, (state) => api(`/slaves/${sl.position}/state`, { method: "PUT", body: { state } }), () => refresh()) : "");
+        controlOf(sl.position));
     }));
   }
 

@@ -6,7 +6,8 @@ import { api, download, upload, sha256 } from "./api.js";
 import { h, fill, hex, section, facts, errorLine } from "./dom.js";
 import { siiSummary } from "./sii.js";
 import { dictionary } from "./dictionary.js";
-import { stateBadge, STATES } from "./segment.js";
+import { stateBadge, stateControl, stateConfirmation } from "./segment.js";
+import { confirmWrite, slaveText, writeControl } from "./guard.js";
 
 function bytesOf(hexText) {
   return new Uint8Array((hexText.match(/../g) || []).map((b) => parseInt(b, 16)));
@@ -75,7 +76,8 @@ async function soeView(body, position) {
   }
 }
 
-function foeView(body, position, app) {
+function foeView(body, slave, app) {
+  const position = slave.position;
   const name = h("input", { id: "foe-name", type: "text", value: "firmware.bin", spellcheck: false });
   const bar = h("progress", { id: "foe-progress", max: 100, value: 0, "aria-label": "FoE transfer progress" });
   const percent = h("span", { id: "foe-percent" }, "0 %");
@@ -107,39 +109,50 @@ function foeView(body, position, app) {
   };
   const controls = [h("label", { for: "foe-name" }, "File name "), name,
     h("button", { type: "button", id: "foe-read", onclick: readFile }, "Read from slave")];
-  if (app.canWrite()) {
-    const file = h("input", { id: "foe-file", type: "file", "aria-label": "File to write" });
-    const write = async () => {
-      const chosen = file.files[0];
-      if (!chosen) {
-        status.textContent = "choose a file first";
-        return;
-      }
-      const bytes = new Uint8Array(await chosen.arrayBuffer());
-      const digest = await sha256(bytes);
-      set(0, "sending…");
-      delete status.dataset.sha256;
-      try {
-        await upload(`/slaves/${position}/foe/${encodeURIComponent(name.value)}`, bytes, (phase, f) => {
-          // The body reaches ecatd first (half the bar), then ecatd writes it to the slave.
-          if (phase === "sending") set(f * 0.5, `sending to ecatd: ${Math.round(f * 100)} %`);
-          else set(0.5, "ecatd is writing the file to the slave…");
-        });
-        set(1, `done: wrote ${bytes.length} bytes, SHA-256 ${digest}`);
-        status.dataset.sha256 = digest;
-        status.dataset.size = bytes.length;
-      } catch (err) {
-        set(0, `failed: ${err.message}`);
-      }
-    };
-    controls.push(h("span", { class: "write" }, file, h("button", { type: "button", id: "foe-write", onclick: write }, "Write to slave")));
-  }
+  const file = h("input", { id: "foe-file", type: "file", "aria-label": "File to write" });
+  const write = async () => {
+    const chosen = file.files[0];
+    if (!chosen) {
+      status.textContent = "choose a file first";
+      return;
+    }
+    const fileName = name.value;
+    const bytes = new Uint8Array(await chosen.arrayBuffer());
+    const digest = await sha256(bytes);
+    const asked = await confirmWrite({
+      title: "Write a file to the slave",
+      intro: `ecatd writes the file to slave ${position} over FoE; a file of that name on the slave is replaced.`,
+      rows: [["Slave", slaveText(position, slave.name, slave.station)], ["File name", fileName],
+        ["Content", `${chosen.name}, ${bytes.length} bytes, SHA-256 ${digest}`]],
+      confirm: "Write file",
+    });
+    if (!asked) {
+      status.textContent = "not written";
+      return;
+    }
+    set(0, "sending…");
+    delete status.dataset.sha256;
+    try {
+      await upload(`/slaves/${position}/foe/${encodeURIComponent(fileName)}`, bytes, (phase, f) => {
+        // The body reaches ecatd first (half the bar), then ecatd writes it to the slave.
+        if (phase === "sending") set(f * 0.5, `sending to ecatd: ${Math.round(f * 100)} %`);
+        else set(0.5, "ecatd is writing the file to the slave…");
+      });
+      set(1, `done: wrote ${bytes.length} bytes, SHA-256 ${digest}`);
+      status.dataset.sha256 = digest;
+      status.dataset.size = bytes.length;
+    } catch (err) {
+      set(0, `failed: ${err.message}`);
+    }
+  };
+  controls.push(writeControl(h("span", {}, file, h("button", { type: "button", id: "foe-write", onclick: write }, "Write to slave…")), app));
   fill(body, h("div", { class: "row" }, controls), h("div", { class: "row" }, bar, percent), status, save);
 }
 
 const IP_FIELDS = [["mac", "MAC address"], ["ip", "IP address"], ["subnet_mask", "Subnet mask"], ["default_gateway", "Default gateway"], ["dns_server", "DNS server"], ["dns_name", "DNS name"]];
 
-async function eoeView(body, position, app) {
+async function eoeView(body, slave, app) {
+  const position = slave.position;
   let current;
   try {
     current = await api(`/slaves/${position}/eoe/ip`);
@@ -147,18 +160,25 @@ async function eoeView(body, position, app) {
     fill(body, errorLine(err));
     return;
   }
-  if (!app.canWrite()) {
-    fill(body, facts(IP_FIELDS.map(([k, label]) => [label, current[k] || "–"])));
-    return;
-  }
   const inputs = IP_FIELDS.map(([k, label]) => [k, h("input", { id: `eoe-${k}`, type: "text", value: current[k] || "", spellcheck: false }), label]);
   const status = h("span", { role: "status" });
   const form = h("form", {
-    class: "form write",
+    class: "form",
     onsubmit: async (e) => {
       e.preventDefault();
       const settings = {};
       for (const [k, input] of inputs) if (input.value.trim()) settings[k] = input.value.trim();
+      const asked = await confirmWrite({
+        title: "Set the EoE IP parameters",
+        intro: `ecatd sends these IP parameters to slave ${position} over EoE.`,
+        rows: [["Slave", slaveText(position, slave.name, slave.station)],
+          ...IP_FIELDS.filter(([k]) => settings[k]).map(([k, label]) => [label, settings[k]])],
+        confirm: "Set IP parameters",
+      });
+      if (!asked) {
+        status.textContent = "not set";
+        return;
+      }
       status.textContent = "setting…";
       try {
         await api(`/slaves/${position}/eoe/ip`, { method: "PUT", body: settings });
@@ -167,8 +187,8 @@ async function eoeView(body, position, app) {
         status.textContent = `refused: ${err.message}`;
       }
     },
-  }, inputs.map(([k, input, label]) => h("label", { for: `eoe-${k}` }, label, input)), h("div", { class: "row" }, h("button", { type: "submit" }, "Set IP parameters"), status));
-  fill(body, form);
+  }, inputs.map(([k, input, label]) => h("label", { for: `eoe-${k}` }, label, input)), h("div", { class: "row" }, h("button", { type: "submit" }, "Set IP parameters…"), status));
+  fill(body, writeControl(form, app));
 }
 
 function emergencies(body, position, app) {
@@ -211,24 +231,16 @@ export async function show(view, app, positionText) {
   if (has("FoE")) parts.push(section("FoE files", foe));
   if (has("EoE")) parts.push(section("EoE interface", eoe));
   parts.push(section("ESC error counters", counters), section("Recent emergencies", emcy));
-  if (app.canWrite()) {
-    const select = h("select", { "aria-label": "Requested state" }, STATES.map((st) => h("option", { value: st }, st)));
-    const status = h("span", { role: "status" });
-    head.append(h("span", { class: "state-control write" }, select, h("button", {
-      type: "button",
-      onclick: async () => {
-        try {
-          await api(`/slaves/${position}/state`, { method: "PUT", body: { state: select.value } });
-          status.textContent = `requested ${select.value}`;
-        } catch (err) {
-          status.textContent = `refused: ${err.message}`;
-        }
-      },
-    }, "Request state"), status));
-  }
+  head.append(stateControl(app, {
+    label: `slave ${position}`,
+    id: "slave",
+    // The state it is in now, not when the page opened.
+    confirmation: async (state) => stateConfirmation(await api(`/slaves/${position}`), state),
+    request: (state) => api(`/slaves/${position}/state`, { method: "PUT", body: { state } }),
+  }));
   fill(view, head, h("div", { class: "grid" }, parts));
   emergencies(emcy, position, app);
-  if (has("FoE")) foeView(foe, position, app);
+  if (has("FoE")) foeView(foe, slave, app);
   api(`/slaves/${position}/sii`).then((r) => {
     fill(identity, facts([["Station address", hex(slave.station)], ["Requested state", slave.requested_state],
       ["Mailbox protocols (master)", slave.mailbox_protocols.join(", ") || "none (no mailbox)"],
@@ -237,8 +249,8 @@ export async function show(view, app, positionText) {
   // One after the other: they share the slave's mailbox.
   (async () => {
     await escCounters(counters, position);
-    if (has("CoE")) await dictionary(coe, position, app);
+    if (has("CoE")) await dictionary(coe, slave, app);
     if (has("SoE")) await soeView(soe, position);
-    if (has("EoE")) await eoeView(eoe, position, app);
+    if (has("EoE")) await eoeView(eoe, slave, app);
   })();
 }

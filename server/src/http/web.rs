@@ -49,6 +49,7 @@ const ASSETS: &[Asset] = assets![
     "static/events.js",
     "static/favicon.svg",
     "static/gateway.js",
+    "static/guard.js",
     "static/segment.js",
     "static/sii.js",
     "static/slave.js",

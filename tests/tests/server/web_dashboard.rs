@@ -7,7 +7,9 @@
 //! The process-data page (`#/process-data`) is driven from here over WebDriver directly
 //! ([`Browser`]: chromedriver's W3C protocol with ureq), against an ecatd with its
 //! application interface on a socket of its own: live values, the force dialog, the
-//! override when a control program owns the outputs, the segment's key values.
+//! override when a control program owns the outputs, the segment's key values. So are the
+//! guardrails of issue 36 (no preselected state, a confirmation before each write, the
+//! read-only mode, the events filters), each checked against ecatd's own state.
 //!
 //! Needs `chromium`, `chromium-driver` and the venv of `scripts/test` (tests/README.md).
 
@@ -167,8 +169,24 @@ fn the_dashboard_shows_the_segment_and_drives_the_mailboxes() {
         "{shown}"
     );
 
-    // CoE: 0x1018:01 is the vendor id; the write reached the slave.
+    // CoE: 0x1018:01 is the vendor id; the write, confirmed in a dialog that named slave,
+    // object and value, reached the slave.
     assert_eq!(r["coe_1018_01"], SIM_VENDOR_ID.to_string());
+    let asked = r["coe_confirm"].as_str().unwrap();
+    for part in [
+        format!("3: {}", topology.slaves[3].name),
+        "0x2001:00".into(),
+        COE_VALUE.to_string(),
+    ] {
+        assert!(asked.contains(&part), "{part:?} in {asked:?}");
+    }
+    let asked = r["foe_confirm"].as_str().unwrap();
+    assert!(
+        asked.contains("firmware.bin")
+            && asked.contains(&format!("{} bytes", 1 << 20))
+            && asked.contains(&sha256_hex(&foe)),
+        "{asked}"
+    );
     assert_eq!(r["coe_write_status"], "written");
     let (status, value) = rest(
         &ecatd,
@@ -226,10 +244,20 @@ fn the_dashboard_shows_the_segment_and_drives_the_mailboxes() {
     assert_eq!(r["dark_background"], "rgb(13, 17, 23)");
     assert_eq!(r["tablet_overflow"], false);
 
-    // Read only: no write control, the value shown, and ecatd refuses the write.
+    // Read only: the badge, every write control drawn disabled and saying why, the value
+    // shown, and ecatd refuses the write.
     assert!(r["read_role_label"].as_str().unwrap().starts_with("viewer"));
+    assert_eq!(r["read_only_badge"], "read-only");
     for view in ["segment", "slave", "gateway"] {
-        assert_eq!(r[format!("read_only_{view}_controls")], 0, "{view}");
+        let controls = r[format!("read_only_{view}_controls")].as_array().unwrap();
+        assert!(!controls.is_empty(), "{view} draws its write controls");
+        for c in controls {
+            assert_eq!(c["disabled"], true, "{view}: {c}");
+            assert!(
+                c["title"].as_str().unwrap().contains("write token"),
+                "{view}: {c}"
+            );
+        }
     }
     assert_eq!(r["read_only_value"], COE_VALUE.to_string());
     let (status, _) = rest(
@@ -910,8 +938,32 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
     let shot = shots.join("process-data.png");
     b.screenshot(&shot);
 
-    // Release from the page; a cancelled dialog writes nothing.
+    // Release from the page, behind a confirmation too: cancelled, the output stays forced.
     b.click(&format!("{output2} button.release"));
+    b.wait("the release confirmation", PATIENCE, |b| {
+        b.find("#confirm-cancel")
+    });
+    let asked = b.text("#confirm-dialog");
+    for part in [name(1).as_str(), "0x7000:02 Output 2", "engineer"] {
+        assert!(asked.contains(part), "{part:?} in {asked:?}");
+    }
+    b.click("#confirm-cancel");
+    b.wait("the confirmation gone", PATIENCE, |b| {
+        b.find("#confirm-dialog").is_none().then_some(())
+    });
+    assert_eq!(b.text(&format!("{output2} .force-status")), "not released");
+    assert_eq!(
+        get_json(&ecatd, READ_TOKEN, "/process-data/forced")
+            .as_array()
+            .unwrap()
+            .len(),
+        1
+    );
+    b.click(&format!("{output2} button.release"));
+    b.wait("the release confirmation", PATIENCE, |b| {
+        b.find("#confirm-ok")
+    });
+    b.click("#confirm-ok");
     b.wait("output 2 released", PATIENCE, |_| {
         (get_json(&ecatd, READ_TOKEN, "/process-data/forced") == serde_json::json!([]))
             .then_some(())
@@ -968,6 +1020,10 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
         b.find("#force-dialog").is_none().then_some(())
     });
     b.click(&format!("{output3} button.release"));
+    b.wait("the release confirmation", PATIENCE, |b| {
+        b.find("#confirm-ok")
+    });
+    b.click("#confirm-ok");
     b.wait("output 3 released", PATIENCE, |_| {
         (get_json(&ecatd, READ_TOKEN, "/process-data/forced") == serde_json::json!([]))
             .then_some(())
@@ -1058,7 +1114,7 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
     });
     b.phase("read-only");
 
-    // Read only: forced outputs shown with who forced them, and no force control at all.
+    // Read only: forced outputs shown with who forced them, every force control disabled.
     b.js(
         "sessionStorage.setItem('ecatd.token', arguments[0]); location.hash = '#/process-data'; location.reload()",
         serde_json::json!([READ_TOKEN]),
@@ -1078,10 +1134,24 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
             .then_some(())
     });
     let controls = b.js(
-        "return document.querySelectorAll('.write, .pd-force, button.force, button.release, .force-value').length",
+        "return [...document.querySelectorAll('button.force, button.release, .force-value')].map(c => [c.disabled, c.title])",
         serde_json::json!([]),
     );
-    assert_eq!(controls, 0);
+    let controls = controls.as_array().unwrap();
+    assert!(!controls.is_empty());
+    for c in controls {
+        assert_eq!(c[0], true, "{c}");
+        assert!(c[1].as_str().unwrap().contains("write token"), "{c}");
+    }
+    assert!(
+        b.find(&format!(
+            "{} button.release:not([hidden])",
+            row(do8, 0x7000, 8)
+        ))
+        .is_some(),
+        "the forced output's Release is shown (disabled)"
+    );
+    assert_eq!(b.text("#read-only-badge"), "read-only");
     force_rest(&ecatd, drive, 0x6040, 0, None);
     force_rest(&ecatd, do8, 0x7000, 8, None);
     b.phase("end");
@@ -1115,4 +1185,508 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
     assert!(len > 10_000, "{} is {len} bytes", shot.display());
     drop(b);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The requests the page sent that are not reads (PUT, POST, DELETE), from Chrome's
+/// performance log.
+fn writes_sent(b: &mut Browser) -> Vec<String> {
+    b.read_logs();
+    b.requests
+        .iter()
+        .filter(|m| m["method"] == "Network.requestWillBeSent")
+        .filter(|m| {
+            !matches!(
+                m["params"]["request"]["method"].as_str(),
+                Some("GET" | "HEAD" | "OPTIONS")
+            )
+        })
+        .map(|m| {
+            format!(
+                "{} {}",
+                m["params"]["request"]["method"].as_str().unwrap_or(""),
+                m["params"]["request"]["url"].as_str().unwrap_or("")
+            )
+        })
+        .collect()
+}
+
+/// Waits for the write confirmation and returns its text.
+fn confirmation(b: &mut Browser) -> String {
+    b.wait("the confirmation", PATIENCE, |b| {
+        b.js(
+            "const d = document.getElementById('confirm-dialog'); return d && d.open",
+            serde_json::json!([]),
+        )
+        .as_bool()
+        .filter(|open| *open)
+    });
+    b.text("#confirm-dialog")
+}
+
+/// Presses `button` (`#confirm-ok` or `#confirm-cancel`) and waits for the dialog to go.
+fn answer(b: &mut Browser, button: &str) {
+    b.click(button);
+    b.wait("the confirmation gone", PATIENCE, |b| {
+        b.find("#confirm-dialog").is_none().then_some(())
+    });
+}
+
+/// Every control inside the page's write controls: disabled?, title.
+fn write_controls(b: &Browser) -> Vec<serde_json::Value> {
+    b.js(
+        "return [...document.querySelectorAll('.write')]
+            .flatMap(el => el.matches('button, input, select') ? [el] : [...el.querySelectorAll('button, input, select')])
+            .map(el => [el.disabled, el.title])",
+        serde_json::json!([]),
+    )
+    .as_array()
+    .cloned()
+    .unwrap_or_default()
+}
+
+/// The rows of the events table: id, position, kind, time shown, the time element's stamp.
+fn event_rows(b: &Browser) -> Vec<serde_json::Value> {
+    b.js(
+        "return [...document.querySelectorAll('#events tbody tr')].map(tr => [Number(tr.dataset.id),
+            Number(tr.dataset.position), tr.dataset.kind, tr.cells[0].textContent,
+            tr.querySelector('time').getAttribute('datetime')])",
+        serde_json::json!([]),
+    )
+    .as_array()
+    .cloned()
+    .unwrap_or_default()
+}
+
+/// Issue 36's guardrails: no state is chosen before the user chooses one; every write asks
+/// first, naming slave, object and value (Cancel sends nothing: ecatd's state, value and
+/// event history unchanged; Confirm writes); a read token sees the write controls disabled
+/// and a read-only badge; the events filters narrow the log to what ecatd's query answers.
+#[test]
+fn the_dashboard_asks_before_it_writes_and_filters_events() {
+    let _one = one_browser();
+    let file = config();
+    let sockets = std::env::temp_dir().join(format!("ecatd-web-guard-{}", std::process::id()));
+    std::fs::create_dir_all(&sockets).unwrap();
+    let socket = sockets.join("app.sock");
+    let ecatd = Ecatd::start(&[
+        "--config",
+        file.to_str().unwrap(),
+        "--app-socket",
+        socket.to_str().unwrap(),
+    ]);
+    std::fs::remove_file(&file).unwrap();
+    let shots = root().join("target/web-dashboard");
+    std::fs::create_dir_all(&shots).unwrap();
+    let slaves = get_json(&ecatd, READ_TOKEN, "/slaves");
+    let slaves = slaves.as_array().unwrap().clone();
+    let count = slaves.len();
+    let named = |p: usize| {
+        format!(
+            "{p}: {} (station 0x{:04X})",
+            slaves[p]["name"].as_str().unwrap(),
+            slaves[p]["station"].as_u64().unwrap()
+        )
+    };
+    let state_of = |p: usize| get_json(&ecatd, READ_TOKEN, &format!("/slaves/{p}"));
+    let state_changes_of_2 = || {
+        get_json(&ecatd, READ_TOKEN, "/events?kind=state_changed&slave=2")
+            .as_array()
+            .unwrap()
+            .len()
+    };
+
+    let mut b = Browser::start();
+    b.go(&format!("{}/static/favicon.svg", ecatd.http));
+    b.js(
+        "sessionStorage.setItem('ecatd.token', arguments[0])",
+        serde_json::json!([WRITE_TOKEN]),
+    );
+    b.phase("segment");
+    b.go(&format!("{}/#/segment", ecatd.http));
+    b.wait("the write role", PATIENCE, |b| {
+        b.text("#role").contains("read and write").then_some(())
+    });
+    b.wait("every slave's state control", PATIENCE, |b| {
+        (b.js(
+            "return document.querySelectorAll('li.slave select.state-choice').length",
+            serde_json::json!([]),
+        ) == count)
+            .then_some(())
+    });
+
+    // Nothing preselected: every state choice (all slaves and each one) shows the
+    // placeholder, and every request button is disabled until a state is chosen.
+    let choices = b.js(
+        "return [...document.querySelectorAll('select.state-choice')].map(s => [s.value, s.selectedOptions[0].textContent, s.disabled])",
+        serde_json::json!([]),
+    );
+    assert_eq!(choices.as_array().unwrap().len(), count + 1);
+    for c in choices.as_array().unwrap() {
+        assert_eq!(c, &serde_json::json!(["", "choose a state", false]));
+    }
+    let buttons = b.js(
+        "return [...document.querySelectorAll('button.request-state')].map(x => x.disabled)",
+        serde_json::json!([]),
+    );
+    assert_eq!(buttons, serde_json::json!(vec![true; count + 1]));
+    // The write token: no badge, no control disabled for want of the role.
+    assert_eq!(
+        b.js(
+            "return document.getElementById('read-only-badge').hidden",
+            serde_json::json!([])
+        ),
+        true
+    );
+    let controls = write_controls(&b);
+    assert!(controls.len() >= 2 * (count + 1), "{controls:?}");
+    assert!(
+        controls
+            .iter()
+            .all(|c| !c[1].as_str().unwrap().contains("write token")),
+        "{controls:?}"
+    );
+
+    // One slave's state: the dialog names the slave, its state and the one asked for.
+    assert_eq!(state_of(2)["state"], "OP");
+    let changes = state_changes_of_2();
+    let control = "li.slave[data-position=\"2\"] .state-control";
+    b.click(&format!("{control} option[value=\"SAFEOP\"]"));
+    b.wait("the request button enabled", PATIENCE, |b| {
+        (b.js(
+            "return document.getElementById('request-state-2').disabled",
+            serde_json::json!([]),
+        ) == false)
+            .then_some(())
+    });
+    b.click("#request-state-2");
+    let asked = confirmation(&mut b);
+    for part in [
+        named(2).as_str(),
+        "NowOP",
+        "Requested stateSAFEOP",
+        "Request SAFEOP",
+    ] {
+        assert!(asked.contains(part), "{part:?} in {asked:?}");
+    }
+    assert_eq!(
+        b.js("return document.activeElement.id", serde_json::json!([])),
+        "confirm-cancel",
+        "Cancel has the focus first"
+    );
+    b.screenshot(&shots.join("confirm-state.png"));
+    answer(&mut b, "#confirm-cancel");
+    assert_eq!(b.text(&format!("{control} [role=status]")), "not requested");
+    let slave2 = state_of(2);
+    assert_eq!(
+        (&slave2["state"], &slave2["requested_state"]),
+        (&"OP".into(), &"OP".into())
+    );
+    assert_eq!(state_changes_of_2(), changes, "no state change recorded");
+    assert_eq!(writes_sent(&mut b), Vec::<String>::new());
+    b.click("#request-state-2");
+    confirmation(&mut b);
+    answer(&mut b, "#confirm-ok");
+    b.wait("slave 2 in SAFEOP", PATIENCE, |_| {
+        (state_of(2)["state"] == "SAFEOP").then_some(())
+    });
+    b.wait("the request done", PATIENCE, |b| {
+        (b.text(&format!("{control} [role=status]")) == "requested SAFEOP").then_some(())
+    });
+    // The choice goes back to the placeholder: the next request needs a new one.
+    assert_eq!(
+        b.js(
+            "const s = document.querySelector(arguments[0] + ' select'); return [s.value, document.getElementById('request-state-2').disabled]",
+            serde_json::json!([control])
+        ),
+        serde_json::json!(["", true])
+    );
+    assert_eq!(writes_sent(&mut b).len(), 1);
+
+    // All slaves: the dialog says how many.
+    b.click(".all-states option[value=\"OP\"]");
+    b.wait("the all-slaves button enabled", PATIENCE, |b| {
+        (b.js(
+            "return document.getElementById('request-state-all').disabled",
+            serde_json::json!([]),
+        ) == false)
+            .then_some(())
+    });
+    b.click("#request-state-all");
+    let asked = confirmation(&mut b);
+    let all = format!("Request OP for all {count} slaves");
+    assert!(asked.contains(&all), "{all:?} in {asked:?}");
+    assert!(asked.contains(&format!("all {count}: ")), "{asked}");
+    for (p, slave) in slaves.iter().enumerate() {
+        let name = slave["name"].as_str().unwrap();
+        assert!(
+            asked.contains(&format!("{p} {name}")),
+            "{name} in {asked:?}"
+        );
+    }
+    answer(&mut b, "#confirm-cancel");
+    assert_eq!(state_of(2)["state"], "SAFEOP");
+    assert_eq!(writes_sent(&mut b).len(), 1, "Cancel sent nothing");
+    b.click("#request-state-all");
+    confirmation(&mut b);
+    answer(&mut b, "#confirm-ok");
+    b.wait("every slave in OP", PATIENCE, |_| {
+        let now = get_json(&ecatd, READ_TOKEN, "/slaves");
+        now.as_array()
+            .unwrap()
+            .iter()
+            .all(|s| s["state"] == "OP")
+            .then_some(())
+    });
+    // Slave 2 was the one not in OP: the PUTs to the slaves after it may still be going.
+    b.wait("the request for all done", PATIENCE, |b| {
+        (b.text(".all-states [role=status]") == "requested OP").then_some(())
+    });
+    assert_eq!(writes_sent(&mut b).len(), 1 + count, "one PUT a slave");
+
+    // An SDO write: named, cancelled (the value read back is unchanged), then confirmed.
+    b.phase("slave");
+    b.go(&format!("{}/#/slave/3", ecatd.http));
+    b.wait("the slave's state control", PATIENCE, |b| {
+        b.find("#request-state-slave")
+    });
+    assert_eq!(
+        b.js(
+            "return [document.querySelector('.view-head select.state-choice').value, document.getElementById('request-state-slave').disabled]",
+            serde_json::json!([])
+        ),
+        serde_json::json!(["", true])
+    );
+    let sdo = |ecatd: &Ecatd| {
+        get_json(ecatd, READ_TOKEN, "/slaves/3/coe/sdo/0x2001/0?type=u32")["value"].clone()
+    };
+    let before = sdo(&ecatd);
+    assert_ne!(before, COE_VALUE.to_string());
+    b.wait("0x2001's description", PATIENCE, |b| {
+        let t = b.text("#object-2001 summary");
+        (!t.is_empty() && !t.contains('…')).then_some(())
+    });
+    b.click("#object-2001 summary");
+    b.wait("0x2001:00's editor", PATIENCE, |b| {
+        b.find("#entry-2001-00 .editor")
+    });
+    b.type_into("#entry-2001-00 .editor", &COE_VALUE.to_string());
+    b.click("#entry-2001-00 button.write-value");
+    let asked = confirmation(&mut b);
+    for part in [
+        named(3),
+        "0x2001:00".into(),
+        format!("New value{COE_VALUE}"),
+        "Write value".into(),
+    ] {
+        assert!(asked.contains(&part), "{part:?} in {asked:?}");
+    }
+    answer(&mut b, "#confirm-cancel");
+    assert_eq!(b.text("#entry-2001-00 .write-status"), "not written");
+    assert_eq!(sdo(&ecatd), before, "Cancel wrote nothing");
+    assert_eq!(writes_sent(&mut b).len(), 1 + count);
+    b.click("#entry-2001-00 button.write-value");
+    confirmation(&mut b);
+    answer(&mut b, "#confirm-ok");
+    b.wait("the write done", PATIENCE, |b| {
+        (b.text("#entry-2001-00 .write-status") == "written").then_some(())
+    });
+    assert_eq!(sdo(&ecatd), COE_VALUE.to_string());
+
+    // A read token: the badge, and every write control drawn but disabled, saying why.
+    b.phase("read-only");
+    b.js(
+        "sessionStorage.setItem('ecatd.token', arguments[0]); location.hash = '#/segment'; location.reload()",
+        serde_json::json!([READ_TOKEN]),
+    );
+    b.wait("the read role", PATIENCE, |b| {
+        b.text("#role").contains("read only").then_some(())
+    });
+    b.wait("every slave's state control", PATIENCE, |b| {
+        (b.js(
+            "return document.querySelectorAll('li.slave select.state-choice').length",
+            serde_json::json!([]),
+        ) == count)
+            .then_some(())
+    });
+    assert_eq!(
+        b.js(
+            "const e = document.getElementById('read-only-badge'); return !e.hidden && getComputedStyle(e).display !== 'none' && e.textContent",
+            serde_json::json!([])
+        ),
+        "read-only"
+    );
+    let read_only = |b: &Browser, view: &str| {
+        let controls = write_controls(b);
+        assert!(!controls.is_empty(), "{view} draws its write controls");
+        for c in &controls {
+            assert_eq!(c[0], true, "{view}: {c}");
+            assert!(
+                c[1].as_str().unwrap().contains("write token"),
+                "{view}: {c}"
+            );
+        }
+        controls.len()
+    };
+    assert_eq!(read_only(&b, "segment"), 2 * (count + 1));
+    b.screenshot(&shots.join("segment-read-only.png"));
+    b.go(&format!("{}/#/slave/3", ecatd.http));
+    b.wait("the slave's state control", PATIENCE, |b| {
+        b.find("#request-state-slave")
+    });
+    b.wait("0x2001's description", PATIENCE, |b| {
+        let t = b.text("#object-2001 summary");
+        (!t.is_empty() && !t.contains('…')).then_some(())
+    });
+    b.click("#object-2001 summary");
+    b.wait("0x2001:00's editor", PATIENCE, |b| {
+        b.find("#entry-2001-00 .editor")
+    });
+    read_only(&b, "slave");
+    assert_eq!(
+        writes_sent(&mut b).len(),
+        1 + count + 1,
+        "nothing written with the read token"
+    );
+
+    // Events: the history with filters, each event's time in UTC.
+    b.phase("events");
+    b.go(&format!("{}/#/events", ecatd.http));
+    b.wait("the log", PATIENCE, |b| {
+        (event_rows(b).len() > 5).then_some(())
+    });
+    let unfiltered = event_rows(&b).len();
+    let history = get_json(&ecatd, READ_TOKEN, "/events?limit=1000");
+    let newest = history.as_array().unwrap().last().unwrap().clone();
+    let rows = event_rows(&b);
+    let (time, stamp) = (rows[0][3].as_str().unwrap(), &rows[0][4]);
+    assert_eq!(stamp, &newest["time"]);
+    // 2026-11-29T07:10:00.123Z is shown as 2026-11-29 07:10:00.123 UTC.
+    let utc = newest["time"]
+        .as_str()
+        .unwrap()
+        .replace('T', " ")
+        .replace('Z', " UTC");
+    assert_eq!(time, utc);
+
+    let filtered = |b: &mut Browser, what: &str| {
+        b.wait(what, PATIENCE, |b| {
+            (b.js(
+                "return document.querySelector('#events tbody').dataset.filtered",
+                serde_json::json!([]),
+            ) == "server")
+                .then_some(())
+        });
+        event_rows(b)
+    };
+    let ids = |rows: &[serde_json::Value]| -> Vec<u64> {
+        rows.iter().map(|r| r[0].as_u64().unwrap()).collect()
+    };
+    let expected_ids = |query: &str| -> Vec<u64> {
+        let mut ids: Vec<u64> = get_json(&ecatd, READ_TOKEN, &format!("/events?{query}"))
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| e["id"].as_u64().unwrap())
+            .collect();
+        ids.reverse();
+        ids
+    };
+    b.type_into("#event-slave", "2\u{E007}");
+    let of_2 = filtered(&mut b, "the log of slave 2");
+    assert!(!of_2.is_empty() && of_2.len() < unfiltered, "{of_2:?}");
+    assert!(of_2.iter().all(|r| r[1] == 2), "{of_2:?}");
+    assert_eq!(ids(&of_2), expected_ids("slave=2&limit=1000"));
+    // By the slave's name: the same events.
+    let name = slaves[2]["name"].as_str().unwrap();
+    let short = name.rsplit(' ').next().unwrap();
+    assert_eq!(
+        slaves
+            .iter()
+            .filter(|s| s["name"].as_str().unwrap().contains(short))
+            .count(),
+        1
+    );
+    b.js(
+        "const e = document.getElementById('event-slave'); e.value = ''; document.querySelector('#events tbody').dataset.filtered = ''",
+        serde_json::json!([]),
+    );
+    b.type_into("#event-slave", &format!("{short}\u{E007}"));
+    assert_eq!(
+        ids(&filtered(&mut b, "the log of the DI8 by name")),
+        ids(&of_2)
+    );
+    // And by kind: its state changes (SAFEOP, then OP again, above).
+    b.click("#event-kind option[value=\"state_changed\"]");
+    let changes = b.wait("the state changes of slave 2", PATIENCE, |b| {
+        let rows = event_rows(b);
+        (!rows.is_empty() && rows.iter().all(|r| r[2] == "state_changed")).then_some(rows)
+    });
+    assert_eq!(
+        ids(&changes),
+        expected_ids("slave=2&kind=state_changed&limit=1000")
+    );
+    assert!(changes.len() >= 2, "{changes:?}");
+    b.screenshot(&shots.join("events-filtered.png"));
+    // Since: a time (the last change) and a span back.
+    let last = get_json(&ecatd, READ_TOKEN, "/events?slave=2&kind=state_changed")
+        .as_array()
+        .unwrap()
+        .last()
+        .unwrap()["time"]
+        .as_str()
+        .unwrap()
+        .to_owned();
+    b.js(
+        "document.querySelector('#events tbody').dataset.filtered = ''",
+        serde_json::json!([]),
+    );
+    b.type_into("#event-since", &format!("{last}\u{E007}"));
+    let since = filtered(&mut b, "the changes since the last one");
+    assert_eq!(
+        ids(&since),
+        expected_ids(&format!(
+            "slave=2&kind=state_changed&since={last}&limit=1000"
+        ))
+    );
+    assert!(
+        !since.is_empty() && since.len() < changes.len(),
+        "{since:?}"
+    );
+    // A span ecatd cannot read: said, and no event shown as if it matched.
+    b.phase("events-bad");
+    b.js(
+        "const e = document.getElementById('event-since'); e.value = ''; document.querySelector('#events tbody').dataset.filtered = ''",
+        serde_json::json!([]),
+    );
+    b.type_into("#event-since", "yesterday\u{E007}");
+    assert!(filtered(&mut b, "the refusal").is_empty());
+    let said = b.text("#event-error");
+    assert!(said.contains("since"), "{said}");
+    b.phase("end");
+
+    // No console error but the refused filter (400), no request off 127.0.0.1.
+    let errors: Vec<_> = b
+        .console
+        .iter()
+        .filter(|(phase, e)| phase != "start" && e["level"] == "SEVERE")
+        .filter(|(phase, e)| {
+            !(phase == "events-bad"
+                && e["message"]
+                    .as_str()
+                    .is_some_and(|m| m.contains("status of 400")))
+        })
+        .collect();
+    assert!(errors.is_empty(), "console errors: {errors:#?}");
+    let origin = format!("{}/", ecatd.http);
+    let foreign: Vec<_> = b
+        .requests
+        .iter()
+        .filter(|m| m["method"] == "Network.requestWillBeSent")
+        .filter_map(|m| m["params"]["request"]["url"].as_str())
+        .filter(|u| !u.starts_with(&origin) && !u.starts_with("data:"))
+        .collect();
+    assert!(foreign.is_empty(), "requests off 127.0.0.1: {foreign:?}");
+    drop(b);
+    drop(ecatd);
+    let _ = std::fs::remove_dir_all(&sockets);
 }
