@@ -89,6 +89,23 @@ fn some(text: &str) -> Option<String> {
 
 #[tonic::async_trait]
 impl EoeService for Protocols {
+    async fn set_address_filter(
+        &self,
+        request: Request<pb::SetAddressFilterRequest>,
+    ) -> Reply<pb::SetAddressFilterResponse> {
+        let ticket = admit(&self.core, &request, Operation::EoeSetAddressFilter)?;
+        let r = request.get_ref();
+        let view = crate::input::mac_filter::MacFilterView {
+            macs: r.macs.clone(),
+            masks: r.masks.clone(),
+            no_broadcasts: r.no_broadcasts,
+        };
+        self.core
+            .eoe_set_address_filter(ticket, parse_name(&r.slave)?, &view)
+            .await?;
+        Ok(Response::new(pb::SetAddressFilterResponse {}))
+    }
+
     async fn set_ip(&self, request: Request<pb::SetIpRequest>) -> Reply<pb::SetIpResponse> {
         let ticket = admit(&self.core, &request, Operation::EoeSetIp)?;
         let r = request.get_ref();

@@ -10,6 +10,7 @@
 
 pub mod address;
 pub mod ip;
+pub mod mac_filter;
 pub mod since;
 pub mod soe_value;
 pub mod state;

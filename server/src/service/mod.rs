@@ -933,6 +933,26 @@ impl Core {
         )
     }
 
+    /// Sets the address filter of the slave's EoE port (which frames reach its device).
+    pub async fn eoe_set_address_filter(
+        &self,
+        mut ticket: Ticket,
+        slave: SlaveName,
+        view: &crate::input::mac_filter::MacFilterView,
+    ) -> Result<()> {
+        ticket.check(Operation::EoeSetAddressFilter, slave)?;
+        ticket.finish(
+            async {
+                let filter = crate::input::mac_filter::to_filter(view)?;
+                self.call(slave, Protocol::Eoe, |m| async move {
+                    m.eoe_set_address_filter(&filter).await
+                })
+                .await
+            }
+            .await,
+        )
+    }
+
     /// Reads IP parameters of the slave's EoE port.
     pub async fn eoe_get_ip(&self, slave: SlaveName) -> Result<IpView> {
         let settings = self

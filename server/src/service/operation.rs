@@ -76,6 +76,8 @@ operations! {
     Voe => "voe",
     /// EoE Set IP Parameter.
     EoeSetIp => "eoe_set_ip",
+    /// EoE Set address filter: which frames the slave passes to its device.
+    EoeSetAddressFilter => "eoe_set_address_filter",
     /// Forces a process-data output over what the control program commits.
     ForceOutput => "force_output",
     /// Releases a forced output.

@@ -18,6 +18,7 @@ const RANKS: &[(&str, u8)] = &[
     ("scheduling", 0),
     ("signals", 0),
     ("systemd", 0),
+    ("exit", 0),
     // How callers write slaves, values and IP settings.
     ("input", 1),
     ("sim_hooks", 1),

@@ -265,7 +265,8 @@ fn build_slave(
             stack = stack.with(
                 EoeService::new(config)
                     .with_tcp_host(true)
-                    .with_host_port(port),
+                    .with_host_port(port)
+                    .with_address_filter(),
             );
         }
         if has(Protocol::Voe) {

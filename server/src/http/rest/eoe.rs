@@ -7,6 +7,7 @@ use utoipa_axum::routes;
 use super::{DONE, Done, Result};
 use crate::eoe::InterfaceView;
 use crate::http::extract::{Admit, Json, Path};
+use crate::input::mac_filter::MacFilterView;
 use crate::service::{Core, IpView};
 use crate::service::{op, parse_name};
 
@@ -14,6 +15,7 @@ use crate::service::{op, parse_name};
 pub(super) fn routes() -> OpenApiRouter<Core> {
     OpenApiRouter::new()
         .routes(routes!(eoe_get_ip, eoe_set_ip))
+        .routes(routes!(eoe_set_address_filter))
         .routes(routes!(eoe_interfaces))
 }
 
@@ -37,6 +39,20 @@ pub async fn eoe_set_ip(
     Json(body): Json<IpView>,
 ) -> Result<Json<Done>> {
     core.eoe_set_ip(ticket, parse_name(&slave)?, &body)
+        .await
+        .map(|()| DONE)
+}
+
+#[utoipa::path(put, path = "/slaves/{slave}/eoe/filter", tag = "eoe", request_body = MacFilterView,
+    params(("slave" = String, Path)), responses((status = 200, body = Done)))]
+/// Sets the EoE address filter: which frames the slave passes to its device.
+pub async fn eoe_set_address_filter(
+    Admit(ticket, _): Admit<op::EoeSetAddressFilter>,
+    State(core): State<Core>,
+    Path(slave): Path<String>,
+    Json(body): Json<MacFilterView>,
+) -> Result<Json<Done>> {
+    core.eoe_set_address_filter(ticket, parse_name(&slave)?, &body)
         .await
         .map(|()| DONE)
 }

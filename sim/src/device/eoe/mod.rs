@@ -78,6 +78,27 @@ pub struct EoeService {
     tcp_enabled: bool,
     tcp: HostSlot,
     port: PortSlot,
+    /// Whether Set address filter is supported (`None`: answered "no filter support").
+    filter: Option<FilterSlot>,
+}
+
+/// The address filter the master set: with MAC filters, frames to other unicast
+/// addresses are not passed to the device (masks are not applied: spec-notes §eoe).
+#[derive(Debug, Clone, Default)]
+struct FilterSlot(Option<ecat_wire::eoe::AddressFilter>);
+
+impl FilterSlot {
+    fn passes(&self, frame: &[u8]) -> bool {
+        let (Some(filter), Some(destination)) = (&self.0, frame.get(..6)) else {
+            return true;
+        };
+        if destination[0] & 1 == 1 {
+            // Broadcast and multicast.
+            return !filter.no_broadcasts;
+        }
+        let count = usize::from(filter.filter_count).min(filter.filters.len());
+        count == 0 || filter.filters[..count].iter().any(|mac| mac == destination)
+    }
 }
 
 /// The host port. A clone of the service (a snapshot) gets a port of its own, never
@@ -129,7 +150,15 @@ impl EoeService {
             tcp_enabled: false,
             tcp: HostSlot::default(),
             port: PortSlot::default(),
+            filter: None,
         }
+    }
+
+    /// The service supporting Set address filter: the filter decides which frames reach
+    /// the device.
+    pub fn with_address_filter(mut self) -> Self {
+        self.filter = Some(FilterSlot::default());
+        self
     }
 
     /// The service with `port` as its host port (see [`host_port`]); a port made by
@@ -232,6 +261,9 @@ impl EoeService {
     /// A frame from the master is complete.
     fn frame_received(&mut self, frame: Vec<u8>, replies: &mut ReplySink) {
         self.counters.frames_in += 1;
+        if self.filter.as_ref().is_some_and(|f| !f.passes(&frame)) {
+            return;
+        }
         if let Some(port) = self.attached_port() {
             // The device is the host's: it answers, not the slave (nor is the frame kept
             // for `take_received`, which would copy every frame of a bulk transfer).
@@ -376,8 +408,14 @@ impl MailboxService for EoeService {
                     },
                 );
             }
-            EoeRepr::SetAddressFilterRequest { port, .. } => {
-                let result = EoeResult::NoFilterSupport;
+            EoeRepr::SetAddressFilterRequest { port, filter } => {
+                let result = match &mut self.filter {
+                    Some(slot) => {
+                        slot.0 = Some(filter);
+                        EoeResult::Success
+                    }
+                    None => EoeResult::NoFilterSupport,
+                };
                 Self::respond(replies, &EoeRepr::SetAddressFilterResponse { port, result });
             }
             EoeRepr::Other {
