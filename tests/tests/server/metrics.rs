@@ -271,6 +271,28 @@ fn gateway_counters_equal_the_datagrams_sent() {
         ),
         3.0
     );
+    // Every request is timed: the answered ones and the failed ones apart.
+    assert_eq!(
+        sample(
+            &after,
+            r#"ecat_mailbox_gateway_request_duration_seconds_count{outcome="answered"}"#
+        ),
+        5.0
+    );
+    assert_eq!(
+        sample(
+            &after,
+            r#"ecat_mailbox_gateway_request_duration_seconds_count{outcome="failed"}"#
+        ),
+        3.0
+    );
+    assert_eq!(
+        sample(
+            &after,
+            r#"ecat_mailbox_gateway_request_duration_seconds_bucket{outcome="failed",le="+Inf"}"#
+        ),
+        3.0
+    );
     // Eight datagrams fit the receive queue: the kernel dropped none (read from /proc).
     assert_eq!(
         sample(&after, "ecat_mailbox_gateway_dropped_datagrams_total"),
