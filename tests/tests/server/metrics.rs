@@ -157,8 +157,14 @@ fn counters_equal_what_was_done() {
     );
     // The AL state as its register value: position 1 (station 1002) in PREOP (2), the
     // others in OP (8).
-    assert_eq!(sample(&states, r#"ecat_slave_al_state{station="1002"}"#), 2.0);
-    assert_eq!(sample(&states, r#"ecat_slave_al_state{station="1001"}"#), 8.0);
+    assert_eq!(
+        sample(&states, r#"ecat_slave_al_state{station="1002"}"#),
+        2.0
+    );
+    assert_eq!(
+        sample(&states, r#"ecat_slave_al_state{station="1001"}"#),
+        8.0
+    );
     // Per-slave series carry the station only; names and identities join from
     // ecat_slave_info.
     let first = &topology.slaves[0];
