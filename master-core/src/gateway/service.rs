@@ -101,7 +101,9 @@ pub(crate) async fn admit(
         .role_of(client.ip())
         .unwrap_or(GatewayRole::Read);
     let Some(request) = parse(message, client, received, reply_to, role) else {
-        shared.stats.failed(FailureReason::Malformed);
+        shared
+            .stats
+            .failed(FailureReason::Malformed, received.elapsed());
         return Admitted::Malformed;
     };
     shared.stats.parsed(request.header.mailbox_type);
@@ -147,7 +149,8 @@ impl Shared {
     /// Answers a failed request as the error table of its layout says (unless strict) and
     /// counts it.
     async fn fail(&self, request: &Request, fault: Fault) -> Outcome {
-        self.stats.failed(fault.reason());
+        self.stats
+            .failed(fault.reason(), request.received.elapsed());
         self.answer_fault(request, fault, request.header.address)
             .await;
         Outcome::Failed(fault)
@@ -428,7 +431,9 @@ async fn broadcast(shared: &Arc<Shared>, request: &Request) -> Outcome {
     if busy {
         // No slave answered and the busy ones have their answers already: counted once, as
         // busy, which is no final answer (a repeat of the datagram runs again).
-        shared.stats.failed(Fault::Busy.reason());
+        shared
+            .stats
+            .failed(Fault::Busy.reason(), request.received.elapsed());
         return Outcome::Failed(Fault::Busy);
     }
     shared.fail(request, last_fault).await

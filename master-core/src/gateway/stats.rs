@@ -134,6 +134,10 @@ pub struct MailboxGatewayStats {
     pub port: u16,
     /// Time from receiving a request to sending its (first) reply, for answered requests.
     pub latency: HistogramSnapshot,
+    /// Time from receiving a request to its failure (the gateway's error answer sent, if
+    /// any), for failed requests: a failure that takes a slave's timeout shows here. A
+    /// connection refused before any message was read counts as zero.
+    pub failed_latency: HistogramSnapshot,
     /// Repeated UDP requests answered from the stored reply (or left to the original still
     /// being worked on) instead of being executed again; neither forwarded nor failed.
     pub retries_answered: u64,
@@ -162,6 +166,7 @@ pub(crate) struct Stats {
     port: AtomicU64,
     failures: [AtomicU64; FailureReason::ALL.len()],
     latency: Histogram,
+    failed_latency: Histogram,
 }
 
 impl Default for Stats {
@@ -181,6 +186,7 @@ impl Default for Stats {
             port: AtomicU64::new(0),
             failures: std::array::from_fn(|_| AtomicU64::new(0)),
             latency: Histogram::new(),
+            failed_latency: Histogram::new(),
         }
     }
 }
@@ -217,10 +223,11 @@ impl Stats {
         self.latency.record(latency);
     }
 
-    /// A request failed.
-    pub fn failed(&self, reason: FailureReason) {
+    /// A request failed for `reason`, `latency` after it was received.
+    pub fn failed(&self, reason: FailureReason, latency: Duration) {
         inc(&self.failed);
         inc(&self.failures[reason.slot()]);
+        self.failed_latency.record(latency);
     }
 
     /// A repeated request was answered without executing it again.
@@ -255,6 +262,7 @@ impl Stats {
             counter.store(0, Ordering::Relaxed);
         }
         self.latency.reset();
+        self.failed_latency.reset();
         let now = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX));
@@ -293,6 +301,7 @@ impl Stats {
             in_flight: get(&self.in_flight),
             port: u16::try_from(get(&self.port)).unwrap_or(0),
             latency: self.latency.snapshot(),
+            failed_latency: self.failed_latency.snapshot(),
             retries_answered: get(&self.retries),
         }
     }
@@ -310,7 +319,7 @@ mod tests {
         stats.received();
         stats.parsed(MailboxType::Coe);
         stats.forwarded(Duration::from_micros(100));
-        stats.failed(FailureReason::Malformed);
+        stats.failed(FailureReason::Malformed, Duration::from_millis(30));
         let s = stats.snapshot();
         assert_eq!(
             (s.total_requests, s.forwarded_requests, s.failed_requests),
@@ -318,6 +327,10 @@ mod tests {
         );
         assert_eq!((s.coe_count, s.failures.malformed, s.port), (1, 1, 4000));
         assert_eq!(s.latency.count(), 1);
+        assert_eq!(s.latency.sum(), Duration::from_micros(100));
+        // The failed request is timed apart from the answered one.
+        assert_eq!(s.failed_latency.count(), 1);
+        assert_eq!(s.failed_latency.sum(), Duration::from_millis(30));
         assert!(s.started_at_ms > 0);
         let by_reason: u64 = FailureReason::ALL.iter().map(|r| s.failures.get(*r)).sum();
         assert_eq!(by_reason, s.failed_requests);
@@ -326,5 +339,6 @@ mod tests {
         stats.start(4001);
         assert_eq!(stats.snapshot().total_requests, 0);
         assert_eq!(stats.snapshot().latency.count(), 0);
+        assert_eq!(stats.snapshot().failed_latency.count(), 0);
     }
 }

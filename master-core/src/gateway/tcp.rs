@@ -17,7 +17,7 @@
 use std::future::Future;
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::time::Instant as StdInstant;
+use std::time::{Duration, Instant as StdInstant};
 
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
@@ -79,12 +79,13 @@ impl Connections {
     ) -> Option<impl Future<Output = ()> + Send + 'static> {
         if !shared.config.allows(peer.ip()) {
             shared.stats.received();
-            shared.stats.failed(FailureReason::Denied);
+            // Refused at accept, before any message: nothing was waited for.
+            shared.stats.failed(FailureReason::Denied, Duration::ZERO);
             return None;
         }
         let Ok(slot) = Arc::clone(&self.slots).try_acquire_owned() else {
             shared.stats.received();
-            shared.stats.failed(FailureReason::Busy);
+            shared.stats.failed(FailureReason::Busy, Duration::ZERO);
             return None;
         };
         Some(connection(Arc::clone(shared), stream, peer, slot))
@@ -150,7 +151,10 @@ async fn connection(
                 Ok(Ok(len)) => len,
                 Ok(Err(Stop::Malformed)) => {
                     shared.stats.received();
-                    shared.stats.failed(FailureReason::Malformed);
+                    // A header that cannot start a message: refused as it is read.
+                    shared
+                        .stats
+                        .failed(FailureReason::Malformed, Duration::ZERO);
                     break;
                 }
                 Ok(Err(Stop::Closed)) | Err(_) => break,

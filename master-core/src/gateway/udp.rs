@@ -31,11 +31,15 @@ pub(crate) async fn run(shared: Arc<Shared>, socket: Arc<UdpSocket>) {
         let received = StdInstant::now();
         shared.stats.received();
         if !shared.config.allows(client.ip()) {
-            shared.stats.failed(FailureReason::Denied);
+            shared
+                .stats
+                .failed(FailureReason::Denied, received.elapsed());
             continue;
         }
         let Some(datagram) = buf.get(..len) else {
-            shared.stats.failed(FailureReason::Malformed);
+            shared
+                .stats
+                .failed(FailureReason::Malformed, received.elapsed());
             continue;
         };
         let reply_to = ReplyTo::Udp(Arc::clone(&socket));

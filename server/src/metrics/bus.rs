@@ -182,6 +182,20 @@ pub(super) fn histogram(
     help: &str,
     snapshot: &master_core::bus::HistogramSnapshot,
 ) -> Option<MetricFamily> {
+    histogram_series(
+        Family::new(name, help, MetricType::HISTOGRAM),
+        &[],
+        snapshot,
+    )
+    .done()
+}
+
+/// Adds `snapshot` to the histogram `family` as the series of `labels`, in [`BOUNDS`].
+pub(super) fn histogram_series(
+    family: Family,
+    labels: &[(&str, &str)],
+    snapshot: &master_core::bus::HistogramSnapshot,
+) -> Family {
     let mut cumulative = [0u64; BOUNDS.len()];
     let mut count = 0u64;
     for (_, high, n) in snapshot.buckets() {
@@ -195,7 +209,5 @@ pub(super) fn histogram(
         }
     }
     let buckets: Vec<(f64, u64)> = BOUNDS.iter().copied().zip(cumulative).collect();
-    Family::new(name, help, MetricType::HISTOGRAM)
-        .histogram(&[], &buckets, count, snapshot.sum().as_secs_f64())
-        .done()
+    family.histogram(labels, &buckets, count, snapshot.sum().as_secs_f64())
 }

@@ -1,5 +1,5 @@
 //! What the segment's configuration found at bring-up, counted from the master's events:
-//! `ecat_slave_config_mismatch{station,problem}` (slaves not the ones configured, missing,
+//! `ecat_slave_config_mismatch_total{station,problem}` (slaves not the ones configured, missing,
 //! or extra) and `ecat_slave_startup_failures_total{station}` (start-up commands that
 //! failed). Subscribed before the start-up scan, so its findings are counted too.
 
@@ -68,7 +68,7 @@ impl ConfigFindings {
     /// The families.
     pub fn collect(&self) -> Vec<Option<MetricFamily>> {
         let mut mismatch = Family::new(
-            "ecat_slave_config_mismatch",
+            "ecat_slave_config_mismatch_total",
             "Times a slave was found not to be the one configured (identity), a configured \
              slave was missing, or a slave was not configured (extra).",
             MetricType::COUNTER,

@@ -5,7 +5,7 @@ use prometheus::proto::{MetricFamily, MetricType};
 
 use master_core::gateway::{FailureCounts, FailureReason, MailboxGatewayStats};
 
-use super::bus::histogram;
+use super::bus::histogram_series;
 use super::family::Family;
 use crate::service::Core;
 
@@ -46,6 +46,7 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
         in_flight,
         port,
         latency,
+        failed_latency,
         retries_answered,
     } = s;
     let FailureCounts {
@@ -92,6 +93,16 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
     ] {
         reasons = reasons.counter(&[("reason", label)], value as f64);
     }
+    // Failed requests are timed too (a timeout costs the slave's whole deadline), apart from
+    // the answered ones so that quick refusals do not flatter the latency.
+    let durations = Family::new(
+        "ecat_mailbox_gateway_request_duration_seconds",
+        "Time from a request's arrival to its answer (outcome=\"answered\") or to its \
+         failure (outcome=\"failed\").",
+        MetricType::HISTOGRAM,
+    );
+    let durations = histogram_series(durations, &[("outcome", "answered")], &latency);
+    let durations = histogram_series(durations, &[("outcome", "failed")], &failed_latency);
     vec![
         gauge(
             "ecat_mailbox_gateway_up",
@@ -145,10 +156,6 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
             "When the gateway started, in seconds since the Unix epoch.",
             started_at_ms as f64 / 1000.0,
         ),
-        histogram(
-            "ecat_mailbox_gateway_request_duration_seconds",
-            "Time from a request's arrival to its answer.",
-            &latency,
-        ),
+        durations.done(),
     ]
 }

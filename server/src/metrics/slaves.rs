@@ -36,6 +36,12 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
         "AL status code of each slave (0: no error).",
         MetricType::GAUGE,
     );
+    let mut state = Family::new(
+        "ecat_slave_al_state",
+        "AL state of each slave as the AL status register has it (ETG.1000.4 0x0130 bits \
+         0-3): 1 INIT, 2 PREOP, 3 BOOT, 4 SAFEOP, 8 OP; an absent slave's last one.",
+        MetricType::GAUGE,
+    );
     let mut present = Family::new(
         "ecat_slave_present",
         "1 if the slave answered the last look.",
@@ -69,6 +75,7 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
         );
         let labels = [("station", station.as_str())];
         code = code.gauge(&labels, f64::from(u16::from(s.al_status_code)));
+        state = state.gauge(&labels, f64::from(u8::from(s.al_state)));
         present = present.gauge(&labels, if s.present { 1.0 } else { 0.0 });
         error = error.gauge(&labels, if s.al_error { 1.0 } else { 0.0 });
         // The counts are kept by ring position.
@@ -82,6 +89,7 @@ pub fn collect(core: &Core) -> Vec<Option<MetricFamily>> {
         per_state.done(),
         info.done(),
         code.done(),
+        state.done(),
         present.done(),
         error.done(),
         wkc.done(),

@@ -156,6 +156,8 @@ impl From<&MailboxGatewayStats> for GatewayStatsView {
             in_flight,
             port,
             latency,
+            // Exported as a metric only (ecat_mailbox_gateway_request_duration_seconds).
+            failed_latency: _,
             retries_answered,
         } = s;
         let FailureCounts {

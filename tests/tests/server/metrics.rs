@@ -155,6 +155,16 @@ fn counters_equal_what_was_done() {
         sample(&states, r#"ecat_slave_al_status_code{station="1001"}"#),
         0.0
     );
+    // The AL state as its register value: position 1 (station 1002) in PREOP (2), the
+    // others in OP (8).
+    assert_eq!(
+        sample(&states, r#"ecat_slave_al_state{station="1002"}"#),
+        2.0
+    );
+    assert_eq!(
+        sample(&states, r#"ecat_slave_al_state{station="1001"}"#),
+        8.0
+    );
     // Per-slave series carry the station only; names and identities join from
     // ecat_slave_info.
     let first = &topology.slaves[0];
@@ -268,6 +278,28 @@ fn gateway_counters_equal_the_datagrams_sent() {
         sample(
             &after,
             r#"ecat_mailbox_gateway_failures_total{reason="malformed"}"#
+        ),
+        3.0
+    );
+    // Every request is timed: the answered ones and the failed ones apart.
+    assert_eq!(
+        sample(
+            &after,
+            r#"ecat_mailbox_gateway_request_duration_seconds_count{outcome="answered"}"#
+        ),
+        5.0
+    );
+    assert_eq!(
+        sample(
+            &after,
+            r#"ecat_mailbox_gateway_request_duration_seconds_count{outcome="failed"}"#
+        ),
+        3.0
+    );
+    assert_eq!(
+        sample(
+            &after,
+            r#"ecat_mailbox_gateway_request_duration_seconds_bucket{outcome="failed",le="+Inf"}"#
         ),
         3.0
     );

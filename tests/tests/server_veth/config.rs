@@ -543,7 +543,8 @@ fn a_slave_other_than_the_one_configured_stays_in_preop_with_event_metric_and_lo
     // The metric.
     let metrics = ecatd.text("/metrics");
     assert!(
-        metrics.contains(r#"ecat_slave_config_mismatch{station="1003",problem="identity"} 1"#),
+        metrics
+            .contains(r#"ecat_slave_config_mismatch_total{station="1003",problem="identity"} 1"#),
         "{metrics}"
     );
     // The event: subscribed, then a rescan finds the same.
