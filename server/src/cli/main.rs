@@ -160,6 +160,8 @@ command_set! {
     Voe(commands::voe::Voe),
     /// Show or set the EoE IP parameters (set when any option is given).
     Ip(commands::ip::Ip),
+    /// Set the EoE address filter: the MACs whose frames the slave passes to its device.
+    EoeFilter(commands::eoe_filter::EoeFilter),
     /// Set the station alias.
     Alias(commands::registers::Alias),
     /// Read ESC registers.

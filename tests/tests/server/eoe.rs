@@ -192,9 +192,10 @@ bridge = "eoebr0"
 
 /// The simulated device has a factory MAC, as a real one does: `ecat ip` with an address
 /// alone (IgH's `ethercat ip` makes the MAC optional) puts it on the network, and ping
-/// reaches it through `eoe0s0` on the embedded default segment.
+/// reaches it through `eoe0s0` on the embedded default segment. The address filter, set
+/// through `ecat`, REST and gRPC, decides which frames reach it.
 #[test]
-fn set_ip_without_a_mac_is_enough_to_ping_the_device() {
+fn set_ip_without_a_mac_is_enough_to_ping_the_device_and_the_filter_decides() {
     let config = tempfile_path::write(
         r#"
 [eoe]
@@ -231,4 +232,60 @@ host_address = "10.78.0.1/24"
     let neighbours = ecatd.run("ip", &["neigh", "show", "10.78.0.2", "dev", "eoe0s0"]);
     let neighbours = String::from_utf8_lossy(&neighbours.stdout);
     assert!(neighbours.contains("02:45:43:53:00:00"), "{neighbours}");
+
+    // The address filter (Set address filter), from each API: naming another MAC, the
+    // slave no longer passes the device its frames; naming the device's, it does again;
+    // empty, every unicast frame passes.
+    let out = ecatd.run(
+        ecat.to_str().unwrap(),
+        &["eoe_filter", "-p", "0", "02:00:00:00:00:99"],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(ecatd.ping("10.78.0.2", 3, 56), 0, "filtered out");
+    let (status, body) = ecatd.curl(&[
+        "/api/v1/slaves/0/eoe/filter",
+        "-X",
+        "PUT",
+        "-H",
+        "content-type: application/json",
+        "-d",
+        r#"{"macs":["02:45:43:53:00:00"]}"#,
+    ]);
+    assert_eq!(status, 200, "{body}");
+    assert_eq!(ecatd.ping("10.78.0.2", 3, 56), 3, "{}", ecatd.log());
+    let out = ecatd.run(
+        server_support::grpcurl_path().to_str().unwrap(),
+        &[
+            "-plaintext",
+            "-d",
+            r#"{"slave":"0","macs":["02:00:00:00:00:98"]}"#,
+            "127.0.0.1:50051",
+            "ecat.v1.EoeService/SetAddressFilter",
+        ],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(ecatd.ping("10.78.0.2", 3, 56), 0, "filtered out again");
+    let (status, body) = ecatd.curl(&[
+        "/api/v1/slaves/0/eoe/filter",
+        "-X",
+        "PUT",
+        "-H",
+        "content-type: application/json",
+        "-d",
+        r#"{"macs":["02:45:43"]}"#,
+    ]);
+    assert_eq!(status, 400, "{body}");
+    assert!(body.contains(r#""field":"macs""#), "{body}");
+    assert_eq!(ecatd.ping("10.78.0.2", 2, 56), 0, "a refused filter changes nothing");
+    let (status, body) = ecatd.curl(&[
+        "/api/v1/slaves/0/eoe/filter",
+        "-X",
+        "PUT",
+        "-H",
+        "content-type: application/json",
+        "-d",
+        "{}",
+    ]);
+    assert_eq!(status, 200, "{body}");
+    assert_eq!(ecatd.ping("10.78.0.2", 3, 56), 3);
 }

@@ -7,6 +7,7 @@ pub mod debug;
 pub mod diag;
 pub mod docs;
 pub mod domains;
+pub mod eoe_filter;
 pub mod esc;
 pub mod events;
 pub mod foe;
