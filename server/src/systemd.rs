@@ -10,7 +10,7 @@ use sd_notify::NotifyState;
 /// Sends `state` to systemd if it is watching; a failure is logged, never fatal (the
 /// service still runs, systemd's start timeout tells the operator).
 pub fn notify(state: NotifyState<'_>) {
-    if let Err(err) = sd_notify::notify(&[state.clone()]) {
+    if let Err(err) = sd_notify::notify(std::slice::from_ref(&state)) {
         tracing::warn!(%err, state = %state, "cannot notify systemd");
     }
 }

@@ -240,17 +240,13 @@ host_address = "10.78.0.1/24"
         ecat.to_str().unwrap(),
         &["eoe_filter", "-p", "0", "02:00:00:00:00:99"],
     );
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(ecatd.ping("10.78.0.2", 3, 56), 0, "filtered out");
-    let (status, body) = ecatd.curl(&[
-        "/api/v1/slaves/0/eoe/filter",
-        "-X",
-        "PUT",
-        "-H",
-        "content-type: application/json",
-        "-d",
-        r#"{"macs":["02:45:43:53:00:00"]}"#,
-    ]);
+    let (status, body) = put_filter(&ecatd, r#"{"macs":["02:45:43:53:00:00"]}"#);
     assert_eq!(status, 200, "{body}");
     assert_eq!(ecatd.ping("10.78.0.2", 3, 56), 3, "{}", ecatd.log());
     let out = ecatd.run(
@@ -263,29 +259,34 @@ host_address = "10.78.0.1/24"
             "ecat.v1.EoeService/SetAddressFilter",
         ],
     );
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(ecatd.ping("10.78.0.2", 3, 56), 0, "filtered out again");
-    let (status, body) = ecatd.curl(&[
-        "/api/v1/slaves/0/eoe/filter",
-        "-X",
-        "PUT",
-        "-H",
-        "content-type: application/json",
-        "-d",
-        r#"{"macs":["02:45:43"]}"#,
-    ]);
+    let (status, body) = put_filter(&ecatd, r#"{"macs":["02:45:43"]}"#);
     assert_eq!(status, 400, "{body}");
     assert!(body.contains(r#""field":"macs""#), "{body}");
-    assert_eq!(ecatd.ping("10.78.0.2", 2, 56), 0, "a refused filter changes nothing");
-    let (status, body) = ecatd.curl(&[
+    assert_eq!(
+        ecatd.ping("10.78.0.2", 2, 56),
+        0,
+        "a refused filter changes nothing"
+    );
+    let (status, body) = put_filter(&ecatd, "{}");
+    assert_eq!(status, 200, "{body}");
+    assert_eq!(ecatd.ping("10.78.0.2", 3, 56), 3);
+}
+
+/// `PUT /api/v1/slaves/0/eoe/filter` with `body`.
+fn put_filter(ecatd: &EcatdInNs, body: &str) -> (u16, String) {
+    ecatd.curl(&[
         "/api/v1/slaves/0/eoe/filter",
         "-X",
         "PUT",
         "-H",
         "content-type: application/json",
         "-d",
-        "{}",
-    ]);
-    assert_eq!(status, 200, "{body}");
-    assert_eq!(ecatd.ping("10.78.0.2", 3, 56), 3);
+        body,
+    ])
 }

@@ -223,8 +223,12 @@ fn the_history_is_answered_as_json_and_the_stream_resumes_after_the_last_event_i
         .iter()
         .map(|e| e["id"].as_u64().unwrap())
         .collect();
-    let after = now[2];
-    let last = *now.last().unwrap();
+    let sent = resumed(&ecatd, now[2], *now.last().unwrap());
+    assert_eq!(sent, now[3..].to_vec());
+}
+
+/// The ids the stream sends when resumed with `Last-Event-ID: after`, up to `last`.
+fn resumed(ecatd: &Ecatd, after: u64, last: u64) -> Vec<u64> {
     let sse = Streaming::start(Command::new("curl").args([
         "-s",
         "-N",
@@ -237,12 +241,10 @@ fn the_history_is_answered_as_json_and_the_stream_resumes_after_the_last_event_i
     sse.wait_for("the kept events after the resume point", |t| {
         t.contains(&format!("id: {last}\n")).then_some(())
     });
-    let sent: Vec<u64> = sse
-        .text()
+    sse.text()
         .lines()
         .filter_map(|l| l.strip_prefix("id:")?.trim().parse().ok())
-        .collect();
-    assert_eq!(sent, now[3..].to_vec(), "{}", sse.text());
+        .collect()
 }
 
 /// With `[events] journal`, the history and the numbering survive a restart: the events of
@@ -306,30 +308,12 @@ fn the_journal_keeps_the_history_and_the_numbering_across_a_restart() {
     // A client of the first run resumes where it was.
     let resume = before[before.len() - 2]["id"].as_u64().unwrap();
     let last = after.last().unwrap()["id"].as_u64().unwrap();
-    let sse = Streaming::start(Command::new("curl").args([
-        "-s",
-        "-N",
-        "-H",
-        "accept: text/event-stream",
-        "-H",
-        &format!("last-event-id: {resume}"),
-        &format!("{}/api/v1/events", second.http),
-    ]));
-    sse.wait_for("the events after the resume point", |t| {
-        t.contains(&format!("id: {last}\n")).then_some(())
-    });
-    let sent: Vec<u64> = sse
-        .text()
-        .lines()
-        .filter_map(|l| l.strip_prefix("id:")?.trim().parse().ok())
-        .collect();
     let want: Vec<u64> = after
         .iter()
         .map(|e| e["id"].as_u64().unwrap())
         .filter(|id| *id > resume)
         .collect();
-    assert_eq!(sent, want, "{}", sse.text());
-    drop(sse);
+    assert_eq!(resumed(&second, resume, last), want);
     drop(second);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -15,7 +15,7 @@ use server_support::{Ecatd, curl, curl_as_browser};
 use sim::topology::{SIM_VENDOR_ID, Topology};
 
 /// Every REST route the tests call, as the OpenAPI document must list it.
-const ROUTES: [(&str, &str); 42] = [
+const ROUTES: [(&str, &str); 43] = [
     ("get", "/api/v1/master"),
     ("get", "/api/v1/process-data"),
     ("get", "/api/v1/process-data/layout"),
@@ -58,6 +58,7 @@ const ROUTES: [(&str, &str); 42] = [
     ("post", "/api/v1/slaves/{slave}/voe"),
     ("get", "/api/v1/slaves/{slave}/eoe/ip"),
     ("put", "/api/v1/slaves/{slave}/eoe/ip"),
+    ("put", "/api/v1/slaves/{slave}/eoe/filter"),
     ("get", "/api/v1/eoe/interfaces"),
     ("get", "/api/v1/gateway"),
     ("post", "/api/v1/gateway/start"),

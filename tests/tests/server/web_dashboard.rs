@@ -589,6 +589,30 @@ impl Browser {
     }
 
     /// A PNG of the whole page (the viewport grown to its height) at `path`.
+    /// No console error after the start page but the one `allowed` names (its phase and a
+    /// piece of its message), and every request the page made went to `ecatd`.
+    fn assert_clean(&self, ecatd: &Ecatd, allowed: (&str, &str)) {
+        let errors: Vec<_> = self
+            .console
+            .iter()
+            .filter(|(phase, e)| phase != "start" && e["level"] == "SEVERE")
+            .filter(|(phase, e)| {
+                !(phase == allowed.0
+                    && e["message"].as_str().is_some_and(|m| m.contains(allowed.1)))
+            })
+            .collect();
+        assert!(errors.is_empty(), "console errors: {errors:#?}");
+        let origin = format!("{}/", ecatd.http);
+        let foreign: Vec<_> = self
+            .requests
+            .iter()
+            .filter(|m| m["method"] == "Network.requestWillBeSent")
+            .filter_map(|m| m["params"]["request"]["url"].as_str())
+            .filter(|u| !u.starts_with(&origin) && !u.starts_with("data:"))
+            .collect();
+        assert!(foreign.is_empty(), "requests off 127.0.0.1: {foreign:?}");
+    }
+
     fn screenshot(&self, path: &std::path::Path) {
         let height = self
             .js(
@@ -1158,29 +1182,8 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
 
     // The console: no error but the owner's refusal (409) the override phase provoked
     // ("start" is the icon page that put the token in place: Chrome asks it for
-    // /favicon.ico, which ecatd does not have).
-    let errors: Vec<_> = b
-        .console
-        .iter()
-        .filter(|(phase, e)| phase != "start" && e["level"] == "SEVERE")
-        .filter(|(phase, e)| {
-            !(phase == "override"
-                && e["message"]
-                    .as_str()
-                    .is_some_and(|m| m.contains("status of 409")))
-        })
-        .collect();
-    assert!(errors.is_empty(), "console errors: {errors:#?}");
-    // Every request the page made went to ecatd.
-    let origin = format!("{}/", ecatd.http);
-    let foreign: Vec<_> = b
-        .requests
-        .iter()
-        .filter(|m| m["method"] == "Network.requestWillBeSent")
-        .filter_map(|m| m["params"]["request"]["url"].as_str())
-        .filter(|u| !u.starts_with(&origin) && !u.starts_with("data:"))
-        .collect();
-    assert!(foreign.is_empty(), "requests off 127.0.0.1: {foreign:?}");
+    // /favicon.ico, which ecatd does not have); every request went to ecatd.
+    b.assert_clean(&ecatd, ("override", "status of 409"));
     let len = std::fs::metadata(&shot).unwrap().len();
     assert!(len > 10_000, "{} is {len} bytes", shot.display());
     drop(b);
@@ -1665,27 +1668,7 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
     b.phase("end");
 
     // No console error but the refused filter (400), no request off 127.0.0.1.
-    let errors: Vec<_> = b
-        .console
-        .iter()
-        .filter(|(phase, e)| phase != "start" && e["level"] == "SEVERE")
-        .filter(|(phase, e)| {
-            !(phase == "events-bad"
-                && e["message"]
-                    .as_str()
-                    .is_some_and(|m| m.contains("status of 400")))
-        })
-        .collect();
-    assert!(errors.is_empty(), "console errors: {errors:#?}");
-    let origin = format!("{}/", ecatd.http);
-    let foreign: Vec<_> = b
-        .requests
-        .iter()
-        .filter(|m| m["method"] == "Network.requestWillBeSent")
-        .filter_map(|m| m["params"]["request"]["url"].as_str())
-        .filter(|u| !u.starts_with(&origin) && !u.starts_with("data:"))
-        .collect();
-    assert!(foreign.is_empty(), "requests off 127.0.0.1: {foreign:?}");
+    b.assert_clean(&ecatd, ("events-bad", "status of 400"));
     drop(b);
     drop(ecatd);
     let _ = std::fs::remove_dir_all(&sockets);

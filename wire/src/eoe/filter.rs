@@ -46,6 +46,10 @@ pub struct AddressFilter {
     pub filters: [[u8; 6]; FILTER_SLOTS],
     /// Mask slots.
     pub masks: [[u8; 6]; MASK_SLOTS],
+    /// Written (and found) in the packed layout: only the counted filters, then the counted
+    /// masks. The master sends it to a slave whose mailbox cannot hold the fixed layout
+    /// (a 128-byte mailbox holds 122 bytes of EoE, 4 of them its header); spec-notes §eoe.
+    pub packed: bool,
 }
 
 fn mac_at(body: &[u8], at: usize) -> [u8; 6] {
@@ -66,6 +70,7 @@ impl AddressFilter {
             filter_count,
             mask_count,
             no_broadcasts: opts & options::NO_BROADCASTS != 0,
+            packed: body.len() < FIXED_LEN,
             ..AddressFilter::default()
         };
         let (filters, masks, mask_start) = if body.len() >= FIXED_LEN {
@@ -85,14 +90,18 @@ impl AddressFilter {
         Ok(filter)
     }
 
-    /// Bytes of the (fixed) body.
+    /// Bytes of the body: the fixed layout's, or the packed one's for the counts.
     pub const fn buffer_len(&self) -> usize {
-        FIXED_LEN
+        if self.packed {
+            OPTIONS_LEN + 6 * (self.filter_count as usize + self.mask_count as usize)
+        } else {
+            FIXED_LEN
+        }
     }
 
-    /// Writes the fixed layout; refuses counts wider than their bits (writing nothing).
+    /// Writes the fixed or the packed layout; refuses counts wider than their bits
+    /// (writing nothing).
     pub fn emit_body(&self, body: &mut [u8]) -> Result<()> {
-        room("EoE address filter", body, FIXED_LEN)?;
         if u16::from(self.filter_count) > options::FILTER_COUNT_MASK
             || u16::from(self.mask_count) > options::MASK_COUNT_MASK
         {
@@ -101,13 +110,22 @@ impl AddressFilter {
                 reason: "filter count above 15 or mask count above 3",
             });
         }
+        room("EoE address filter", body, self.buffer_len())?;
         let mut opts = u16::from(self.filter_count)
             | (u16::from(self.mask_count) << options::MASK_COUNT_SHIFT);
         if self.no_broadcasts {
             opts |= options::NO_BROADCASTS;
         }
         field::set_u16_le(body, 0, opts);
-        for (i, mac) in self.filters.iter().chain(self.masks.iter()).enumerate() {
+        let (filters, masks) = if self.packed {
+            (
+                &self.filters[..usize::from(self.filter_count)],
+                &self.masks[..usize::from(self.mask_count)],
+            )
+        } else {
+            (&self.filters[..], &self.masks[..])
+        };
+        for (i, mac) in filters.iter().chain(masks.iter()).enumerate() {
             let at = OPTIONS_LEN + 6 * i;
             body[at..at + 6].copy_from_slice(mac);
         }

@@ -612,8 +612,31 @@ fn arb_filter() -> impl Strategy<Value = AddressFilter> {
                 no_broadcasts,
                 filters,
                 masks,
+                packed: false,
             },
         )
+}
+
+#[test]
+fn a_packed_filter_carries_only_the_counted_slots_and_reads_back() {
+    let mut filter = AddressFilter {
+        filter_count: 2,
+        mask_count: 1,
+        no_broadcasts: true,
+        packed: true,
+        ..AddressFilter::default()
+    };
+    filter.filters[0] = [2, 0, 0, 0, 0, 1];
+    filter.filters[1] = [2, 0, 0, 0, 0, 2];
+    filter.masks[0] = [0xff; 6];
+    assert_eq!(filter.buffer_len(), 2 + 18);
+    let mut body = [0u8; 20];
+    filter.emit_body(&mut body).unwrap();
+    assert_eq!(body[..2], [0x92, 0x00], "2 filters, 1 mask, no broadcasts");
+    assert_eq!(body[2..8], [2, 0, 0, 0, 0, 1]);
+    assert_eq!(body[14..20], [0xff; 6]);
+    assert_eq!(AddressFilter::parse_body(&body).unwrap(), filter);
+    assert!(filter.emit_body(&mut [0u8; 19]).is_err(), "too small");
 }
 
 pub(crate) fn arb_eoe() -> impl Strategy<Value = EoeRepr<'static>> {

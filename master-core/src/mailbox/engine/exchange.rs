@@ -343,6 +343,11 @@ impl Exchange {
         inc(&self.shared.stats.cancelled);
     }
 
+    /// The bytes of mailbox data one message to the slave can carry (SM0 length − 6).
+    pub(crate) fn data_capacity(&self) -> usize {
+        self.tx.len().saturating_sub(HEADER_LEN)
+    }
+
     /// Writes one message of `mailbox_type` into SM0. `emit` writes the mailbox data into
     /// the buffer it is given (SM0 length − 6 bytes) and returns its length; the header
     /// (length, counter, type) is added here. A full SM0 is written again until the

@@ -190,10 +190,15 @@ impl SlaveMailbox {
 
     /// Set address filter (spec-notes §eoe). Few slaves support it; those that do not answer
     /// [`EoeResult::NoFilterSupport`], returned as [`MailboxError::Eoe`].
+    ///
+    /// The fixed layout goes to a slave whose mailbox holds it; a smaller mailbox gets the
+    /// packed one ([`AddressFilter::packed`]).
     pub async fn eoe_set_address_filter(&self, filter: &AddressFilter) -> Result<()> {
-        let filter = *filter;
+        let mut filter = *filter;
         call(self, Some(MailboxType::Eoe), move |x| -> BoxFuture<'_, _> {
             Box::pin(async move {
+                filter.packed = x.data_capacity()
+                    < crate::wire::eoe::HEADER_LEN + crate::wire::eoe::filter::FIXED_LEN;
                 let request = EoeRepr::SetAddressFilterRequest { port: 0, filter };
                 eoe_request(x, &request, |reply| match reply {
                     EoeRepr::SetAddressFilterResponse { result, .. } => Some(check(*result)),
