@@ -178,6 +178,10 @@ impl<L: Link> Link for CaptureTap<L> {
         }
         Ok(got)
     }
+
+    fn wait_fd(&self) -> Option<std::os::fd::BorrowedFd<'_>> {
+        self.inner.wait_fd()
+    }
 }
 
 #[cfg(test)]

@@ -23,6 +23,7 @@
 //! address of returning frames, so only the EtherType can be trusted to pick our traffic.
 
 use std::io;
+use std::os::fd::BorrowedFd;
 use std::time::Instant;
 
 mod capture;
@@ -36,7 +37,7 @@ pub use capture::{Capture, CaptureHub, CaptureTap, CapturedFrame};
 pub use fault::{FaultConfig, FaultCounts, FaultInjector};
 pub use memory::MemoryLink;
 pub use pcap::PcapTap;
-pub use raw_socket::{RawSocket, RawSocketOptions};
+pub use raw_socket::{RawSocket, RawSocketOptions, wait_any_readable};
 
 use ecat_wire::ethernet;
 
@@ -94,6 +95,14 @@ pub trait Link: Send {
     /// arrived in time. A frame longer than `buf` is cut to `buf.len()` bytes (a buffer of
     /// [`MAX_FRAME_LEN`] bytes never cuts one); frames are never merged or split.
     fn recv(&mut self, buf: &mut [u8], wait: Wait) -> io::Result<Option<usize>>;
+
+    /// A file descriptor that becomes readable when [`Link::recv`] has a frame to give,
+    /// for a caller that waits on two links at once (cable redundancy waits on its primary
+    /// and backup ports in one `ppoll(2)`). `None` (the default) for a link that cannot be
+    /// waited on that way; such a caller then takes turns on the links instead.
+    fn wait_fd(&self) -> Option<BorrowedFd<'_>> {
+        None
+    }
 }
 
 impl<L: Link + ?Sized> Link for Box<L> {
@@ -104,6 +113,10 @@ impl<L: Link + ?Sized> Link for Box<L> {
     fn recv(&mut self, buf: &mut [u8], wait: Wait) -> io::Result<Option<usize>> {
         (**self).recv(buf, wait)
     }
+
+    fn wait_fd(&self) -> Option<BorrowedFd<'_>> {
+        (**self).wait_fd()
+    }
 }
 
 impl<L: Link + ?Sized> Link for &mut L {
@@ -113,6 +126,10 @@ impl<L: Link + ?Sized> Link for &mut L {
 
     fn recv(&mut self, buf: &mut [u8], wait: Wait) -> io::Result<Option<usize>> {
         (**self).recv(buf, wait)
+    }
+
+    fn wait_fd(&self) -> Option<BorrowedFd<'_>> {
+        (**self).wait_fd()
     }
 }
 

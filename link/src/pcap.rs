@@ -144,6 +144,10 @@ impl<L: Link, W: Write + Send> Link for PcapTap<L, W> {
         }
         Ok(received)
     }
+
+    fn wait_fd(&self) -> Option<std::os::fd::BorrowedFd<'_>> {
+        self.inner.wait_fd()
+    }
 }
 
 impl<L: Link, W: Write + Send> Drop for PcapTap<L, W> {

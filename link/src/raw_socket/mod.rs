@@ -252,6 +252,19 @@ impl Link for RawSocket {
             }
         }
     }
+
+    /// The socket itself: readable when a frame is queued (frames we sent ourselves are
+    /// never queued, see the module documentation).
+    fn wait_fd(&self) -> Option<BorrowedFd<'_>> {
+        Some(self.fd.as_fd())
+    }
+}
+
+/// Waits until one of `fds` (at most two, e.g. the [`Link::wait_fd`]s of a ring's primary
+/// and backup ports) is readable or `timeout` has passed. A signal ends the wait early
+/// without an error; the caller looks at its links and its deadline again anyway.
+pub fn wait_any_readable(fds: &[BorrowedFd<'_>], timeout: Duration) -> io::Result<()> {
+    sys::wait_any_readable(fds, timeout)
 }
 
 impl fmt::Debug for RawSocket {

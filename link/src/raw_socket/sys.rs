@@ -210,11 +210,27 @@ pub(super) fn recv_frame(fd: BorrowedFd<'_>, buf: &mut [u8]) -> io::Result<Recei
 /// Returns early, without error, if a signal interrupts the wait: the caller re-checks the
 /// socket and its deadline anyway.
 pub(super) fn wait_readable(fd: BorrowedFd<'_>, timeout: Duration) -> io::Result<()> {
-    let mut poll_fd = libc::pollfd {
-        fd: fd.as_raw_fd(),
+    wait_any_readable(&[fd], timeout)
+}
+
+/// Waits until one of `fds` is readable or `timeout` has passed (early, without error, on
+/// a signal).
+pub(crate) fn wait_any_readable(fds: &[BorrowedFd<'_>], timeout: Duration) -> io::Result<()> {
+    // Two links at most wait together (a ring's ports); more is a caller's mistake.
+    let mut poll_fds = [libc::pollfd {
+        fd: -1,
         events: libc::POLLIN,
         revents: 0,
-    };
+    }; 2];
+    if fds.len() > poll_fds.len() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "at most two links wait together",
+        ));
+    }
+    for (slot, fd) in poll_fds.iter_mut().zip(fds) {
+        slot.fd = fd.as_raw_fd();
+    }
     // ppoll takes nanoseconds; poll's milliseconds would make a 100 µs timeout either 0 (a
     // busy loop) or 1 ms (late). Seconds saturate far beyond any real deadline.
     let timeout = libc::timespec {
@@ -222,9 +238,17 @@ pub(super) fn wait_readable(fd: BorrowedFd<'_>, timeout: Duration) -> io::Result
         // Below 10^9, so it fits a C long everywhere.
         tv_nsec: timeout.subsec_nanos() as libc::c_long,
     };
-    // SAFETY: `poll_fd` is one valid `pollfd` and `timeout` a valid `timespec`, both alive for
-    // the call; a null signal mask leaves the thread's mask unchanged.
-    let result = unsafe { libc::ppoll(&mut poll_fd, 1, &timeout, std::ptr::null()) };
+    // SAFETY: `poll_fds` holds `fds.len()` valid `pollfd`s and `timeout` is a valid
+    // `timespec`, both alive for the call; a null signal mask leaves the thread's mask
+    // unchanged.
+    let result = unsafe {
+        libc::ppoll(
+            poll_fds.as_mut_ptr(),
+            fds.len() as libc::nfds_t,
+            &timeout,
+            std::ptr::null(),
+        )
+    };
     if result < 0 {
         let err = io::Error::last_os_error();
         if err.kind() != io::ErrorKind::Interrupted {

@@ -768,6 +768,7 @@ mod tests {
             queue: Submissions::new(config.queue_capacity),
             stats: BusStats::default(),
             config,
+            ring: None,
         });
         Engine::new(link, shared)
     }

@@ -49,6 +49,12 @@ impl BusHandle {
         &self.inner.shared
     }
 
+    /// What the ring link knows of the ring, when the bus runs on one
+    /// ([`Bus::start_ring`](super::Bus::start_ring)); `None` on a single port.
+    pub fn ring(&self) -> Option<&super::redundancy::RingWatch> {
+        self.shared().ring.as_ref()
+    }
+
     /// Queues one datagram. Requests that cannot be sent (an address of another
     /// addressing mode than the command's, data too long for a frame) and submissions to
     /// a full queue or a stopped bus complete at once with the error.

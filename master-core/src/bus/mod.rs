@@ -112,6 +112,7 @@ mod index;
 mod matching;
 mod queue;
 mod record;
+pub mod redundancy;
 mod request;
 mod sched;
 mod stats;
@@ -134,6 +135,8 @@ pub(crate) struct Shared {
     pub queue: queue::Submissions,
     pub stats: stats::BusStats,
     pub config: BusConfig,
+    /// What the ring link knows, when the bus runs on a ring.
+    pub ring: Option<redundancy::RingWatch>,
 }
 
 /// Starts buses; see [`Bus::start`].
@@ -153,11 +156,44 @@ impl Bus {
         link: L,
         config: BusConfig,
     ) -> io::Result<(BusHandle, JoinHandle<L>)> {
+        Self::spawn(link, config, None)
+    }
+
+    /// [`Bus::start`] on a ring (cable redundancy): every frame goes out of `primary` and
+    /// `backup`, and the two copies come back as one ([`redundancy`]). Frames are built
+    /// [`redundancy::RING_OVERHEAD`] bytes shorter than `config.max_frame_len` to leave
+    /// room for the ring's probe; a returned copy waits at most `grace` for its twin
+    /// ([`redundancy::DEFAULT_GRACE`] suits a real ring; an in-process one returns both at
+    /// once and can use zero). [`BusHandle::ring`] tells how the ring is.
+    pub fn start_ring<P: Link + 'static, B: Link + 'static>(
+        primary: P,
+        backup: B,
+        config: BusConfig,
+        grace: std::time::Duration,
+    ) -> io::Result<(BusHandle, JoinHandle<redundancy::RingLink<P, B>>)> {
+        let link = redundancy::RingLink::new(primary, backup, grace);
+        let watch = link.watch();
+        let config = BusConfig {
+            max_frame_len: config
+                .max_frame_len
+                .min(crate::wire::ethernet::MAX_FRAME_LEN)
+                .saturating_sub(redundancy::RING_OVERHEAD),
+            ..config
+        };
+        Self::spawn(link, config, Some(watch))
+    }
+
+    fn spawn<L: Link + 'static>(
+        link: L,
+        config: BusConfig,
+        ring: Option<redundancy::RingWatch>,
+    ) -> io::Result<(BusHandle, JoinHandle<L>)> {
         config.check()?;
         let shared = Arc::new(Shared {
             queue: queue::Submissions::new(config.queue_capacity),
             stats: stats::BusStats::default(),
             config,
+            ring,
         });
         let engine = engine::Engine::new(link, Arc::clone(&shared));
         let thread = std::thread::Builder::new()

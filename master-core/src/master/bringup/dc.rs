@@ -11,6 +11,7 @@
 
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
+use crate::bus::redundancy::RingClock;
 use crate::bus::{BusHandle, Pending};
 use crate::wire::register::address as reg;
 use crate::wire::register::dc::{
@@ -141,6 +142,18 @@ pub(crate) async fn configure(
         compensate_static_drift(ctx, reference, settings.static_drift_frames).await?;
     }
     let count = u16::try_from(slaves.len()).unwrap_or(u16::MAX);
+    if let Some(ring) = ctx.bus.ring() {
+        // On a ring, the side of a break without the reference takes its time from its
+        // own first clock (spec-notes §redundancy).
+        let clocks: Vec<RingClock> = slaves
+            .iter()
+            .map(|s| RingClock {
+                position: s.position,
+                station: s.station,
+            })
+            .collect();
+        ring.set_clocks(&clocks);
+    }
     ctx.image
         .set_dc_reference(reference.map(|station| (station, count)));
     Ok(slaves)

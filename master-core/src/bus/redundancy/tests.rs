@@ -1,0 +1,171 @@
+//! The ring link against a stand-in ring: two queues and a few slaves that count
+//! themselves in every datagram (the simulator's real ring is exercised by the master's
+//! integration tests).
+
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
+
+use super::*;
+use crate::wire::command::{Command, DatagramAddress};
+use crate::wire::datagram::{DatagramRepr, DatagramsMut};
+use crate::wire::ethernet;
+use crate::wire::frame::FrameBuilder;
+
+/// The wiring of the stand-in: `slaves` in a ring, cut after `cut` of them (or whole), and
+/// whether each master port's own cable is plugged.
+#[derive(Debug)]
+struct Wiring {
+    slaves: usize,
+    cut: Option<usize>,
+    queues: [VecDeque<Vec<u8>>; 2],
+}
+
+#[derive(Debug, Clone)]
+struct Port {
+    side: Side,
+    wiring: Arc<Mutex<Wiring>>,
+}
+
+/// Each slave that processes a datagram adds 1 to its working counter and, for a
+/// broadcast read, ORs the bit of its position into the first byte.
+fn process(frame: &mut [u8], positions: std::ops::Range<usize>) {
+    let parsed = EthercatFrame::parse(frame).unwrap();
+    let (start, end) = (
+        parsed.payload_offset,
+        parsed.payload_offset + parsed.payload.len(),
+    );
+    for d in DatagramsMut::new(&mut frame[start..end]) {
+        let mut d = d.unwrap();
+        if d.command() == Command::Nop {
+            continue;
+        }
+        for position in positions.clone() {
+            let w = d.wkc();
+            d.set_wkc(w + 1);
+            if d.command() == Command::Brd && !d.data().is_empty() {
+                d.data_mut()[0] |= 1 << position;
+            }
+        }
+    }
+}
+
+impl Link for Port {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        let mut w = self.wiring.lock().unwrap();
+        let mut frame = frame.to_vec();
+        let n = w.slaves;
+        let back = match (self.side, w.cut) {
+            (Side::Primary, None) => {
+                process(&mut frame, 0..n);
+                Side::Backup
+            }
+            (Side::Backup, None) => Side::Primary,
+            (Side::Primary, Some(0)) => return Ok(()),
+            (Side::Primary, Some(k)) => {
+                process(&mut frame, 0..k);
+                Side::Primary
+            }
+            (Side::Backup, Some(k)) => {
+                process(&mut frame, k..n);
+                Side::Backup
+            }
+        };
+        w.queues[back as usize].push_back(frame);
+        Ok(())
+    }
+
+    fn recv(&mut self, buf: &mut [u8], _wait: Wait) -> io::Result<Option<usize>> {
+        let mut w = self.wiring.lock().unwrap();
+        Ok(w.queues[self.side as usize].pop_front().map(|f| {
+            buf[..f.len()].copy_from_slice(&f);
+            f.len()
+        }))
+    }
+}
+
+fn ring(slaves: usize) -> (RingLink<Port, Port>, Arc<Mutex<Wiring>>) {
+    let wiring = Arc::new(Mutex::new(Wiring {
+        slaves,
+        cut: None,
+        queues: [VecDeque::new(), VecDeque::new()],
+    }));
+    let port = |side| Port {
+        side,
+        wiring: Arc::clone(&wiring),
+    };
+    (
+        RingLink::new(port(Side::Primary), port(Side::Backup), Duration::ZERO),
+        wiring,
+    )
+}
+
+fn brd(index: u8) -> Vec<u8> {
+    let mut buf = vec![0u8; ethernet::MAX_FRAME_LEN];
+    let mut builder = FrameBuilder::new(&mut buf).unwrap();
+    builder
+        .push(&DatagramRepr::request(
+            Command::Brd,
+            index,
+            DatagramAddress::broadcast(0x0130),
+            &[0, 0],
+        ))
+        .unwrap();
+    let len = builder.finish([2, 0, 0, 0, 0, 1]).unwrap();
+    buf.truncate(len);
+    buf
+}
+
+/// Sends a BRD and returns what came back: (first data byte, working counter).
+fn round_trip(link: &mut RingLink<Port, Port>, index: u8) -> Option<(u8, u16)> {
+    link.send(&brd(index)).unwrap();
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let len = link.recv(&mut buf, Wait::NoWait).unwrap()?;
+    let parsed = EthercatFrame::parse(&buf[..len]).unwrap();
+    let mut all = parsed.datagrams().unwrap();
+    let d = all.next().unwrap().unwrap();
+    assert!(all.next().is_none(), "no probe handed up");
+    assert_eq!(len, brd(index).len());
+    Some((d.data[0], d.wkc))
+}
+
+#[test]
+fn a_closed_ring_answers_through_the_backup_port_and_is_seen_closed() {
+    let (mut link, _) = ring(5);
+    assert_eq!(round_trip(&mut link, 1), Some((0b1_1111, 5)));
+    let status = link.watch().status();
+    assert_eq!(status.state, RingState::Closed);
+    assert_eq!((status.primary_side, status.ring_slaves), (5, 5));
+}
+
+#[test]
+fn every_break_is_located_served_from_both_sides_and_healed() {
+    for cut in 0..=5 {
+        let (mut link, wiring) = ring(5);
+        round_trip(&mut link, 1).unwrap();
+        wiring.lock().unwrap().cut = Some(cut);
+        // The first frame after the cut already reaches everyone, from both sides.
+        assert_eq!(round_trip(&mut link, 2), Some((0b1_1111, 5)), "cut {cut}");
+        let status = link.watch().status();
+        assert_eq!(status.state, RingState::Broken, "cut {cut}");
+        assert_eq!(status.break_after, Some(cut as u16));
+        assert_eq!(status.backup_side, 5 - cut as u16);
+        assert_eq!((status.breaks, status.unreachable), (1, 0));
+        assert_eq!(round_trip(&mut link, 3), Some((0b1_1111, 5)));
+        wiring.lock().unwrap().cut = None;
+        assert_eq!(round_trip(&mut link, 4), Some((0b1_1111, 5)));
+        let status = link.watch().status();
+        assert_eq!(status.state, RingState::Closed, "healed after cut {cut}");
+        assert_eq!(status.heals, 1);
+    }
+}
+
+#[test]
+fn a_lost_copy_is_waited_for_once_then_not_expected() {
+    let (mut link, wiring) = ring(3);
+    round_trip(&mut link, 1).unwrap();
+    wiring.lock().unwrap().cut = Some(0);
+    assert_eq!(round_trip(&mut link, 2), Some((0b111, 3)));
+    assert_eq!(link.watch().status().single_returns, 1);
+    assert!(!link.expect[0], "the primary copy is not expected any more");
+    assert_eq!(round_trip(&mut link, 3), Some((0b111, 3)));
+}
