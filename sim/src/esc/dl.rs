@@ -1,11 +1,14 @@
 //! Data-link layer state: port links, DL status 0x0110 and the error counters 0x0300-0x0313
 //! (ETG.1000.4, spec-notes §esc.dl, §esc.errors).
 //!
-//! The ESC is modelled with two ports in a line: port 0 towards the master, port 1 towards
-//! the next slave. Port 0's loop is always open (the frame comes in there); port 1 follows
-//! its DL control loop setting: "auto" closes it when there is no link, "closed" closes it
-//! always, "open" keeps it open (and frames sent into a port without link are treated as
-//! looped back, not lost). Ports 2 and 3 do not exist and show a closed loop.
+//! The ESC is modelled with two ports: port 0 towards the master, port 1 towards the next
+//! slave (or, the last slave of a ring, the master's backup port). Port 0 is open while it
+//! has a link and closed (looped back, as "auto" does) without one, which only a ring can
+//! make use of: a frame coming in at port 1 then turns into the processing unit (see
+//! `segment::route`). Port 1 follows its DL control loop setting: "auto" closes it when
+//! there is no link, "closed" closes it always, "open" keeps it open (and frames sent into
+//! a port without link are treated as looped back, not lost). Ports 2 and 3 do not exist
+//! and show a closed loop.
 
 use ecat_wire::register::address as reg;
 use ecat_wire::register::dl::{DlControl, DlStatus, LoopMode, PortStatus};
@@ -135,7 +138,7 @@ impl Esc {
             ports: [
                 PortStatus {
                     link: self.link(0),
-                    loop_closed: false,
+                    loop_closed: !self.link(0),
                     communication: self.link(0),
                 },
                 PortStatus {

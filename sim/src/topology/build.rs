@@ -91,12 +91,13 @@ pub struct Built {
     pub slaves: Vec<SlaveHandles>,
 }
 
-/// Builds the segment described by `topology`.
+/// Builds the segment described by `topology` (a ring with `ring = true`).
 pub fn build(topology: &Topology) -> Result<Segment, BuildError> {
     build_with_handles(topology).map(|b| b.segment)
 }
 
-/// Builds the segment and keeps handles into its slaves.
+/// Builds the segment and keeps handles into its slaves. With `ring = true` the last slave's
+/// port 1 is wired back to the master's backup port ([`Segment::set_ring`]).
 pub fn build_with_handles(topology: &Topology) -> Result<Built, BuildError> {
     let time = ManualTime::new(0);
     let mut segment = Segment::new(Box::new(time.clone()));
@@ -112,6 +113,7 @@ pub fn build_with_handles(topology: &Topology) -> Result<Built, BuildError> {
         segment.push(esc, Box::new(device));
         slaves.push(handles);
     }
+    segment.set_ring(topology.ring);
     Ok(Built {
         segment,
         time,

@@ -268,6 +268,7 @@ impl Topology {
     /// 4 KiB object, an EoE device (see the module documentation).
     pub fn default_segment() -> Topology {
         Topology {
+            ring: false,
             slaves: vec![
                 drive(),
                 digital_outputs(),
@@ -303,6 +304,9 @@ impl Topology {
                 slave
             })
             .collect();
-        Topology { slaves }
+        Topology {
+            ring: false,
+            slaves,
+        }
     }
 }

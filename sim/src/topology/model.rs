@@ -8,6 +8,10 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Topology {
+    /// Cable redundancy: the last slave's port 1 is wired back to the master's backup port
+    /// (`ring = true`); default: a line ending at the last slave.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub ring: bool,
     /// The slaves, by ring position.
     #[serde(default, rename = "slave")]
     pub slaves: Vec<SlaveSpec>,

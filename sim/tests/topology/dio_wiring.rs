@@ -192,6 +192,7 @@ fn outputs_behind_the_inputs_in_the_line_arrive_one_frame_later() {
         wired_to: Some(1),
     };
     let topology = Topology {
+        ring: false,
         slaves: vec![inputs, default.slaves[DO8].clone()],
     };
     let (mut bench, _) = in_op(&topology, 1, 0);

@@ -37,6 +37,7 @@ fn store_with_mailbox_at(start: u16) -> (Topology, Segment) {
     let mut slave = Topology::default_segment().slaves[3].clone();
     slave.mailbox.as_mut().unwrap().start = Some(start);
     let topology = Topology {
+        ring: false,
         slaves: vec![slave],
     };
     let segment = build(&topology).unwrap();

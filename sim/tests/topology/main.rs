@@ -1,5 +1,5 @@
 //! The simulator's topologies: the built-in default segment, digital I/O wiring, mailbox
-//! start-up, SoE drives and the in-process default of `ecatd --simulate`.
+//! start-up, SoE drives, ring wiring and the in-process default of `ecatd --simulate`.
 
 #[path = "../segment_support/mod.rs"]
 mod segment_support;
@@ -8,4 +8,5 @@ mod default;
 mod dio_wiring;
 mod inprocess_default;
 mod mailbox_start;
+mod ring;
 mod soe;
