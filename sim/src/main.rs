@@ -1,14 +1,18 @@
 //! `ecat-sim`: an emulated EtherCAT segment answering on a network interface.
 //!
 //! ```text
-//! ecat-sim --iface <ifname> [--topology FILE] [--slaves N] [--pcap FILE] [--busy-poll] [--spin-us N] [--control]
-//!         [--loss FRACTION [--loss-seed N]] [--eoe-tap NAME [--eoe-slave POSITION]]
+//! ecat-sim --iface <ifname> [--backup-iface <ifname>] [--topology FILE] [--slaves N] [--pcap FILE]
+//!         [--busy-poll] [--spin-us N] [--control] [--loss FRACTION [--loss-seed N]]
+//!         [--eoe-tap NAME [--eoe-slave POSITION]]
 //! ```
 //!
 //! Prints one line per emulated slave, then `ecat-sim: ready on <ifname>` on stdout (scripts
 //! and tests wait for that line), then a frame counter on stderr about once per second.
-//! With `--control`, digital outputs are reported and inputs and emergencies taken as
-//! commands on the standard streams (see `frontend::control`). With `--eoe-tap`, an EoE
+//! With `--backup-iface`, the segment is a ring (cable redundancy) from `--iface`, the
+//! master's primary port, back to the backup interface (`frontend::ring`). With
+//! `--control`, digital outputs are reported and inputs, emergencies, power cycles, cut
+//! cables and dead slaves taken as commands on the standard streams (see
+//! `frontend::control`). With `--eoe-tap`, an EoE
 //! slave's Ethernet side is a TAP interface in ecat-sim's namespace (`frontend::eoe_tap`).
 //! SIGINT or SIGTERM end it cleanly (the capture is flushed). Exit codes: 0 after a signal,
 //! 1 for a link or capture failure, 2 for bad arguments or a bad topology.
@@ -16,6 +20,7 @@
 mod frontend;
 
 use std::io::{self, Write};
+use std::os::fd::AsRawFd;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -26,9 +31,12 @@ use ecat_link::{FaultConfig, FaultInjector, Link, PcapTap, RawSocket, RawSocketO
 use sim::device::eoe::HostPort;
 use sim::topology::{Built, Topology, build_with_handles};
 
+use frontend::changes::Changes;
+use frontend::control::Wiring;
 use frontend::counter::FrameCounter;
 use frontend::describe::slave_lines;
 use frontend::eoe_tap::TapBridge;
+use frontend::ring::{PollFds, serve_ring};
 use frontend::serve::serve;
 
 /// Emulated EtherCAT slaves on a network interface (raw Ethernet; needs CAP_NET_RAW).
@@ -38,13 +46,18 @@ struct Args {
     /// Network interface to answer EtherCAT frames on (e.g. a veth end).
     #[arg(long, value_name = "IFNAME")]
     iface: String,
+    /// The master's backup port (cable redundancy): the segment becomes a ring from
+    /// `--iface` through every slave back to this interface, whatever the topology says.
+    #[arg(long, value_name = "IFNAME")]
+    backup_iface: Option<String>,
     /// Segment description (TOML); default: the built-in five-slave segment.
     #[arg(long, value_name = "FILE", conflicts_with = "slaves")]
     topology: Option<PathBuf>,
     /// Instead of a topology: N slaves, the built-in segment's slaves repeated.
     #[arg(long, value_name = "N")]
     slaves: Option<usize>,
-    /// Record every frame in and out to this pcap file.
+    /// Record every frame in and out to this pcap file (with `--backup-iface`: the frames
+    /// of the primary port only).
     #[arg(long, value_name = "FILE")]
     pcap: Option<PathBuf>,
     /// Spin on the socket instead of sleeping in poll: lower latency, one busy core.
@@ -55,7 +68,8 @@ struct Args {
     /// taken without a wake-up, at the price of that much CPU per frame.
     #[arg(long, value_name = "MICROSECONDS", default_value = "0")]
     spin_us: u32,
-    /// Report digital outputs on stdout and take `input`/`emergency` commands on stdin.
+    /// Report digital outputs on stdout and take `input`/`emergency`/`power-cycle`/`break`/
+    /// `kill`/`heal` commands on stdin.
     #[arg(long)]
     control: bool,
     /// Lose this fraction of the frames (0.0 to 1.0), half of it on the way in and half on
@@ -140,6 +154,7 @@ fn run(args: &Args) -> Result<(), Failure> {
     };
     let socket =
         RawSocket::open(&args.iface, options).map_err(|err| Failure::Io(err.to_string()))?;
+    let primary_fd = socket.as_raw_fd();
     // Lost frames are lost before the capture sees them, as on a cable before the slave.
     let faults = FaultConfig {
         drop_tx: args.loss / 2.0,
@@ -147,6 +162,16 @@ fn run(args: &Args) -> Result<(), Failure> {
         ..FaultConfig::default()
     };
     let socket = FaultInjector::new(socket, faults, args.loss_seed);
+    let backup = match &args.backup_iface {
+        Some(name) => {
+            let raw = RawSocket::open(name, options).map_err(|err| Failure::Io(err.to_string()))?;
+            let waiter = PollFds::new(primary_fd, raw.as_raw_fd());
+            // Its own seed: the two cables do not lose the same frames.
+            let link = FaultInjector::new(raw, faults, args.loss_seed.wrapping_add(1));
+            Some(Backup { link, waiter })
+        }
+        None => None,
+    };
 
     // Registered before the ready line, so a signal sent right after it is never lost.
     let stop = Arc::new(AtomicBool::new(false));
@@ -166,15 +191,28 @@ fn run(args: &Args) -> Result<(), Failure> {
         Some(path) => PcapTap::create(socket, path)
             .map_err(|err| Failure::Io(err.to_string()))
             .and_then(|mut tap| {
-                let counter =
-                    announce_and_serve(&mut tap, args, &topology, built, Arc::clone(&stop))?;
+                let counter = announce_and_serve(
+                    &mut tap,
+                    backup,
+                    args,
+                    &topology,
+                    built,
+                    Arc::clone(&stop),
+                )?;
                 tap.flush()
                     .map_err(|err| Failure::Io(format!("{}: {err}", path.display())))?;
                 Ok(counter)
             }),
         None => {
             let mut socket = socket;
-            announce_and_serve(&mut socket, args, &topology, built, Arc::clone(&stop))
+            announce_and_serve(
+                &mut socket,
+                backup,
+                args,
+                &topology,
+                built,
+                Arc::clone(&stop),
+            )
         }
     };
     // The loop is over (a signal or an error): the bridge's threads end with it.
@@ -223,8 +261,15 @@ fn bridged_slave(args: &Args, built: &Built) -> Result<Option<(usize, HostPort)>
     }
 }
 
+/// The master's backup port: its link and the wait on both sockets.
+struct Backup {
+    link: FaultInjector<RawSocket>,
+    waiter: PollFds,
+}
+
 fn announce_and_serve(
     link: &mut impl Link,
+    backup: Option<Backup>,
     args: &Args,
     topology: &Topology,
     built: Built,
@@ -235,9 +280,24 @@ fn announce_and_serve(
         time,
         slaves,
     } = built;
+    // The backup port makes the ring; without one, a ring's last cable would lead nowhere
+    // and its frames would be lost, so the segment stays a line.
+    segment.set_ring(backup.is_some());
     let mut out = io::stdout().lock();
     let announce = |out: &mut io::StdoutLock<'_>| -> io::Result<()> {
         writeln!(out, "ecat-sim: {} slaves", topology.slaves.len())?;
+        match &args.backup_iface {
+            Some(name) => writeln!(
+                out,
+                "  ring: {} (primary) through every slave back to {name} (backup)",
+                args.iface
+            )?,
+            None if topology.ring => writeln!(
+                out,
+                "  the topology is a ring but there is no --backup-iface: wired as a line"
+            )?,
+            None => {}
+        }
         for line in slave_lines(topology, &segment) {
             writeln!(out, "  {line}")?;
         }
@@ -252,15 +312,42 @@ fn announce_and_serve(
                 writeln!(out, "  EoE of slave {position} bridged to TAP {name}")?;
             }
         }
-        writeln!(out, "ecat-sim: ready on {}", args.iface)?;
+        match &args.backup_iface {
+            Some(name) => writeln!(out, "ecat-sim: ready on {}, backup {name}", args.iface)?,
+            None => writeln!(out, "ecat-sim: ready on {}", args.iface)?,
+        }
         out.flush()
     };
     announce(&mut out).map_err(|err| Failure::Io(format!("cannot write to stdout: {err}")))?;
     drop(out);
-    let power = Arc::new(frontend::serve::PowerCycles::default());
+    let changes = Arc::new(Changes::default());
     if args.control {
-        frontend::control::start(slaves, Arc::clone(&stop), Arc::clone(&power));
+        let wiring = Wiring {
+            slaves: segment.len(),
+            ring: segment.is_ring(),
+        };
+        frontend::control::start(slaves, wiring, Arc::clone(&stop), Arc::clone(&changes));
     }
-    serve(link, &mut segment, &time, &stop, &power, &mut io::stderr())
-        .map_err(|err| Failure::Io(format!("link {}: {err}", args.iface)))
+    let mut report = io::stderr();
+    match backup {
+        None => serve(link, &mut segment, &time, &stop, &changes, &mut report)
+            .map_err(|err| Failure::Io(format!("link {}: {err}", args.iface))),
+        Some(Backup {
+            link: mut backup,
+            mut waiter,
+        }) => serve_ring(
+            link,
+            &mut backup,
+            &mut waiter,
+            &mut segment,
+            &time,
+            &stop,
+            &changes,
+            &mut report,
+        )
+        .map_err(|err| {
+            let backup = args.backup_iface.as_deref().unwrap_or_default();
+            Failure::Io(format!("links {} and {backup}: {err}", args.iface))
+        }),
+    }
 }

@@ -10,11 +10,17 @@
 //!   input on while its output is on),
 //!   `emergency <position> <code hex> [<error register hex> <5 data bytes hex>]` raises a
 //!   CoE emergency on a slave (without the last two: error register 0, zero bytes),
-//!   `power-cycle <position>` power-cycles a slave before the next frame. Each command is answered `ecat-sim: ok <command>` or
-//!   `ecat-sim: error <reason>` on stdout.
+//!   `power-cycle <position>` power-cycles a slave before the next frame. Cable redundancy
+//!   (ETG.1000.3 §4.2), also made before the next frame: `break <cable>` cuts a cable
+//!   (`break 0` the master's primary cable, `break k` the cable after k slaves, `break n`
+//!   with n slaves the cable back to the master's backup port, ring only), `kill
+//!   <position>` takes a slave's power (it neither processes nor forwards; its neighbours
+//!   lose their links to it), `heal` reconnects every cable and powers every slave (a
+//!   killed slave comes back in INIT, as after a power cycle). Each command is answered
+//!   `ecat-sim: ok <command>` or `ecat-sim: error <reason>` on stdout.
 //!
-//! Both run on threads of their own, touching only the shared handles, never the frame
-//! loop.
+//! Both run on threads of their own, touching only the shared handles and the queue of
+//! segment changes ([`super::changes`]), never the frame loop.
 
 use std::io::{self, BufRead, Write};
 use std::sync::Arc;
@@ -24,14 +30,28 @@ use std::time::Duration;
 
 use sim::topology::SlaveHandles;
 
-use super::serve::PowerCycles;
+use super::changes::{Change, Changes};
 
 /// How often the output reporter looks at the terminals.
 const OUTPUT_POLL: Duration = Duration::from_millis(1);
 
+/// What the command reader knows of the segment to check its commands against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Wiring {
+    /// Number of slaves.
+    pub slaves: usize,
+    /// Whether the last slave is wired back to the master's backup port.
+    pub ring: bool,
+}
+
 /// Starts the output reporter and the command reader; both end with `stop` (the reader
-/// also when stdin closes).
-pub fn start(handles: Vec<SlaveHandles>, stop: Arc<AtomicBool>, power: Arc<PowerCycles>) {
+/// also when stdin closes). Segment changes go to `changes` for the frame loop.
+pub fn start(
+    handles: Vec<SlaveHandles>,
+    wiring: Wiring,
+    stop: Arc<AtomicBool>,
+    changes: Arc<Changes>,
+) {
     let probes: Vec<_> = handles
         .iter()
         .enumerate()
@@ -57,7 +77,7 @@ pub fn start(handles: Vec<SlaveHandles>, stop: Arc<AtomicBool>, power: Arc<Power
             if stop.load(Ordering::Relaxed) {
                 break;
             }
-            match command(&handles, &power, &line) {
+            match command(&handles, wiring, &changes, &line) {
                 Ok(()) => say(&format!("ok {}", line.trim())),
                 Err(reason) => say(&format!("error {reason}")),
             }
@@ -73,6 +93,11 @@ fn say(line: &str) {
 
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A decimal number.
+fn number(word: &str, what: &str) -> Result<usize, String> {
+    word.parse().map_err(|_| format!("bad {what} {word:?}"))
 }
 
 /// Five bytes written as ten hex digits.
@@ -91,7 +116,12 @@ fn five_bytes(word: &str) -> Result<[u8; 5], String> {
 }
 
 /// Carries out one command line.
-fn command(handles: &[SlaveHandles], power: &PowerCycles, line: &str) -> Result<(), String> {
+fn command(
+    handles: &[SlaveHandles],
+    wiring: Wiring,
+    changes: &Changes,
+    line: &str,
+) -> Result<(), String> {
     let words: Vec<&str> = line.split_whitespace().collect();
     let slave = |word: &str| -> Result<&SlaveHandles, String> {
         let position: usize = word.parse().map_err(|_| format!("bad position {word:?}"))?;
@@ -143,10 +173,34 @@ fn command(handles: &[SlaveHandles], power: &PowerCycles, line: &str) -> Result<
         }
         ["power-cycle", position] => {
             slave(position)?;
-            let position: usize = position
-                .parse()
-                .map_err(|_| format!("bad position {position:?}"))?;
-            power.request(position);
+            changes.request(Change::PowerCycle(number(position, "position")?));
+            Ok(())
+        }
+        ["kill", position] => {
+            slave(position)?;
+            changes.request(Change::Kill(number(position, "position")?));
+            Ok(())
+        }
+        ["break", cable] => {
+            let cable = number(cable, "cable")?;
+            // Cable n (after the last slave) goes back to the backup port: a ring's only.
+            let last = if wiring.ring {
+                wiring.slaves
+            } else {
+                wiring.slaves.saturating_sub(1)
+            };
+            if cable > last {
+                let wired = if wiring.ring { "ring" } else { "line" };
+                return Err(format!(
+                    "no cable {cable}: cables 0 to {last} in this {wired} of {} slaves",
+                    wiring.slaves
+                ));
+            }
+            changes.request(Change::Break(cable));
+            Ok(())
+        }
+        ["heal"] => {
+            changes.request(Change::Heal);
             Ok(())
         }
         _ => Err(format!("unknown command {line:?}")),
@@ -162,8 +216,12 @@ mod tests {
     fn commands_reach_the_handles_and_bad_ones_are_refused() {
         let built = build_with_handles(&Topology::default_segment()).unwrap();
         let handles = built.slaves;
-        let power = PowerCycles::default();
-        let command = |line: &str| command(&handles, &power, line);
+        let changes = Changes::default();
+        let wiring = Wiring {
+            slaves: handles.len(),
+            ring: false,
+        };
+        let command = |line: &str| command(&handles, wiring, &changes, line);
         command("input 2 5 1").unwrap();
         assert!(command("input 1 5 1").is_err(), "DO8 has no inputs");
         command("emergency 3 0x8100").unwrap();
@@ -176,6 +234,45 @@ mod tests {
         assert!(command("reboot").is_err());
         command("power-cycle 1").unwrap();
         assert!(command("power-cycle 9").is_err());
-        assert_eq!(power.queued(), vec![1]);
+        assert_eq!(changes.queued(), vec![Change::PowerCycle(1)]);
+    }
+
+    #[test]
+    fn cable_and_power_commands_are_checked_against_the_wiring_and_queued() {
+        let built = build_with_handles(&Topology::default_segment()).unwrap();
+        let handles = built.slaves;
+        let n = handles.len();
+        let changes = Changes::default();
+        let ring = Wiring {
+            slaves: n,
+            ring: true,
+        };
+        let line = Wiring {
+            ring: false,
+            ..ring
+        };
+        command(&handles, ring, &changes, "break 0").unwrap();
+        command(&handles, ring, &changes, "break 2").unwrap();
+        command(&handles, ring, &changes, &format!("break {n}")).unwrap();
+        let err = command(&handles, line, &changes, &format!("break {n}")).unwrap_err();
+        assert!(err.contains("line"), "{err}");
+        assert!(command(&handles, ring, &changes, &format!("break {}", n + 1)).is_err());
+        assert!(command(&handles, ring, &changes, "break -1").is_err());
+        assert!(command(&handles, ring, &changes, "break").is_err());
+        command(&handles, ring, &changes, "kill 4").unwrap();
+        assert!(command(&handles, ring, &changes, &format!("kill {n}")).is_err());
+        assert!(command(&handles, ring, &changes, "kill x").is_err());
+        command(&handles, ring, &changes, " heal ").unwrap();
+        assert!(command(&handles, ring, &changes, "heal 1").is_err());
+        assert_eq!(
+            changes.queued(),
+            vec![
+                Change::Break(0),
+                Change::Break(2),
+                Change::Break(n),
+                Change::Kill(4),
+                Change::Heal
+            ]
+        );
     }
 }

@@ -13,55 +13,12 @@ use ecat_link::{Link, MAX_FRAME_LEN, Wait};
 use sim::esc::ManualTime;
 use sim::segment::Segment;
 
+use super::changes::Changes;
 use super::counter::FrameCounter;
 
 /// Longest wait for a frame before the loop lets time pass in the segment and looks at its
 /// stop flag again: a watchdog runs out at most this late (10 % of the default 100 ms).
 pub const IDLE: Duration = Duration::from_millis(10);
-
-/// Power cycles asked for from another thread (`--control`), carried out by the frame
-/// loop between two frames (it owns the segment).
-#[derive(Debug, Default)]
-pub struct PowerCycles {
-    pending: AtomicBool,
-    positions: std::sync::Mutex<Vec<usize>>,
-}
-
-impl PowerCycles {
-    /// Asks for the slave at `position` to be power-cycled before the next frame.
-    pub fn request(&self, position: usize) {
-        let mut positions = self
-            .positions
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        positions.push(position);
-        self.pending.store(true, Ordering::Release);
-    }
-
-    /// The positions waiting for their power cycle.
-    #[cfg(test)]
-    pub fn queued(&self) -> Vec<usize> {
-        self.positions
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
-            .clone()
-    }
-
-    fn apply(&self, segment: &mut Segment) {
-        if !self.pending.swap(false, Ordering::Acquire) {
-            return;
-        }
-        let positions = std::mem::take(
-            &mut *self
-                .positions
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner),
-        );
-        for position in positions {
-            segment.power_cycle(position);
-        }
-    }
-}
 
 /// Answers frames on `link` with `segment` until `stop` is set; returns the final counts.
 ///
@@ -69,13 +26,13 @@ impl PowerCycles {
 /// each frame, so the slaves' distributed clocks run in real time. Rate lines go to `report`
 /// about once per second. A frame the kernel cannot queue for sending is counted and lost
 /// (as on a wire); an interface that goes down (a cut cable) is waited out; any other link
-/// error ends the loop.
+/// error ends the loop. `changes` are made before the next frame.
 pub fn serve(
     link: &mut impl Link,
     segment: &mut Segment,
     time: &ManualTime,
     stop: &AtomicBool,
-    power: &PowerCycles,
+    changes: &Changes,
     report: &mut impl Write,
 ) -> io::Result<FrameCounter> {
     let origin = Instant::now();
@@ -104,7 +61,7 @@ pub fn serve(
             continue;
         };
         counter.frames_in += 1;
-        power.apply(segment);
+        changes.apply(segment, report);
         time.set(elapsed());
         let frame = &mut buf[..len];
         if !segment.process(frame) {
@@ -162,7 +119,7 @@ mod tests {
                     &mut segment,
                     &built.time,
                     &stop,
-                    &PowerCycles::default(),
+                    &Changes::default(),
                     &mut io::sink(),
                 )
                 .unwrap()
