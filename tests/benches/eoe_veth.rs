@@ -63,6 +63,7 @@ fn topology(size: u16) -> Topology {
     });
     drive.esc.ram_kib = drive.esc.ram_kib.max(8);
     Topology {
+        ring: false,
         slaves: vec![drive],
     }
 }

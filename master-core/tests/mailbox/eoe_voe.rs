@@ -122,17 +122,30 @@ async fn an_icmp_echo_request_through_eoe_gets_the_slaves_reply() {
 
 #[tokio::test]
 async fn the_address_filter_answer_and_frame_limits() {
-    // The filter request has fixed slots: 126 bytes of mailbox data, more than a 128-byte
-    // mailbox holds. It is refused before anything is sent.
+    // A 128-byte mailbox holds 122 bytes of EoE data: less than the fixed layout's 122 +
+    // header, so the filter goes in the packed layout (spec-notes §eoe), which holds a
+    // short filter; a full one (16 addresses, 4 masks) does not fit either and is refused
+    // before anything is sent.
     let rig = Rig::default_segment();
     let slave = rig.slave(EOE_PORT);
+    let mut one = AddressFilter {
+        filter_count: 1,
+        ..AddressFilter::default()
+    };
+    one.filters[0] = [0x02, 0x45, 0x43, 0x53, 0x00, 0x04];
+    slave.eoe_set_address_filter(&one).await.unwrap();
+    let writes = slave.stats().writes;
+    assert!(writes > 0);
+    let full = AddressFilter {
+        filter_count: 16,
+        mask_count: 4,
+        ..AddressFilter::default()
+    };
     assert!(matches!(
-        slave
-            .eoe_set_address_filter(&AddressFilter::default())
-            .await,
+        slave.eoe_set_address_filter(&full).await,
         Err(MailboxError::Invalid(_))
     ));
-    assert_eq!(slave.stats().writes, 0);
+    assert_eq!(slave.stats().writes, writes, "nothing sent");
     let mut topology = Topology::default_segment();
     let mailbox = topology.slaves[EOE_PORT].mailbox.as_mut().unwrap();
     mailbox.rx_size = 256;

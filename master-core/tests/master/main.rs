@@ -23,6 +23,7 @@ mod pd_image;
 mod pd_layout;
 mod pd_mailbox_status;
 mod pd_stats;
+mod redundancy;
 mod safe_state;
 mod scan;
 mod slave_config;

@@ -291,6 +291,7 @@ fn slaves_that_return_four_bytes_per_eeprom_read_are_read_whole() {
         segment.push(Esc::new(config, sii), Box::new(SlaveDevice::new()));
     }
     let topology = Topology {
+        ring: false,
         slaves: picked.iter().map(|&p| default.slaves[p].clone()).collect(),
     };
     let rig = master_support::rig_on(segment, time, topology.clone(), MasterConfig::default());
@@ -333,6 +334,7 @@ fn a_slave_with_a_malformed_sii_is_reported_and_the_others_come_up() {
         );
     }
     let topology = Topology {
+        ring: false,
         slaves: picked.iter().map(|&p| default.slaves[p].clone()).collect(),
     };
     let rig = master_support::rig_on(segment, time, topology.clone(), MasterConfig::default());

@@ -11,11 +11,12 @@ use std::task::{Context, Poll, Wake, Waker};
 use std::thread::{JoinHandle, Thread};
 use std::time::{Duration, Instant};
 
+use master_core::bus::redundancy::RingLink;
 use master_core::bus::{Bus, BusConfig};
 use master_core::link::{Link, Wait};
 use master_core::master::{Master, MasterConfig, MasterEvent};
 use sim::esc::ManualTime;
-use sim::link::{InProcessLink, SharedSegment};
+use sim::link::{InProcessLink, RingPort, SharedSegment};
 use sim::segment::Segment;
 use sim::topology::{SlaveHandles, Topology, build_with_handles};
 use tokio::sync::broadcast;
@@ -190,6 +191,25 @@ pub fn rig_on(
         handles: Vec::new(),
         topology,
         time,
+        bus_thread: Some(bus_thread),
+    }
+}
+
+/// A master on `topology` wired as a ring between two in-process ports (cable
+/// redundancy): the bus runs on the ring link, whose watch is `rig.master().bus().ring()`.
+pub fn rig_ring(topology: Topology, config: MasterConfig) -> Rig<RingLink<RingPort, RingPort>> {
+    let built = build_with_handles(&topology).expect("topology builds");
+    let segment: SharedSegment = Arc::new(Mutex::new(built.segment));
+    let (primary, backup) = RingPort::pair(Arc::clone(&segment), 64);
+    let (bus, bus_thread) =
+        Bus::start_ring(primary, backup, BusConfig::default(), Duration::ZERO).expect("bus starts");
+    let master = Master::start(bus, config).expect("master starts");
+    Rig {
+        master: Some(master),
+        segment,
+        handles: built.slaves,
+        topology,
+        time: built.time,
         bus_thread: Some(bus_thread),
     }
 }

@@ -49,6 +49,9 @@ pub const DEFAULT_GRACE: Duration = Duration::from_micros(500);
 struct Slot {
     active: bool,
     seq: u8,
+    /// Frames sent before this one, so that what it shows is not taken over what a later
+    /// frame already showed.
+    number: u64,
     source: [u8; 6],
     template: Box<[u8]>,
     template_len: usize,
@@ -67,6 +70,7 @@ impl Slot {
         Slot {
             active: false,
             seq: 0,
+            number: 0,
             source: [0; 6],
             template: buf(),
             template_len: 0,
@@ -103,6 +107,10 @@ pub struct RingLink<P: Link, B: Link> {
     tx: Box<[u8]>,
     clocks: Vec<status::RingClock>,
     seq: u8,
+    /// Frames sent so far.
+    sent: u64,
+    /// The number of the latest frame whose copies were learned from.
+    observed: u64,
     /// Whether each copy (primary, backup) came back last time.
     expect: [bool; 2],
 }
@@ -129,6 +137,8 @@ impl<P: Link, B: Link> RingLink<P, B> {
             tx: vec![0u8; MAX_FRAME_LEN].into_boxed_slice(),
             clocks: Vec::new(),
             seq: 0,
+            sent: 0,
+            observed: 0,
             expect: [true; 2],
         }
     }
@@ -261,6 +271,11 @@ impl<P: Link, B: Link> RingLink<P, B> {
     /// Merges the copies in `index`'s slot into `out` and learns from them.
     fn deliver(&mut self, index: usize, out: &mut [u8]) -> usize {
         let slot = &mut self.slots[index];
+        let ports = [slot.back[0].map(|b| b.1), slot.back[1].map(|b| b.1)];
+        // Both back on the backup port: the cable was cut between the two sends. The
+        // primary copy passed the whole ring before the cut; the backup copy was processed
+        // again by the slaves behind it, so it adds nothing but a second count.
+        let cut_between = ports == [Some(Side::Backup), Some(Side::Backup)];
         let copy = |c: usize| {
             slot.back[c].map(|(len, _)| Returned {
                 frame: &slot.bufs[c][..len],
@@ -271,10 +286,9 @@ impl<P: Link, B: Link> RingLink<P, B> {
             &slot.template[..slot.template_len],
             &slot.prefer,
             copy(0),
-            copy(1),
+            copy(1).filter(|_| !cut_between),
             out,
         );
-        let ports = [slot.back[0].map(|b| b.1), slot.back[1].map(|b| b.1)];
         let missing = (0..2).filter(|&c| slot.back[c].is_none() && slot.sent[c]);
         let mut single = false;
         for c in missing {
@@ -285,13 +299,18 @@ impl<P: Link, B: Link> RingLink<P, B> {
         slot.active = false;
         slot.back = [None; 2];
         slot.first_back = None;
+        let number = slot.number;
         if single {
             self.watch.count_single_return();
         }
         let Some((len, reach)) = merged else {
             return 0;
         };
-        if let Some(seen) = observe(ports, reach) {
+        // A frame sent before the last one learned from shows an older ring.
+        if number > self.observed
+            && let Some(seen) = observe(ports, reach)
+        {
+            self.observed = number;
             self.watch.observe(seen);
         }
         len
@@ -404,7 +423,8 @@ impl<P: Link, B: Link> RingLink<P, B> {
             return self.primary.send(frame);
         };
         self.seq = self.seq.wrapping_add(1);
-        let seq = self.seq;
+        self.sent += 1;
+        let (seq, number) = (self.seq, self.sent);
         let mut prefer = [Prefer::Changed; MAX_DATAGRAMS];
         let mut backup_prefer = [Prefer::Changed; MAX_DATAGRAMS];
         let plan = self.plan(clocks);
@@ -434,6 +454,7 @@ impl<P: Link, B: Link> RingLink<P, B> {
         let slot = &mut self.slots[index];
         slot.active = sent_primary.is_ok() || sent_backup.is_ok();
         slot.seq = seq;
+        slot.number = number;
         slot.source = source;
         slot.template[..frame.len()].copy_from_slice(frame);
         slot.template_len = frame.len();

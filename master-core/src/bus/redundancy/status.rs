@@ -97,6 +97,9 @@ pub(crate) struct RingShared {
     generation: AtomicU64,
     clocks: Mutex<Vec<RingClock>>,
     clocks_changed: AtomicBool,
+    /// The master opened the ring on purpose (to time the DC loops): what the copies show
+    /// meanwhile is not the cabling.
+    held: AtomicBool,
 }
 
 /// A handle on what the ring link knows: read by the master's services, written only by
@@ -167,9 +170,18 @@ impl RingWatch {
         true
     }
 
+    /// Stops (`true`) or resumes learning the ring from the copies, while the master opens
+    /// it on purpose.
+    pub(crate) fn set_held(&self, held: bool) {
+        self.shared.held.store(held, Ordering::Release);
+    }
+
     /// Records what one pair of copies showed (the bus thread's side).
     pub(crate) fn observe(&self, seen: Observation) {
         let s = &self.shared;
+        if s.held.load(Ordering::Acquire) {
+            return;
+        }
         let before = RingState::from_u8(s.state.load(Ordering::Relaxed));
         let (state, primary, backup) = match seen {
             Observation::Closed { slaves } => {

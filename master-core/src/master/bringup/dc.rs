@@ -11,7 +11,7 @@
 
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use crate::bus::redundancy::RingClock;
+use crate::bus::redundancy::{RingClock, RingState};
 use crate::bus::{BusHandle, Pending};
 use crate::wire::register::address as reg;
 use crate::wire::register::dc::{
@@ -82,41 +82,45 @@ pub(crate) async fn configure(
         return Ok(Vec::new());
     }
     let bus = &ctx.bus;
-    let master_time = ecat_now();
-    bus.bwr(reg::DC_RECEIVE_TIME_PORT0, [0u8; 4])
-        .await
-        .map_err(MasterError::bus("latch DC receive times"))?;
-    let mut measured = Vec::with_capacity(dc.len());
-    for record in &dc {
-        let station = record.info.station;
-        let raw = fprd(
+    // A closed ring has no loop to time: the latch frame passes every slave once and
+    // leaves through the backup port. The ring's last slave closes its port 1 for the
+    // measurement, so that the frame comes back through every port 1 as on a line
+    // (spec-notes §redundancy).
+    let ring_end = match (bus.ring(), records.last()) {
+        (Some(ring), Some(last)) if ring.status().state == RingState::Closed => {
+            ring.set_held(true);
+            let closed = fpwr(
+                bus,
+                last.info.station,
+                reg::DL_CONTROL_LOOP,
+                [LOOP_PORT1_CLOSED],
+                "close the ring's end for the DC measurement",
+            )
+            .await;
+            if let Err(err) = closed {
+                ring.set_held(false);
+                return Err(err);
+            }
+            Some(last.info.position)
+        }
+        _ => None,
+    };
+    let measured = measure(ctx, &dc, ring_end).await;
+    if let (Some(ring), Some(last)) = (bus.ring(), records.last())
+        && ring_end.is_some()
+    {
+        let reopened = fpwr(
             bus,
-            station,
-            reg::DC_RECEIVE_TIME_PORT0,
-            PortReceiveTimes::LEN,
-            "DC receive times",
+            last.info.station,
+            reg::DL_CONTROL_LOOP,
+            [0u8],
+            "reopen the ring's end after the DC measurement",
         )
-        .await?;
-        let times = PortReceiveTimes::parse(&raw).map_err(|source| MasterError::Malformed {
-            position: record.info.position,
-            what: "DC receive times",
-            source,
-        })?;
-        let raw = fprd(
-            bus,
-            station,
-            reg::DC_RECEIVE_TIME_PROCESSING_UNIT,
-            8,
-            "DC processing unit time",
-        )
-        .await?;
-        let pu = read_time(&raw).map_err(|source| MasterError::Malformed {
-            position: record.info.position,
-            what: "DC processing unit time",
-            source,
-        })?;
-        measured.push((times, pu, loop_time(record, &times)));
+        .await;
+        ring.set_held(false);
+        reopened?;
     }
+    let (master_time, measured) = measured?;
     let loops: Vec<u32> = measured.iter().map(|(_, _, l)| *l).collect();
     let delays = line_delays(&loops);
     let mut slaves = Vec::with_capacity(dc.len());
@@ -157,6 +161,62 @@ pub(crate) async fn configure(
     ctx.image
         .set_dc_reference(reference.map(|station| (station, count)));
     Ok(slaves)
+}
+
+/// The DC loop setting that closes port 1 (DL control bits 10-11 = 11b, ETG.1000.4 §6;
+/// spec-notes §esc.dl), as the byte at 0x0101.
+const LOOP_PORT1_CLOSED: u8 = 0b0000_1100;
+
+/// What one latch measured per DC slave: port receive times, processing-unit time and
+/// loop time; with the master's time at the latch. On a ring opened at its end
+/// (`ring_end`), the end slave's loop is nil, as a line's last slave's.
+async fn measure(
+    ctx: &Context,
+    dc: &[&SlaveRecord],
+    ring_end: Option<u16>,
+) -> Result<(u64, Vec<(PortReceiveTimes, u64, u32)>), MasterError> {
+    let bus = &ctx.bus;
+    let master_time = ecat_now();
+    bus.bwr(reg::DC_RECEIVE_TIME_PORT0, [0u8; 4])
+        .await
+        .map_err(MasterError::bus("latch DC receive times"))?;
+    let mut measured = Vec::with_capacity(dc.len());
+    for record in dc {
+        let station = record.info.station;
+        let raw = fprd(
+            bus,
+            station,
+            reg::DC_RECEIVE_TIME_PORT0,
+            PortReceiveTimes::LEN,
+            "DC receive times",
+        )
+        .await?;
+        let times = PortReceiveTimes::parse(&raw).map_err(|source| MasterError::Malformed {
+            position: record.info.position,
+            what: "DC receive times",
+            source,
+        })?;
+        let raw = fprd(
+            bus,
+            station,
+            reg::DC_RECEIVE_TIME_PROCESSING_UNIT,
+            8,
+            "DC processing unit time",
+        )
+        .await?;
+        let pu = read_time(&raw).map_err(|source| MasterError::Malformed {
+            position: record.info.position,
+            what: "DC processing unit time",
+            source,
+        })?;
+        let looped = if ring_end == Some(record.info.position) {
+            0
+        } else {
+            loop_time(record, &times)
+        };
+        measured.push((times, pu, looped));
+    }
+    Ok((master_time, measured))
 }
 
 /// Latches the receive times (BWR 0x0900) and reads back each DC slave's port times,
