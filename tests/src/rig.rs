@@ -6,6 +6,11 @@ use crate::netns::{NetNs, run_ip, wait_link_ready};
 pub const SIM_IFACE: &str = "sim0";
 /// The master's end of the veth pair.
 pub const MASTER_IFACE: &str = "mst0";
+/// The simulator's end of a ring's second veth pair ([`Rig::ring`]): the way back from the
+/// last slave.
+pub const SIM_BACKUP_IFACE: &str = "sim1";
+/// The master's end of a ring's second veth pair: its backup port.
+pub const MASTER_BACKUP_IFACE: &str = "mst1";
 
 /// A namespace for the simulator and one for the master, with a veth pair between them.
 /// Dropping it deletes both namespaces (and with them the pair).
@@ -45,6 +50,36 @@ impl Rig {
         sim.wait_until_ready(SIM_IFACE);
         master.wait_until_ready(MASTER_IFACE);
         Rig { sim, master }
+    }
+}
+
+impl Rig {
+    /// [`Rig::new`] with a second veth pair, [`SIM_BACKUP_IFACE`] to
+    /// [`MASTER_BACKUP_IFACE`], for a segment wired as a ring (`ecat-sim --backup-iface`).
+    ///
+    /// # Panics
+    /// As [`Rig::new`].
+    pub fn ring() -> Rig {
+        let rig = Rig::new();
+        rig.sim.ip(&[
+            "link",
+            "add",
+            "name",
+            SIM_BACKUP_IFACE,
+            "type",
+            "veth",
+            "peer",
+            "name",
+            MASTER_BACKUP_IFACE,
+            "netns",
+            rig.master.name(),
+        ]);
+        rig.sim.ip(&["link", "set", "dev", SIM_BACKUP_IFACE, "up"]);
+        rig.master
+            .ip(&["link", "set", "dev", MASTER_BACKUP_IFACE, "up"]);
+        rig.sim.wait_until_ready(SIM_BACKUP_IFACE);
+        rig.master.wait_until_ready(MASTER_BACKUP_IFACE);
+        rig
     }
 }
 

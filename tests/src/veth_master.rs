@@ -4,11 +4,11 @@
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use master_core::bus::{Bus, BusConfig, BusHandle};
+use master_core::bus::{Bus, BusConfig, BusHandle, redundancy};
 use master_core::link::{Link, RawSocket, RawSocketOptions};
 use master_core::master::{Master, MasterConfig, ScanReport};
 
-use crate::rig::{MASTER_IFACE, Rig};
+use crate::rig::{MASTER_BACKUP_IFACE, MASTER_IFACE, Rig};
 
 /// Starts a bus on the master's end of `rig`.
 ///
@@ -29,10 +29,17 @@ pub fn open_socket(rig: &Rig) -> RawSocket {
         .expect("raw socket on the master's end")
 }
 
+/// Waits for a bus thread when called.
+fn joiner<L: Send + 'static>(thread: JoinHandle<L>) -> Box<dyn FnOnce() + Send> {
+    Box::new(move || {
+        let _ = thread.join();
+    })
+}
+
 /// A master over veth; dropping it stops the master and its bus.
 pub struct VethMaster {
     master: Option<Master>,
-    bus_thread: Option<JoinHandle<Box<dyn Link>>>,
+    bus_thread: Option<Box<dyn FnOnce() + Send>>,
     runtime: tokio::runtime::Runtime,
 }
 
@@ -50,10 +57,27 @@ impl VethMaster {
     /// A master on `link` (the rig's raw socket in a wrapper, such as a fault injector).
     pub fn on_link(link: Box<dyn Link>, bus: BusConfig, config: MasterConfig) -> VethMaster {
         let (bus, bus_thread) = Bus::start(link, bus).expect("bus starts");
+        VethMaster::over(bus, joiner(bus_thread), config)
+    }
+
+    /// A master on the ring of `rig` ([`Rig::ring`]): the bus on both raw sockets
+    /// (`Bus::start_ring` with the default grace, as ecatd runs a ring).
+    pub fn on_ring(rig: &Rig, bus: BusConfig, config: MasterConfig) -> VethMaster {
+        let backup = rig
+            .master
+            .run_inside(|| RawSocket::open(MASTER_BACKUP_IFACE, RawSocketOptions::default()))
+            .expect("raw socket on the master's backup port");
+        let (bus, bus_thread) =
+            Bus::start_ring(open_socket(rig), backup, bus, redundancy::DEFAULT_GRACE)
+                .expect("bus starts");
+        VethMaster::over(bus, joiner(bus_thread), config)
+    }
+
+    fn over(bus: BusHandle, joiner: Box<dyn FnOnce() + Send>, config: MasterConfig) -> VethMaster {
         let master = Master::start(bus, config).expect("master starts");
         VethMaster {
             master: Some(master),
-            bus_thread: Some(bus_thread),
+            bus_thread: Some(joiner),
             // Any executor can await the master; the tests drive it with this one.
             runtime: tokio::runtime::Builder::new_current_thread()
                 .enable_time()
@@ -100,8 +124,8 @@ impl Drop for VethMaster {
             drop(master);
             bus.shutdown();
         }
-        if let Some(thread) = self.bus_thread.take() {
-            let _ = thread.join();
+        if let Some(join) = self.bus_thread.take() {
+            join();
         }
     }
 }

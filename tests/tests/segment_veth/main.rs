@@ -10,5 +10,6 @@ mod mailbox;
 mod master;
 mod process_data;
 mod pysoem;
+mod redundancy;
 mod redundancy_pysoem;
 mod tshark;

@@ -16,15 +16,11 @@ use std::time::{Duration, Instant};
 use ecat_tests::netns::NetNs;
 use ecat_tests::pysoem_session::{plan, u};
 use ecat_tests::python::{python, script};
-use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
+use ecat_tests::rig::{MASTER_BACKUP_IFACE, MASTER_IFACE, Rig, SIM_BACKUP_IFACE, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
 use serde_json::Value;
 use sim::topology::Topology;
 
-/// The simulator's end of the second veth pair: the ring's way back.
-const SIM_BACKUP_IFACE: &str = "sim1";
-/// The master's end of it: its backup port.
-const MASTER_BACKUP_IFACE: &str = "mst1";
 /// The cable the test cuts: the one after this many slaves.
 const BREAK_AFTER: usize = 2;
 /// How long one step of the script may take (bring-up, or its cycles after a change).
@@ -189,25 +185,7 @@ fn pysoem_keeps_every_slave_in_op_across_a_cable_break_in_the_ring() {
     );
     let vendor = u64::from(topology.slaves[sdo_slave].vendor_id);
 
-    let rig = Rig::new();
-    rig.sim.ip(&[
-        "link",
-        "add",
-        "name",
-        SIM_BACKUP_IFACE,
-        "type",
-        "veth",
-        "peer",
-        "name",
-        MASTER_BACKUP_IFACE,
-        "netns",
-        rig.master.name(),
-    ]);
-    rig.sim.ip(&["link", "set", "dev", SIM_BACKUP_IFACE, "up"]);
-    rig.master
-        .ip(&["link", "set", "dev", MASTER_BACKUP_IFACE, "up"]);
-    rig.sim.wait_until_ready(SIM_BACKUP_IFACE);
-    rig.master.wait_until_ready(MASTER_BACKUP_IFACE);
+    let rig = Rig::ring();
     let mut sim =
         SimProcess::start_controlled(&rig.sim, SIM_IFACE, &["--backup-iface", SIM_BACKUP_IFACE]);
     assert!(
