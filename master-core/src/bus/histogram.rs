@@ -96,6 +96,15 @@ impl Default for Histogram {
 }
 
 impl HistogramSnapshot {
+    /// What was recorded after `earlier` (a snapshot of the same histogram): the window
+    /// between the two.
+    pub fn since(&self, earlier: &HistogramSnapshot) -> HistogramSnapshot {
+        HistogramSnapshot {
+            counts: std::array::from_fn(|i| self.counts[i].saturating_sub(earlier.counts[i])),
+            sum_nanos: self.sum_nanos.saturating_sub(earlier.sum_nanos),
+        }
+    }
+
     /// How many durations were recorded.
     pub fn count(&self) -> u64 {
         self.counts.iter().sum()
@@ -186,5 +195,18 @@ mod tests {
         assert_eq!(snapshot.buckets().map(|(_, _, n)| n).sum::<u64>(), 100);
         // 1 + 2 + ... + 100 µs, exactly.
         assert_eq!(snapshot.sum(), Duration::from_micros(5050));
+    }
+
+    #[test]
+    fn a_window_holds_what_came_after_its_start() {
+        let histogram = Histogram::new();
+        histogram.record(Duration::from_micros(10));
+        let start = histogram.snapshot();
+        histogram.record(Duration::from_millis(3));
+        histogram.record(Duration::from_millis(3));
+        let window = histogram.snapshot().since(&start);
+        assert_eq!(window.count(), 2);
+        assert_eq!(window.sum(), Duration::from_millis(6));
+        assert!(window.quantile(0.0).unwrap() >= Duration::from_micros(2600));
     }
 }
