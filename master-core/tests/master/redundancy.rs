@@ -261,3 +261,31 @@ fn each_side_of_a_break_keeps_its_clocks_together() {
     );
     assert_eq!(states(&rig), vec![AlState::Op; DRIFT.len()]);
 }
+
+/// A ring already broken when the master starts: the scan finds every slave through both
+/// ports (positions behind the break addressed through the backup port), brings them to
+/// OP, and the heal closes the ring without a rescan.
+#[test]
+fn a_ring_broken_before_the_scan_is_brought_up_from_both_sides() {
+    let rig = rig_ring(Topology::default_segment(), MasterConfig::default());
+    let n = rig.topology.slaves.len();
+    rig.segment().break_cable(2).unwrap();
+    let report = block_on(rig.master().scan()).expect("scan");
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    assert_eq!(rig.master().slaves().len(), n);
+    for (slave, spec) in rig.master().slaves().iter().zip(&rig.topology.slaves) {
+        assert_eq!(slave.name, spec.name, "slave {}", slave.position);
+    }
+    cycles(&rig, 5);
+    assert_eq!(states(&rig), vec![AlState::Op; n]);
+    let status = ring_status(&rig);
+    assert_eq!(
+        (status.state, status.break_after),
+        (RingState::Broken, Some(2))
+    );
+    output_reaches_the_terminal_and_comes_back(&rig, 6);
+    rig.segment().heal();
+    cycles(&rig, 2);
+    assert_eq!(ring_status(&rig).state, RingState::Closed);
+    assert_eq!(usize::from(ring_status(&rig).ring_slaves), n);
+}
