@@ -12,7 +12,7 @@ use std::thread::{JoinHandle, Thread};
 use std::time::{Duration, Instant};
 
 use master_core::bus::redundancy::RingLink;
-use master_core::bus::{Bus, BusConfig};
+use master_core::bus::{Bus, BusConfig, BusHandle};
 use master_core::link::{Link, Wait};
 use master_core::master::{Master, MasterConfig, MasterEvent};
 use sim::esc::ManualTime;
@@ -162,13 +162,34 @@ pub fn rig_with<L: Link + 'static>(
     let segment: SharedSegment = Arc::new(Mutex::new(built.segment));
     let link = wrap(InProcessLink::shared(Arc::clone(&segment), 64));
     let (bus, bus_thread) = Bus::start(link, bus_config).expect("bus starts");
+    assemble(
+        bus,
+        bus_thread,
+        config,
+        segment,
+        built.slaves,
+        topology,
+        built.time,
+    )
+}
+
+/// A rig around a started bus: the master started on it.
+fn assemble<L: Link + 'static>(
+    bus: BusHandle,
+    bus_thread: JoinHandle<L>,
+    config: MasterConfig,
+    segment: SharedSegment,
+    handles: Vec<SlaveHandles>,
+    topology: Topology,
+    time: ManualTime,
+) -> Rig<L> {
     let master = Master::start(bus, config).expect("master starts");
     Rig {
         master: Some(master),
         segment,
-        handles: built.slaves,
+        handles,
         topology,
-        time: built.time,
+        time,
         bus_thread: Some(bus_thread),
     }
 }
@@ -203,15 +224,15 @@ pub fn rig_ring(topology: Topology, config: MasterConfig) -> Rig<RingLink<RingPo
     let (primary, backup) = RingPort::pair(Arc::clone(&segment), 64);
     let (bus, bus_thread) =
         Bus::start_ring(primary, backup, BusConfig::default(), Duration::ZERO).expect("bus starts");
-    let master = Master::start(bus, config).expect("master starts");
-    Rig {
-        master: Some(master),
+    assemble(
+        bus,
+        bus_thread,
+        config,
         segment,
-        handles: built.slaves,
+        built.slaves,
         topology,
-        time: built.time,
-        bus_thread: Some(bus_thread),
-    }
+        built.time,
+    )
 }
 
 /// A master on the plain in-process link.

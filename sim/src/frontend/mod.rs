@@ -16,3 +16,28 @@ pub mod describe;
 pub mod eoe_tap;
 pub mod ring;
 pub mod serve;
+
+/// Frames the front end's tests send.
+#[cfg(test)]
+pub mod test_frames {
+    use ecat_link::MAX_FRAME_LEN;
+    use ecat_wire::command::{Command, DatagramAddress};
+    use ecat_wire::datagram::{DatagramRepr, FrameBuilder};
+
+    /// A frame with one BRD of the AL status (2 bytes): every slave that processes it counts.
+    pub fn brd_frame() -> Vec<u8> {
+        let mut buf = vec![0u8; MAX_FRAME_LEN];
+        let mut builder = FrameBuilder::new(&mut buf).unwrap();
+        builder
+            .push(&DatagramRepr::request(
+                Command::Brd,
+                0,
+                DatagramAddress::broadcast(0x0130),
+                &[0, 0],
+            ))
+            .unwrap();
+        let len = builder.finish([0, 0, 0, 0, 0, 1]).unwrap();
+        buf.truncate(len);
+        buf
+    }
+}

@@ -157,9 +157,8 @@ pub fn serve_ring(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frontend::test_frames::brd_frame;
     use ecat_link::MemoryLink;
-    use ecat_wire::command::{Command, DatagramAddress};
-    use ecat_wire::datagram::{DatagramRepr, FrameBuilder};
     use ecat_wire::frame::EthercatFrame;
     use sim::topology::{Topology, build_with_handles};
 
@@ -174,22 +173,6 @@ mod tests {
             std::thread::yield_now();
             Ok(true)
         }
-    }
-
-    fn brd_frame() -> Vec<u8> {
-        let mut buf = vec![0u8; MAX_FRAME_LEN];
-        let mut builder = FrameBuilder::new(&mut buf).unwrap();
-        builder
-            .push(&DatagramRepr::request(
-                Command::Brd,
-                0,
-                DatagramAddress::broadcast(0x0130),
-                &[0, 0],
-            ))
-            .unwrap();
-        let len = builder.finish([0, 0, 0, 0, 0, 1]).unwrap();
-        buf.truncate(len);
-        buf
     }
 
     /// Sends a BRD on the master's port `from` and returns its working counter as it comes

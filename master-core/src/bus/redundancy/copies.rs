@@ -222,7 +222,7 @@ pub(crate) fn source_of(frame: &[u8]) -> Option<[u8; 6]> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::wire::command::DatagramAddress;
     use crate::wire::datagram::DatagramRepr;
@@ -230,7 +230,10 @@ mod tests {
 
     const SOURCE: [u8; 6] = [2, 0, 0, 0, 0, 1];
 
-    fn frame(datagrams: &[(Command, DatagramAddress, &[u8])]) -> Vec<u8> {
+    /// A frame of `datagrams`, numbered from index 0, from the bus's default source MAC.
+    pub(in crate::bus::redundancy) fn frame(
+        datagrams: &[(Command, DatagramAddress, &[u8])],
+    ) -> Vec<u8> {
         let mut buf = vec![0u8; ethernet::MAX_FRAME_LEN];
         let mut builder = FrameBuilder::new(&mut buf).unwrap();
         for (i, (command, address, data)) in datagrams.iter().enumerate() {

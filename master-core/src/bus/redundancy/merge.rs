@@ -139,24 +139,11 @@ impl<'a> Copy<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bus::redundancy::copies::tests::frame;
     use crate::bus::redundancy::copies::{Plan, Side, build};
     use crate::bus::redundancy::status::RingState;
     use crate::wire::command::{Command, DatagramAddress};
     use crate::wire::ethernet;
-    use crate::wire::frame::FrameBuilder;
-
-    fn frame(datagrams: &[(Command, DatagramAddress, &[u8])]) -> Vec<u8> {
-        let mut buf = vec![0u8; ethernet::MAX_FRAME_LEN];
-        let mut builder = FrameBuilder::new(&mut buf).unwrap();
-        for (i, (command, address, data)) in datagrams.iter().enumerate() {
-            builder
-                .push(&DatagramRepr::request(*command, i as u8, *address, data))
-                .unwrap();
-        }
-        let len = builder.finish([2, 0, 0, 0, 0, 1]).unwrap();
-        buf.truncate(len);
-        buf
-    }
 
     /// Plays slaves on a copy: datagram `i` gets `data` OR-ed in and `wkc` added; the probe
     /// counts `slaves`.
