@@ -64,6 +64,7 @@ fn topology(size: u16) -> Topology {
     drive.esc.ram_kib = drive.esc.ram_kib.max(8);
     Topology {
         slaves: vec![drive],
+        ring: false,
     }
 }
 

@@ -63,7 +63,10 @@ fn topology(delay_us: u32) -> Topology {
             slave
         })
         .collect();
-    Topology { slaves }
+    Topology {
+        slaves,
+        ring: false,
+    }
 }
 
 fn env<T: std::str::FromStr>(name: &str) -> Option<T> {

@@ -122,7 +122,10 @@ fn topology(delay_us: u32) -> Topology {
             slave
         })
         .collect();
-    Topology { slaves }
+    Topology {
+        slaves,
+        ring: false,
+    }
 }
 
 /// A file of the bench's (a topology, ecatd's configuration), removed on drop.

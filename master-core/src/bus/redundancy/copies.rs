@@ -102,12 +102,10 @@ pub(crate) fn build(
         eth.set_source(source);
     }
     // The datagrams: the last one gets the M bit, each may be rewritten for its side.
-    let mut count = 0;
-    for datagram in DatagramsMut::new(&mut out[start..end]) {
+    for (count, datagram) in DatagramsMut::new(&mut out[start..end]).enumerate() {
         let mut datagram = datagram.ok()?;
         let slot = prefer.get_mut(count)?;
         *slot = rewrite(&mut datagram, side, plan);
-        count += 1;
         if !datagram.more() {
             datagram.set_more(true);
         }
