@@ -99,12 +99,7 @@ pub fn event(view: &EventView) -> pb::Event {
             total: t.total,
             done: t.done,
         }),
-        ring: view.ring.as_ref().map(|r| pb::RingBreak {
-            break_after: u32::from(r.break_after),
-            primary_side: u32::from(r.primary_side),
-            backup_side: u32::from(r.backup_side),
-            unreachable: u32::from(r.unreachable),
-        }),
+        ring: view.ring.as_ref().map(redundancy),
     }
 }
 

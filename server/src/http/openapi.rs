@@ -9,7 +9,6 @@ use super::rest;
 use crate::service::gateway::{
     GatewayFailuresView, GatewayStatsView, GatewayView, LatencyBucketView, LatencyView,
 };
-use crate::service::redundancy::RingBreakView;
 use crate::service::{
     EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, RedundancyView,
     SlaveView, VoeView,
@@ -24,7 +23,7 @@ use crate::service::{
         ErrorBody, rest::Data, rest::coe::Upload, rest::coe::SdoWrite, rest::slaves::StateBody,
         rest::sii::AliasBody, rest::slaves::RescanBody, rest::coe::ObjectList, rest::voe::VoeBody, rest::Done,
         GatewayView, GatewayStatsView, GatewayFailuresView, LatencyView, LatencyBucketView,
-        RedundancyView, RingBreakView,
+        RedundancyView,
     )),
     modifiers(&BearerAuth),
     security(("bearer" = []))

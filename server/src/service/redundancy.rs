@@ -6,7 +6,8 @@
 //! of state or break position. [`RingEvents`] polls that counter (one atomic load) every
 //! [`RING_POLL`], so an event is at most that late, and turns each change into an event:
 //! `ring_broken` whenever the ring is found broken or its break moves, `ring_closed` when
-//! it closes again after a break. The first closing at start is no news and has no event.
+//! it closes again after a break, each with the ring's state ([`RedundancyView`]). The
+//! first closing at start is no news and has no event.
 
 use std::time::Duration;
 
@@ -118,30 +119,19 @@ impl RingEvents {
         let before = std::mem::replace(&mut self.last, status.state);
         match status.state {
             RingState::Broken => Some(broken(status)),
-            RingState::Closed if before == RingState::Broken => Some(EventView::note(
-                "ring_closed",
-                format!(
-                    "ring closed again: all {} slaves on both ports",
-                    status.ring_slaves
-                ),
-            )),
+            RingState::Closed if before == RingState::Broken => Some(EventView {
+                ring: Some(RedundancyView::of(status)),
+                ..EventView::note(
+                    "ring_closed",
+                    format!(
+                        "ring closed again: all {} slaves on both ports",
+                        status.ring_slaves
+                    ),
+                )
+            }),
             RingState::Closed | RingState::Unknown => None,
         }
     }
-}
-
-/// The fields of a `ring_broken` event.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-pub struct RingBreakView {
-    /// The break is after this many slaves from the primary port (0: the master's
-    /// primary cable).
-    pub break_after: u16,
-    /// Slaves served from the primary port.
-    pub primary_side: u16,
-    /// Slaves served from the backup port.
-    pub backup_side: u16,
-    /// Slaves reached from neither port.
-    pub unreachable: u16,
 }
 
 /// `ring broken after slave 3 (positions 0-2 on the primary port, 3-7 on the backup
@@ -180,12 +170,7 @@ fn broken(status: &RingStatus) -> EventView {
         ));
     }
     EventView {
-        ring: Some(RingBreakView {
-            break_after: after,
-            primary_side: status.primary_side,
-            backup_side: status.backup_side,
-            unreachable: status.unreachable,
-        }),
+        ring: Some(RedundancyView::of(status)),
         ..EventView::note("ring_broken", text)
     }
 }
@@ -226,14 +211,16 @@ mod tests {
             broken.text,
             "ring broken after slave 3 (positions 0-2 on the primary port, 3-7 on the backup port)"
         );
+        let ring = broken.ring.expect("the ring's state");
         assert_eq!(
-            broken.ring,
-            Some(RingBreakView {
-                break_after: 3,
-                primary_side: 3,
-                backup_side: 5,
-                unreachable: 0
-            })
+            (
+                ring.state.as_str(),
+                ring.break_after,
+                ring.primary_side,
+                ring.backup_side,
+                ring.unreachable
+            ),
+            ("broken", Some(3), 3, 5, 0)
         );
         let killed = events
             .step(&status(RingState::Broken, 3, 4))
@@ -247,7 +234,7 @@ mod tests {
             .step(&status(RingState::Closed, 8, 0))
             .expect("healed");
         assert_eq!(closed.kind, "ring_closed");
-        assert_eq!(closed.ring, None);
+        assert_eq!(closed.ring.map(|r| r.state), Some("closed".to_owned()));
     }
 
     #[test]

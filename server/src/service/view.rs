@@ -193,9 +193,9 @@ pub struct EventView {
     /// The progress of an FoE transfer (kind `foe_progress`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub transfer: Option<TransferView>,
-    /// Where the ring broke (kind `ring_broken`, docs/redundancy.md).
+    /// The ring's state (kinds `ring_broken` and `ring_closed`, docs/redundancy.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ring: Option<super::redundancy::RingBreakView>,
+    pub ring: Option<super::redundancy::RedundancyView>,
     /// Summary.
     pub text: String,
 }

@@ -207,6 +207,13 @@ fn a_cut_ring_keeps_every_slave_in_op_and_every_api_says_where_it_broke() {
         closed["text"],
         "ring closed again: all 5 slaves on both ports"
     );
+    assert_eq!(
+        (
+            closed["ring"]["state"].as_str(),
+            closed["ring"]["heals"].as_u64()
+        ),
+        (Some("closed"), Some(1))
+    );
     assert!(
         closed["id"].as_u64() > event["id"].as_u64(),
         "after the break"

@@ -655,14 +655,19 @@ pub fn post_json(url: &str, body: &str) -> (u16, String) {
     ])
 }
 
-/// Runs `ecat --address http://GRPC <args>` and returns its standard output, after checking
-/// it succeeded.
-pub fn ecat_ok(grpc: &str, args: &[&str]) -> String {
-    let output = Command::new(bin_dir().join("ecat"))
+/// Runs `ecat --address http://GRPC <args>` to its end.
+pub fn ecat_output(grpc: &str, args: &[&str]) -> Output {
+    Command::new(bin_dir().join("ecat"))
         .args(["--address", &format!("http://{grpc}")])
         .args(args)
         .output()
-        .expect("ecat runs");
+        .expect("ecat runs")
+}
+
+/// Runs `ecat --address http://GRPC <args>` and returns its standard output, after checking
+/// it succeeded.
+pub fn ecat_ok(grpc: &str, args: &[&str]) -> String {
+    let output = ecat_output(grpc, args);
     assert!(
         output.status.success(),
         "ecat {args:?} failed: {}",
