@@ -152,7 +152,10 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let config = Config {
         // Names the link for the APIs and metrics; the servers never open it.
-        segment: Some(Segment::Simulate { topology: None }),
+        segment: Some(Segment::Simulate {
+            topology: None,
+            ring: false,
+        }),
         http_listen: args.http_listen,
         grpc_listen: args.grpc_listen,
         gateway: Some(GatewaySettings {

@@ -138,6 +138,11 @@ impl ApiError {
         self
     }
 
+    /// A cut asked of a simulated segment that is not wired as a ring.
+    pub fn not_a_ring(message: impl Into<String>) -> ApiError {
+        ApiError::new(ErrorKind::FailedPrecondition, "not_a_ring", message)
+    }
+
     /// A malformed request field.
     pub fn invalid_field(field: &'static str, message: impl Into<String>) -> ApiError {
         let mut err = ApiError::invalid(message);

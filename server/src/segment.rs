@@ -3,7 +3,7 @@
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
-use master_core::bus::{Bus, BusHandle};
+use master_core::bus::{Bus, BusHandle, redundancy};
 use master_core::link::{CaptureHub, CaptureTap, RawSocket, RawSocketOptions};
 use master_core::master::Master;
 
@@ -49,18 +49,31 @@ pub fn open(segment: &Segment, setup: &SegmentSetup) -> Result<Running, String> 
     let mut sim = None;
     let capture = CaptureHub::new();
     let (bus, thread) = match segment {
-        Segment::Simulate { topology } => {
-            let (bus, thread, hooks) = simulate(topology.as_deref(), setup, &capture)?;
+        Segment::Simulate { topology, ring } => {
+            let (bus, thread, hooks) = simulate(topology.as_deref(), *ring, setup, &capture)?;
             sim = Some(hooks);
             (bus, thread)
         }
         Segment::Iface { name } => {
-            let socket = RawSocket::open(name, RawSocketOptions::default())
-                .map_err(|err| format!("cannot open {name}: {err}"))?;
+            let socket = open_socket(name)?;
+            // The live capture sees the primary port's frames: what the bus sends, and the
+            // copy that comes back there (docs/redundancy.md, "Limits").
             let socket = CaptureTap::new(socket, Arc::clone(&capture));
-            let (bus, thread) = on_cpu(setup.cpu, || Bus::start(socket, setup.bus))?
-                .map_err(|err| format!("cannot start the bus: {err}"))?;
-            (bus, joiner(thread))
+            match &setup.backup_iface {
+                None => {
+                    let (bus, thread) = on_cpu(setup.cpu, || Bus::start(socket, setup.bus))?
+                        .map_err(|err| format!("cannot start the bus: {err}"))?;
+                    (bus, joiner(thread))
+                }
+                Some(backup) => {
+                    let backup = open_socket(backup)?;
+                    let (bus, thread) = on_cpu(setup.cpu, || {
+                        Bus::start_ring(socket, backup, setup.bus, redundancy::DEFAULT_GRACE)
+                    })?
+                    .map_err(|err| format!("cannot start the bus on the ring: {err}"))?;
+                    (bus, joiner(thread))
+                }
+            }
         }
     };
     let master = Master::start(bus.clone(), setup.master)
@@ -77,6 +90,12 @@ pub fn open(segment: &Segment, setup: &SegmentSetup) -> Result<Running, String> 
         bus,
         thread,
     })
+}
+
+/// The raw socket on interface `name`.
+fn open_socket(name: &str) -> Result<RawSocket, String> {
+    RawSocket::open(name, RawSocketOptions::default())
+        .map_err(|err| format!("cannot open {name}: {err}"))
 }
 
 type Started = (BusHandle, Box<dyn FnOnce() + Send>, SimHooks);
@@ -114,14 +133,17 @@ fn on_cpu<T>(cpu: Option<usize>, start: impl FnOnce() -> T) -> Result<T, String>
     }
 }
 
-/// The bus on the in-process simulator: the built-in segment, or the topology file given.
+/// The bus on the in-process simulator: the built-in segment, or the topology file given;
+/// a ring into the master's two ports when the topology says `ring = true` or `ring` is
+/// set (`--ring`).
 #[cfg(feature = "simulate")]
 fn simulate(
     topology: Option<&std::path::Path>,
+    ring: bool,
     setup: &SegmentSetup,
     capture: &Arc<CaptureHub>,
 ) -> Result<Started, String> {
-    use sim::link::InProcessLink;
+    use sim::link::{DEFAULT_QUEUE, InProcessLink, RingPort};
     use sim::topology::{Topology, build_with_handles};
 
     let topology = match topology {
@@ -134,10 +156,23 @@ fn simulate(
         }
     };
     let built = build_with_handles(&topology).map_err(|err| format!("topology: {err}"))?;
-    let hooks = SimHooks::new(&built.slaves);
-    let link = CaptureTap::new(InProcessLink::new(built.segment), Arc::clone(capture));
-    let (bus, thread) = on_cpu(setup.cpu, || Bus::start(link, setup.bus))?
-        .map_err(|err| format!("cannot start the bus: {err}"))?;
+    let mut hooks = SimHooks::new(&built.slaves);
+    if !(ring || topology.ring) {
+        let link = CaptureTap::new(InProcessLink::new(built.segment), Arc::clone(capture));
+        let (bus, thread) = on_cpu(setup.cpu, || Bus::start(link, setup.bus))?
+            .map_err(|err| format!("cannot start the bus: {err}"))?;
+        return Ok((bus, joiner(thread), hooks));
+    }
+    let segment = Arc::new(std::sync::Mutex::new(built.segment));
+    // Pairing wires the last slave back to the backup port (`set_ring`).
+    let (primary, backup) = RingPort::pair(Arc::clone(&segment), DEFAULT_QUEUE);
+    hooks.set_ring(segment);
+    let primary = CaptureTap::new(primary, Arc::clone(capture));
+    // Both copies of an in-process frame are back once `send` returns: no grace needed.
+    let (bus, thread) = on_cpu(setup.cpu, || {
+        Bus::start_ring(primary, backup, setup.bus, std::time::Duration::ZERO)
+    })?
+    .map_err(|err| format!("cannot start the bus on the ring: {err}"))?;
     Ok((bus, joiner(thread), hooks))
 }
 
@@ -145,6 +180,7 @@ fn simulate(
 #[cfg(not(feature = "simulate"))]
 fn simulate(
     _topology: Option<&std::path::Path>,
+    _ring: bool,
     _setup: &SegmentSetup,
     _: &Arc<CaptureHub>,
 ) -> Result<Started, String> {
@@ -164,7 +200,14 @@ mod tests {
     #[test]
     fn simulate_is_refused_without_the_simulator() {
         let setup = crate::config::Config::default().segment_setup().unwrap();
-        let refused = open(&Segment::Simulate { topology: None }, &setup).err();
+        let refused = open(
+            &Segment::Simulate {
+                topology: None,
+                ring: false,
+            },
+            &setup,
+        )
+        .err();
         assert_eq!(refused.as_deref(), Some(NO_SIMULATOR));
     }
 
@@ -172,9 +215,46 @@ mod tests {
     #[test]
     fn simulate_runs_the_built_in_segment_with_its_hooks() {
         let setup = crate::config::Config::default().segment_setup().unwrap();
-        let running =
-            open(&Segment::Simulate { topology: None }, &setup).expect("simulated segment");
+        let running = open(
+            &Segment::Simulate {
+                topology: None,
+                ring: false,
+            },
+            &setup,
+        )
+        .expect("simulated segment");
         assert!(running.sim.is_some());
+        assert!(running.master.bus().ring().is_none(), "a line has no ring");
+        running.stop();
+    }
+
+    #[cfg(feature = "simulate")]
+    #[test]
+    fn simulate_with_ring_runs_the_segment_as_a_ring_the_hooks_can_cut() {
+        let setup = crate::config::Config::default().segment_setup().unwrap();
+        let running = open(
+            &Segment::Simulate {
+                topology: None,
+                ring: true,
+            },
+            &setup,
+        )
+        .expect("simulated ring");
+        let watch = running.master.bus().ring().expect("a ring").clone();
+        let hooks = running.sim.clone().expect("hooks");
+        // The first frame back through the bus shows the ring closed, the first after the
+        // cut broken (the ring link reads it from every frame).
+        let _ = running.master.bus().brd(0x0000, 2).wait();
+        let status = watch.status();
+        assert_eq!(status.state.name(), "closed");
+        assert_eq!(status.ring_slaves, 5);
+        hooks
+            .ring(crate::sim_hooks::RingCut::Break { cable: 3 })
+            .unwrap();
+        let _ = running.master.bus().brd(0x0000, 2).wait();
+        let status = watch.status();
+        assert_eq!(status.state.name(), "broken");
+        assert_eq!(status.break_after, Some(3));
         running.stop();
     }
 }

@@ -1,11 +1,31 @@
 //! What ecatd `--simulate` can do to its own simulated slaves beyond EtherCAT: raise a CoE
 //! emergency on demand (for end-to-end tests of the event stream and for demonstrations),
-//! and read a digital output terminal's physical outputs (what reached the wire's far end).
+//! read a digital output terminal's physical outputs (what reached the wire's far end), and
+//! on a ring (`--ring`) cut a cable, kill a slave or heal them all ([`RingCut`]).
 //! Only ever built from the in-process simulator; a real segment has none. Without the
 //! `simulate` feature there is no simulator and [`SimHooks`] has no value at all.
 
 #[cfg(feature = "simulate")]
 pub use hooks::SimHooks;
+
+/// What to do to a simulated ring (`POST /api/v1/sim/ring`): the cut happens between two
+/// frames (the link locks the segment per frame), as a cable pulled on a running bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RingCut {
+    /// Cut a cable: 0 is the master's primary cable, `k` the cable after `k` slaves, the
+    /// slave count the last slave's cable back into the backup port.
+    Break {
+        /// The cable.
+        cable: u16,
+    },
+    /// Switch the slave at this ring position off (it neither processes nor forwards).
+    Kill {
+        /// The ring position.
+        position: u16,
+    },
+    /// Reconnect every cable and power every slave again.
+    Heal,
+}
 #[cfg(not(feature = "simulate"))]
 pub use none::SimHooks;
 
@@ -13,8 +33,10 @@ pub use none::SimHooks;
 mod hooks {
     use sim::device::coe::EmergencyTrigger;
     use sim::device::dio::OutputProbe;
+    use sim::link::SharedSegment;
     use sim::topology::SlaveHandles;
 
+    use super::RingCut;
     use crate::error::ApiError;
 
     /// Hooks into the simulated slaves, by ring position.
@@ -22,6 +44,8 @@ mod hooks {
     pub struct SimHooks {
         emergencies: Vec<Option<EmergencyTrigger>>,
         outputs: Vec<Option<OutputProbe>>,
+        /// The segment, when it runs as a ring (the cuts are for rings only).
+        ring: Option<SharedSegment>,
     }
 
     impl SimHooks {
@@ -30,6 +54,40 @@ mod hooks {
             SimHooks {
                 emergencies: slaves.iter().map(|h| h.emergencies.clone()).collect(),
                 outputs: slaves.iter().map(|h| h.outputs.clone()).collect(),
+                ring: None,
+            }
+        }
+
+        /// The segment runs as a ring: [`SimHooks::ring`] may cut it.
+        pub fn set_ring(&mut self, segment: SharedSegment) {
+            self.ring = Some(segment);
+        }
+
+        /// Cuts a cable, kills a slave or heals the ring. Refused (and nothing changed)
+        /// on a segment that is no ring, or for a cable or position that does not exist.
+        pub fn ring(&self, cut: RingCut) -> Result<(), ApiError> {
+            let segment = self.ring.as_ref().ok_or_else(|| {
+                ApiError::not_a_ring(
+                    "the simulated segment is a line, not a ring: start ecatd with \
+                     --simulate --ring (or a topology with ring = true)",
+                )
+            })?;
+            // Held for the cut only, never across an await: the bus thread takes the same
+            // lock for every frame, so the cut falls between two frames.
+            let mut segment = segment
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            match cut {
+                RingCut::Break { cable } => segment
+                    .break_cable(usize::from(cable))
+                    .map_err(|err| ApiError::invalid_field("cable", err)),
+                RingCut::Kill { position } => segment
+                    .kill(usize::from(position))
+                    .map_err(|err| ApiError::invalid_field("position", err)),
+                RingCut::Heal => {
+                    segment.heal();
+                    Ok(())
+                }
             }
         }
 
@@ -78,6 +136,7 @@ mod hooks {
 
 #[cfg(not(feature = "simulate"))]
 mod none {
+    use super::RingCut;
     use crate::error::ApiError;
 
     /// Hooks into simulated slaves: none exist in an ecatd built without the simulator.
@@ -98,6 +157,11 @@ mod none {
 
         /// Never called: there is no value to call it on.
         pub fn outputs(&self, _position: u16) -> Result<Vec<u8>, ApiError> {
+            match *self {}
+        }
+
+        /// Never called: there is no value to call it on.
+        pub fn ring(&self, _cut: RingCut) -> Result<(), ApiError> {
             match *self {}
         }
     }

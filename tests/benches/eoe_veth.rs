@@ -65,6 +65,7 @@ fn topology(size: u16) -> Topology {
     Topology {
         ring: false,
         slaves: vec![drive],
+        ring: false,
     }
 }
 

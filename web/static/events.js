@@ -8,7 +8,7 @@ import { api } from "./api.js";
 import { h, fill } from "./dom.js";
 
 /** The kinds ecatd publishes (docs/operations.md, "APIs"); kinds seen in the log are added. */
-const KNOWN_KINDS = ["state_changed", "al_error", "emergency", "slave_found", "slave_lost", "slave_replaced", "topology_mismatch", "startup_failed", "bus_fault", "bus_recovered", "gateway_started", "gateway_stopped", "gateway_failed", "write", "app_claimed", "app_released", "app_watchdog", "process_data_forced", "process_data_released", "foe_progress"];
+const KNOWN_KINDS = ["state_changed", "al_error", "emergency", "slave_found", "slave_lost", "slave_replaced", "topology_mismatch", "startup_failed", "bus_fault", "bus_recovered", "ring_broken", "ring_closed", "gateway_started", "gateway_stopped", "gateway_failed", "write", "app_claimed", "app_released", "app_watchdog", "process_data_forced", "process_data_released", "foe_progress"];
 /** As many as the page keeps unfiltered. */
 const LIMIT = 1000;
 

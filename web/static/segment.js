@@ -2,12 +2,14 @@
 // 0x0110, spec-notes §esc.dl), AL state and status code, identity, alias, DC support (ESC
 // features 0x0008 bit 2, spec-notes §esc.info); live from the event stream; state requests for one slave or all.
 // Each slave's key process-data values (a CiA 402 drive's state, a digital terminal's bits),
-// live from the process-data stream.
+// live from the process-data stream. With cable redundancy on, the ring above the slaves
+// (ring.js), from GET /master, redrawn at every event (ring_broken, ring_closed among them).
 
 import { api, stream } from "./api.js";
 import { h, fill, hex, errorLine } from "./dom.js";
 import { keyValues } from "./process-data.js";
 import { confirmWrite, slaveText, writeControl } from "./guard.js";
+import { ringFigure, ringText } from "./ring.js";
 
 export const STATES = ["INIT", "PREOP", "BOOT", "SAFEOP", "OP"];
 
@@ -120,7 +122,9 @@ export async function show(view, app) {
   const keyBox = (position) => h("div", { class: "key-box", "data-position": position },
     keyValues(position, [...(pd.get(position) || new Map()).values()]));
   const head = h("div", { class: "view-head" }, h("h2", {}, "Segment"), summary);
-  fill(view, head, list);
+  /** The ring (cable redundancy); empty and hidden on a single port. */
+  const ring = h("section", { class: "card ring-card", "aria-label": "cable redundancy", hidden: true });
+  fill(view, head, ring, list);
   let allConfirmed = [];
   /** Each slave's state control, kept across redraws (a chosen state survives an event). */
   const controls = new Map();
@@ -174,6 +178,22 @@ export async function show(view, app) {
     }
   }
 
+  async function drawRing(slaves) {
+    let master;
+    try {
+      master = await api("/master");
+    } catch {
+      return;
+    }
+    const r = master.redundancy;
+    const figure = ringFigure(r, slaves.map((sl) => sl.name));
+    ring.hidden = !figure;
+    if (!figure) return;
+    fill(ring, h("h3", {}, "Cable redundancy"),
+      h("p", { class: r.state === "broken" ? "ring-broken" : "muted", role: "status", id: "ring-state" }, ringText(r)),
+      figure);
+  }
+
   async function refresh() {
     let slaves;
     try {
@@ -183,6 +203,7 @@ export async function show(view, app) {
       return;
     }
     if (slaves.some((sl) => !links.has(sl.position))) await readLinks(slaves);
+    drawRing(slaves);
     for (const sl of slaves) latest.set(sl.position, sl);
     const errors = slaves.filter((sl) => sl.al_error || !sl.present).length;
     summary.textContent = `${slaves.length} slaves, ${errors} in error or missing`;

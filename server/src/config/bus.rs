@@ -128,6 +128,10 @@ pub struct BusSettings {
     /// The SyncManager watchdog; absent: the slaves' own.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub watchdog: Option<WatchdogSettings>,
+    /// Cable redundancy: the second interface the segment's far end comes back into (a
+    /// ring, docs/redundancy.md); absent: a line on the primary interface only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backup_iface: Option<String>,
 }
 
 impl Default for BusSettings {
@@ -143,6 +147,7 @@ impl Default for BusSettings {
             on_mismatch: None,
             report_extra: true,
             watchdog: None,
+            backup_iface: None,
         }
     }
 }

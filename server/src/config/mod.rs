@@ -48,6 +48,14 @@ pub struct Args {
     /// Run on this network interface (raw socket; needs CAP_NET_RAW).
     #[arg(long, env = "ECATD_IFACE", value_name = "IFNAME")]
     pub iface: Option<String>,
+    /// Cable redundancy: the interface the far end of the ring comes back into (`[bus]
+    /// backup_iface`, docs/redundancy.md); only with `--iface`.
+    #[arg(long, env = "ECATD_BACKUP_IFACE", value_name = "IFNAME")]
+    pub backup_iface: Option<String>,
+    /// Wire the simulated segment as a ring into two ports of the master (cable
+    /// redundancy, `[segment.simulate] ring = true`); only with `--simulate`.
+    #[arg(long, env = "ECATD_RING")]
+    pub ring: bool,
     /// gRPC listen address.
     #[arg(long, env = "ECATD_GRPC_LISTEN", value_name = "ADDR")]
     pub grpc_listen: Option<SocketAddr>,
@@ -172,6 +180,10 @@ pub enum Segment {
     Simulate {
         /// Topology file (TOML); absent: the built-in five-slave segment.
         topology: Option<PathBuf>,
+        /// Wire the segment as a ring into the master's two ports (cable redundancy), as a
+        /// topology's own `ring = true` does; `--ring`.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        ring: bool,
     },
     /// A network interface.
     Iface {
@@ -399,6 +411,8 @@ pub struct SegmentSetup {
     )>,
     /// Slave groups.
     pub groups: Vec<master_core::master::SlaveGroup>,
+    /// The ring's second port (`[bus] backup_iface`): with it the bus runs on a ring.
+    pub backup_iface: Option<String>,
 }
 
 /// Most threads `api_threads` may ask for.
@@ -524,11 +538,28 @@ impl Config {
         if let Some(topology) = &args.simulate {
             config.segment = Some(Segment::Simulate {
                 topology: (!topology.is_empty()).then(|| PathBuf::from(topology)),
+                ring: false,
             });
         }
         if let Some(name) = &args.iface {
             config.segment = Some(Segment::Iface { name: name.clone() });
         }
+        if let Some(backup) = &args.backup_iface {
+            config.bus.backup_iface = Some(backup.clone());
+        }
+        if args.ring {
+            match &mut config.segment {
+                Some(Segment::Simulate { ring, .. }) => *ring = true,
+                _ => {
+                    return Err(
+                        "--ring wires the simulated segment as a ring: it needs --simulate \
+                         (a real ring's second port is --backup-iface IFNAME)"
+                            .into(),
+                    );
+                }
+            }
+        }
+        config.check_redundancy()?;
         if let Some(addr) = args.grpc_listen {
             config.grpc_listen = addr;
         }
@@ -600,6 +631,29 @@ impl Config {
         };
         config.segment_setup().map_err(named)?;
         Ok(config)
+    }
+
+    /// Refuses a backup interface that cannot be one: on the simulator (whose ring is
+    /// `--ring`), without an interface segment, or the primary interface itself.
+    fn check_redundancy(&self) -> Result<(), String> {
+        let Some(backup) = &self.bus.backup_iface else {
+            return Ok(());
+        };
+        match &self.segment {
+            Some(Segment::Iface { name }) if name == backup => Err(format!(
+                "[bus] backup_iface = {backup:?} is the primary interface itself: the ring's \
+                 far end must come back into a second port (docs/redundancy.md)"
+            )),
+            Some(Segment::Iface { .. }) => Ok(()),
+            Some(Segment::Simulate { .. }) => Err(format!(
+                "--backup-iface / [bus] backup_iface = {backup:?} needs a segment on an \
+                 interface (--iface); the simulator's ring is --ring or [segment.simulate] \
+                 ring = true"
+            )),
+            None => Err(format!(
+                "[bus] backup_iface = {backup:?} needs the primary interface (--iface IFNAME)"
+            )),
+        }
     }
 
     /// Takes the cycle and the slaves from the ENI file, if one is configured (a relative
@@ -676,6 +730,7 @@ impl Config {
             },
             pdos,
             groups,
+            backup_iface: self.bus.backup_iface.clone(),
         })
     }
 
@@ -798,7 +853,13 @@ mod tests {
         .unwrap();
         assert_eq!(flagged.grpc_listen.port(), 3);
         assert_eq!(flagged.http_listen.port(), 2);
-        assert_eq!(flagged.segment, Some(Segment::Simulate { topology: None }));
+        assert_eq!(
+            flagged.segment,
+            Some(Segment::Simulate {
+                topology: None,
+                ring: false
+            })
+        );
         let round = toml::from_str::<Config>(&flagged.to_toml()).unwrap();
         assert_eq!(round.file, None, "where it came from is not configuration");
         assert_eq!(
@@ -1045,5 +1106,61 @@ mod tests {
     #[test]
     fn unknown_keys_are_refused() {
         assert!(toml::from_str::<Config>("grpc_lisen = \"127.0.0.1:1\"").is_err());
+    }
+
+    fn try_args(list: &[&str]) -> Result<Config, String> {
+        Config::load(&args(list))
+    }
+
+    #[test]
+    fn the_backup_interface_comes_from_the_flag_or_the_file_and_needs_an_interface() {
+        let flagged = try_args(&["--iface", "eth0", "--backup-iface", "eth1"]).unwrap();
+        assert_eq!(flagged.bus.backup_iface.as_deref(), Some("eth1"));
+        let filed: Config =
+            toml::from_str("[segment.iface]\nname = \"eth0\"\n[bus]\nbackup_iface = \"eth1\"\n")
+                .unwrap();
+        assert_eq!(filed.bus.backup_iface.as_deref(), Some("eth1"));
+        filed.check_redundancy().unwrap();
+        assert!(
+            filed.to_toml().contains("backup_iface = \"eth1\""),
+            "--print-config shows it"
+        );
+
+        let simulated = try_args(&["--simulate", "--backup-iface", "eth1"]).unwrap_err();
+        assert!(
+            simulated.contains("needs a segment on an interface") && simulated.contains("--ring"),
+            "{simulated}"
+        );
+        let itself = try_args(&["--iface", "eth0", "--backup-iface", "eth0"]).unwrap_err();
+        assert!(
+            itself.contains("is the primary interface itself"),
+            "{itself}"
+        );
+        let alone = try_args(&["--backup-iface", "eth1"]).unwrap_err();
+        assert!(alone.contains("needs the primary interface"), "{alone}");
+    }
+
+    #[test]
+    fn the_simulated_ring_comes_from_the_flag_or_the_file_and_needs_the_simulator() {
+        let flagged = try_args(&["--simulate", "--ring"]).unwrap();
+        assert_eq!(
+            flagged.segment,
+            Some(Segment::Simulate {
+                topology: None,
+                ring: true
+            })
+        );
+        let filed: Config = toml::from_str("[segment.simulate]\nring = true\n").unwrap();
+        assert_eq!(filed.segment, flagged.segment);
+        let plain: Config = toml::from_str("[segment.simulate]\n").unwrap();
+        assert_eq!(
+            plain.segment,
+            Some(Segment::Simulate {
+                topology: None,
+                ring: false
+            })
+        );
+        let refused = try_args(&["--iface", "eth0", "--ring"]).unwrap_err();
+        assert!(refused.contains("needs --simulate"), "{refused}");
     }
 }

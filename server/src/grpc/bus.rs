@@ -204,6 +204,7 @@ impl BusService for Bus {
             frames_received: m.frames_received,
             frames_lost: m.frames_lost,
             link_errors: m.link_errors,
+            redundancy: Some(super::convert::redundancy(&m.redundancy)),
         }))
     }
 

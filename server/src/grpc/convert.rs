@@ -99,6 +99,21 @@ pub fn event(view: &EventView) -> pb::Event {
             total: t.total,
             done: t.done,
         }),
+        ring: view.ring.as_ref().map(redundancy),
+    }
+}
+
+/// The ring's state.
+pub fn redundancy(view: &crate::service::RedundancyView) -> pb::Redundancy {
+    pb::Redundancy {
+        state: view.state.clone(),
+        break_after: view.break_after.map(u32::from),
+        primary_side: u32::from(view.primary_side),
+        backup_side: u32::from(view.backup_side),
+        ring_slaves: u32::from(view.ring_slaves),
+        unreachable: u32::from(view.unreachable),
+        breaks: view.breaks,
+        heals: view.heals,
     }
 }
 

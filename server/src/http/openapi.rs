@@ -10,7 +10,8 @@ use crate::service::gateway::{
     GatewayFailuresView, GatewayStatsView, GatewayView, LatencyBucketView, LatencyView,
 };
 use crate::service::{
-    EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
+    EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, RedundancyView,
+    SlaveView, VoeView,
 };
 
 /// The document's frame; the paths come from the router.
@@ -22,6 +23,7 @@ use crate::service::{
         ErrorBody, rest::Data, rest::coe::Upload, rest::coe::SdoWrite, rest::slaves::StateBody,
         rest::sii::AliasBody, rest::slaves::RescanBody, rest::coe::ObjectList, rest::voe::VoeBody, rest::Done,
         GatewayView, GatewayStatsView, GatewayFailuresView, LatencyView, LatencyBucketView,
+        RedundancyView,
     )),
     modifiers(&BearerAuth),
     security(("bearer" = []))

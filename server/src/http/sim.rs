@@ -2,8 +2,11 @@
 //! `POST /api/v1/slaves/{slave}/sim/emergency` raises a CoE emergency on a simulated slave,
 //! which then arrives on the event streams like one from real hardware;
 //! `GET /api/v1/slaves/{slave}/sim/outputs` reads a simulated digital output terminal's
-//! physical outputs (`{"outputs": "hex"}`), what a probe on its terminals would show. Not part of the
-//! OpenAPI document: it does not exist on a real segment.
+//! physical outputs (`{"outputs": "hex"}`), what a probe on its terminals would show;
+//! `POST /api/v1/sim/ring` cuts a cable of a simulated ring, kills a slave on it or heals it
+//! (`{"action":"break","cable":3}`, `{"action":"kill","position":2}`, `{"action":"heal"}`;
+//! docs/redundancy.md). Not part of the OpenAPI document: they do not exist on a real
+//! segment.
 
 use axum::Router;
 use axum::extract::State;
@@ -13,7 +16,7 @@ use serde::Deserialize;
 use super::rest::Done;
 use crate::http::extract::{Admit, Json, Path};
 use crate::service::{ApiError, Core, Operation, op, parse_name};
-use crate::sim_hooks::SimHooks;
+use crate::sim_hooks::{RingCut, SimHooks};
 
 /// What the route needs: the core (to name slaves) and the simulator's hooks.
 #[derive(Clone)]
@@ -48,6 +51,7 @@ pub fn routes<S: Clone + Send + Sync + 'static>(core: Core, hooks: Option<SimHoo
     Router::new()
         .route("/slaves/{slave}/sim/emergency", post(raise_emergency))
         .route("/slaves/{slave}/sim/outputs", get(outputs))
+        .route("/sim/ring", post(ring))
         .with_state(SimState { core, hooks })
 }
 
@@ -92,4 +96,114 @@ async fn outputs(
     Ok(Json(OutputsBody {
         outputs: hex::encode(hooks.outputs(position)?),
     }))
+}
+
+/// What to do to the simulated ring: `action` is `break` (with `cable`), `kill` (with
+/// `position`) or `heal`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RingBody {
+    /// `break`, `kill` or `heal`.
+    pub action: String,
+    /// The cable to cut (`break`): 0 is the master's primary cable, `k` the cable after
+    /// `k` slaves, the slave count the cable back into the backup port.
+    pub cable: Option<u16>,
+    /// The ring position of the slave to switch off (`kill`).
+    pub position: Option<u16>,
+}
+
+impl RingBody {
+    /// The cut asked for; the field at fault otherwise.
+    fn cut(&self) -> Result<RingCut, ApiError> {
+        let unexpected = |field: &'static str| {
+            ApiError::invalid_field(
+                field,
+                format!("{field} does not go with action {:?}", self.action),
+            )
+        };
+        match self.action.as_str() {
+            "break" => {
+                if self.position.is_some() {
+                    return Err(unexpected("position"));
+                }
+                let cable = self
+                    .cable
+                    .ok_or_else(|| ApiError::invalid_field("cable", "break needs a cable"))?;
+                Ok(RingCut::Break { cable })
+            }
+            "kill" => {
+                if self.cable.is_some() {
+                    return Err(unexpected("cable"));
+                }
+                let position = self
+                    .position
+                    .ok_or_else(|| ApiError::invalid_field("position", "kill needs a position"))?;
+                Ok(RingCut::Kill { position })
+            }
+            "heal" => match (self.cable, self.position) {
+                (Some(_), _) => Err(unexpected("cable")),
+                (_, Some(_)) => Err(unexpected("position")),
+                (None, None) => Ok(RingCut::Heal),
+            },
+            other => Err(ApiError::invalid_field(
+                "action",
+                format!("unknown action {other:?}: break, kill or heal"),
+            )),
+        }
+    }
+}
+
+async fn ring(
+    Admit(mut ticket, _): Admit<op::SimRing>,
+    State(SimState { hooks, .. }): State<SimState>,
+    Json(body): Json<RingBody>,
+) -> Result<Json<Done>, ApiError> {
+    // The simulator's hooks are no part of the core: the ticket is used here.
+    let target = match (body.cable, body.position) {
+        (Some(cable), _) => format!("ring: {} cable {cable}", body.action),
+        (_, Some(position)) => format!("ring: {} position {position}", body.action),
+        (None, None) => format!("ring: {}", body.action),
+    };
+    ticket.check(Operation::SimRing, target)?;
+    ticket.finish(
+        body.cut()
+            .and_then(|cut| hooks.ring(cut))
+            .map(|()| Json(Done { ok: true })),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn body(text: &str) -> RingBody {
+        serde_json::from_str(text).expect("a ring body")
+    }
+
+    #[test]
+    fn ring_bodies_name_the_cut_or_the_field_at_fault() {
+        assert_eq!(
+            body(r#"{"action":"break","cable":3}"#).cut(),
+            Ok(RingCut::Break { cable: 3 })
+        );
+        assert_eq!(
+            body(r#"{"action":"kill","position":2}"#).cut(),
+            Ok(RingCut::Kill { position: 2 })
+        );
+        assert_eq!(body(r#"{"action":"heal"}"#).cut(), Ok(RingCut::Heal));
+        for (text, field) in [
+            (r#"{"action":"cut","cable":3}"#, "action"),
+            (r#"{"action":"break"}"#, "cable"),
+            (r#"{"action":"kill","cable":1}"#, "cable"),
+            (r#"{"action":"heal","position":1}"#, "position"),
+        ] {
+            let refused = body(text).cut().unwrap_err();
+            assert_eq!(
+                (refused.kind.http(), refused.field),
+                (400, Some(field)),
+                "{text}"
+            );
+        }
+        assert!(serde_json::from_str::<RingBody>(r#"{"action":"heal","extra":1}"#).is_err());
+    }
 }

@@ -50,6 +50,7 @@ const ASSETS: &[Asset] = assets![
     "static/favicon.svg",
     "static/gateway.js",
     "static/guard.js",
+    "static/ring.js",
     "static/segment.js",
     "static/sii.js",
     "static/slave.js",

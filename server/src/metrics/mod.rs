@@ -8,7 +8,8 @@
 //! background), `state` (ready and link up), `process` (the process' CPU, memory, files),
 //! `config` (what the segment's configuration found: mismatches and failed start-up commands),
 //! `eoe` (the EoE interfaces), `app` (the application interface), `watch` (the watched
-//! values), `connections` (the API servers' connections).
+//! values), `connections` (the API servers' connections), `redundancy` (the ring of cable
+//! redundancy).
 
 mod app;
 mod bus;
@@ -23,6 +24,7 @@ pub(crate) mod family;
 mod gateway;
 mod mailbox;
 mod process;
+mod redundancy;
 mod slaves;
 pub mod state;
 mod watch;
@@ -41,6 +43,7 @@ pub fn gather(core: &Core, store: &Store) -> Vec<MetricFamily> {
     let mut families: Vec<Option<MetricFamily>> = vec![build_info()];
     families.extend(state::collect(core, &store.link));
     families.extend(bus::collect(core));
+    families.extend(redundancy::collect(core));
     families.extend(slaves::collect(core));
     families.extend(mailbox::collect(core));
     families.extend(eoe::collect(core));

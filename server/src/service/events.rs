@@ -8,7 +8,9 @@
 //! (a rescan may replace a slave's mailbox without a topology event), and republishes
 //! everything as [`EventView`]s through the [`EventLog`], which numbers, stamps and keeps
 //! them and sends them on one bounded broadcast channel. The same task looks at the bus's
-//! fault counters ([`super::bus_fault`]).
+//! fault counters ([`super::bus_fault`]). On a ring a second task looks at the ring's
+//! generation every [`RING_POLL`](super::redundancy::RING_POLL) ([`super::redundancy`]): a
+//! break must reach the operator within milliseconds, not at the next 200 ms look.
 
 use std::sync::{Arc, Weak};
 use std::time::Duration;
@@ -25,6 +27,7 @@ use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 
 use super::bus_fault::FaultWatch;
 use super::history::{self, EventLog};
+use super::redundancy::{RING_POLL, RingEvents};
 use super::view::{EmergencyView, EventView};
 
 /// Events a subscriber may fall behind by before it is told it missed some.
@@ -32,15 +35,20 @@ const CAPACITY: usize = 256;
 /// How often the set of slaves with a mailbox is looked at between master events.
 const RESUBSCRIBE: Duration = Duration::from_millis(200);
 
-/// The merged event stream; the task stops when the hub is dropped.
+/// The merged event stream; the tasks stop when the hub is dropped.
 pub struct EventHub {
     log: Arc<EventLog>,
     task: JoinHandle<()>,
+    /// The ring's watcher, on a ring only.
+    ring: Option<JoinHandle<()>>,
 }
 
 impl Drop for EventHub {
     fn drop(&mut self) {
         self.task.abort();
+        if let Some(ring) = &self.ring {
+            ring.abort();
+        }
     }
 }
 
@@ -82,13 +90,32 @@ impl EventHub {
         let mut emergencies = Emergencies::new();
         subscribe_new(&weak, &mut emergencies);
         let task = tokio::spawn(follow(weak, master.events(), emergencies, Arc::clone(&log)));
-        EventHub { log, task }
+        let ring = master.bus().ring().map(|watch| {
+            tokio::spawn(follow_ring(
+                RingEvents::new(watch.clone()),
+                Arc::clone(&log),
+            ))
+        });
+        EventHub { log, task, ring }
     }
 
     /// The history and the stream: where the service layer publishes events of its own
     /// (FoE progress, the application interface's), and where subscribers start.
     pub fn log(&self) -> &Arc<EventLog> {
         &self.log
+    }
+}
+
+/// Publishes the ring's changes; a look is one atomic load unless the ring changed.
+async fn follow_ring(mut ring: RingEvents, log: Arc<EventLog>) {
+    let mut look = tokio::time::interval(RING_POLL);
+    // A late look catches up once, not with a burst of looks.
+    look.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        look.tick().await;
+        if let Some(view) = ring.look() {
+            log.publish(view);
+        }
     }
 }
 

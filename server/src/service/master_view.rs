@@ -1,5 +1,5 @@
 //! The master as both APIs show it (`GetMaster`, `GET /api/v1/master`): link, MAC, cycle,
-//! DC reference clock, frame counters, version and readiness.
+//! DC reference clock, frame counters, version, readiness and the ring (cable redundancy).
 
 use serde::Serialize;
 use utoipa::ToSchema;
@@ -33,6 +33,8 @@ pub struct MasterView {
     pub frames_lost: u64,
     /// Send or receive errors of the link.
     pub link_errors: u64,
+    /// Cable redundancy: the ring's state (`off` on one port; docs/redundancy.md).
+    pub redundancy: super::redundancy::RedundancyView,
 }
 
 impl Core {
@@ -60,6 +62,7 @@ impl Core {
             frames_received: stats.frames_received,
             frames_lost: stats.frames_lost,
             link_errors: stats.link_errors,
+            redundancy: self.redundancy(),
         }
     }
 }

@@ -11,7 +11,7 @@
 //! (the rolling capture's ring of files), `domains` (the process image by slave group),
 //! `log_filter` (the runtime log filter), `process_data` (the layout, values and forced
 //! outputs), `pd_stream` (the interval and changes of a process-data stream), `pdos` (each
-//! slave's SyncManagers and PDOs).
+//! slave's SyncManagers and PDOs), `redundancy` (the ring's state and its events).
 
 pub mod admission;
 pub mod bus;
@@ -30,6 +30,7 @@ pub mod pd_stream;
 pub mod pdos;
 pub mod process_data;
 pub mod read_effects;
+pub mod redundancy;
 pub mod rolling;
 mod sii_checksum;
 pub mod transfer;
@@ -56,6 +57,7 @@ use calls::{MailboxCalls, Outcome, Protocol};
 pub use gateway::GatewayView;
 pub use master_view::MasterView;
 pub use operation::{Operation, op};
+pub use redundancy::RedundancyView;
 pub use view::{
     EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
 };

@@ -93,6 +93,9 @@ operations! {
     Capture => "capture",
     /// Raises a CoE emergency on a simulated slave (`--simulate` only).
     SimEmergency => "sim_emergency",
+    /// Cuts a cable of the simulated ring, kills a slave on it or heals it (`--simulate`
+    /// on a ring only).
+    SimRing => "sim_ring",
 }
 
 #[cfg(test)]

@@ -167,7 +167,7 @@ pub struct EventView {
     pub time: String,
     /// `slave_found`, `slave_lost`, `slave_replaced`, `state_changed`, `al_error`,
     /// `topology_mismatch`, `startup_failed`, `emergency`, `bus_fault`, `bus_recovered`,
-    /// `gateway_started`, `gateway_stopped`, `gateway_failed`, `write`, the application
+    /// `ring_broken`, `ring_closed`, `gateway_started`, `gateway_stopped`, `gateway_failed`, `write`, the application
     /// interface's (`app_*`, `process_data_*`), `foe_progress`, `lagged`
     /// (docs/operations.md, "APIs").
     pub kind: String,
@@ -193,6 +193,9 @@ pub struct EventView {
     /// The progress of an FoE transfer (kind `foe_progress`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub transfer: Option<TransferView>,
+    /// The ring's state (kinds `ring_broken` and `ring_closed`, docs/redundancy.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ring: Option<super::redundancy::RedundancyView>,
     /// Summary.
     pub text: String,
 }
@@ -281,6 +284,7 @@ impl EventView {
             identity: None,
             emergency: None,
             transfer: None,
+            ring: None,
             text: format!("{missed} events were missed"),
         }
     }
@@ -307,6 +311,7 @@ impl From<&MasterEvent> for EventView {
             identity: None,
             emergency: None,
             transfer: None,
+            ring: None,
             text: String::new(),
         };
         let mut view = match event {

@@ -196,7 +196,7 @@ fn refused_operation(text: &str) -> Option<String> {
 /// The operations that need the write role and have a route on both APIs: every one the core
 /// declares but the register read over a mailbox area (a read route; the core decides by
 /// the address, `a_mailbox_area_read_needs_a_write_token`) and the simulator's emergency
-/// (`--simulate` only, not in the API documents).
+/// and ring cuts (`--simulate` only, not in the API documents).
 fn operations_with_routes() -> std::collections::BTreeSet<String> {
     use server::service::Operation;
     Operation::ALL
@@ -204,7 +204,7 @@ fn operations_with_routes() -> std::collections::BTreeSet<String> {
         .filter(|op| {
             !matches!(
                 op,
-                Operation::ReadRegisterWithEffect | Operation::SimEmergency
+                Operation::ReadRegisterWithEffect | Operation::SimEmergency | Operation::SimRing
             )
         })
         .map(|op| op.name().to_owned())

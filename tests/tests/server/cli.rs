@@ -17,11 +17,7 @@ struct Ecat<'a> {
 
 impl Ecat<'_> {
     fn run(&self, args: &[&str]) -> (bool, String, String) {
-        let output = Command::new(bin_dir().join("ecat"))
-            .args(["--address", &format!("http://{}", self.ecatd.grpc)])
-            .args(args)
-            .output()
-            .expect("ecat runs");
+        let output = server_support::ecat_output(&self.ecatd.grpc, args);
         (
             output.status.success(),
             String::from_utf8_lossy(&output.stdout).into_owned(),
@@ -31,11 +27,7 @@ impl Ecat<'_> {
 
     /// Standard output as bytes, after checking the command succeeded.
     fn raw(&self, args: &[&str]) -> Vec<u8> {
-        let output = Command::new(bin_dir().join("ecat"))
-            .args(["--address", &format!("http://{}", self.ecatd.grpc)])
-            .args(args)
-            .output()
-            .expect("ecat runs");
+        let output = server_support::ecat_output(&self.ecatd.grpc, args);
         assert!(
             output.status.success(),
             "ecat {args:?} failed: {}",

@@ -43,16 +43,10 @@ fn sse_events(text: &str, kind: &str) -> Vec<Value> {
 }
 
 fn raise(ecatd: &Ecatd, slave: &str, body: &str) -> (u16, String) {
-    curl(&[
-        "-s",
-        "-X",
-        "POST",
-        "-H",
-        "content-type: application/json",
-        "-d",
-        body,
+    server_support::post_json(
         &format!("{}/api/v1/slaves/{slave}/sim/emergency", ecatd.http),
-    ])
+        body,
+    )
 }
 
 #[test]

@@ -1,6 +1,6 @@
 //! ecatd end to end on its embedded simulated segment (`ecatd --simulate`): every API
 //! (gRPC, REST, the gateway, the CLI, metrics, events, watches, TLS, tokens, audit, limits),
-//! the application interface, EoE and the dashboard in a browser.
+//! the application interface, EoE, cable redundancy and the dashboard in a browser.
 
 #[path = "../../../master-core/tests/gateway_support/compat_client.rs"]
 mod compat_client;
@@ -29,6 +29,7 @@ mod lifecycle;
 mod limits;
 mod mailbox_errors;
 mod metrics;
+mod redundancy;
 mod rest;
 mod scheduling;
 mod tls;

@@ -333,16 +333,10 @@ impl Ecatd {
         }
         let body =
             format!(r#"{{"error_code": {code}, "error_register": {register}, "data": "{hex}"}}"#);
-        let (status, text) = curl(&[
-            "-s",
-            "-X",
-            "POST",
-            "-H",
-            "content-type: application/json",
-            "-d",
-            &body,
+        let (status, text) = post_json(
             &format!("{}/api/v1/slaves/{position}/sim/emergency", self.http),
-        ]);
+            &body,
+        );
         if status == 200 {
             Ok(())
         } else {
@@ -645,6 +639,41 @@ pub fn curl(args: &[&str]) -> (u16, String) {
     let mut with_header = vec!["-H", "X-Ecat-Client: tests"];
     with_header.extend_from_slice(args);
     curl_as_browser(&with_header)
+}
+
+/// `POST url` with the JSON `body` through [`curl`]: the status and the body.
+pub fn post_json(url: &str, body: &str) -> (u16, String) {
+    curl(&[
+        "-s",
+        "-X",
+        "POST",
+        "-H",
+        "content-type: application/json",
+        "-d",
+        body,
+        url,
+    ])
+}
+
+/// Runs `ecat --address http://GRPC <args>` to its end.
+pub fn ecat_output(grpc: &str, args: &[&str]) -> Output {
+    Command::new(bin_dir().join("ecat"))
+        .args(["--address", &format!("http://{grpc}")])
+        .args(args)
+        .output()
+        .expect("ecat runs")
+}
+
+/// Runs `ecat --address http://GRPC <args>` and returns its standard output, after checking
+/// it succeeded.
+pub fn ecat_ok(grpc: &str, args: &[&str]) -> String {
+    let output = ecat_output(grpc, args);
+    assert!(
+        output.status.success(),
+        "ecat {args:?} failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8_lossy(&output.stdout).into_owned()
 }
 
 /// [`curl`] without the `X-Ecat-Client` header: what a page in a browser could send.

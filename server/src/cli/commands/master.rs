@@ -28,7 +28,35 @@ fn master_json(m: &pb::GetMasterResponse) -> serde_json::Value {
         "dc_reference": m.dc_reference, "dc_reference_time_ns": m.dc_reference_time_ns,
         "frames_sent": m.frames_sent, "frames_received": m.frames_received,
         "frames_lost": m.frames_lost, "link_errors": m.link_errors,
+        "redundancy": m.redundancy.as_ref().map(|r| json!({
+            "state": r.state, "break_after": r.break_after, "primary_side": r.primary_side,
+            "backup_side": r.backup_side, "ring_slaves": r.ring_slaves,
+            "unreachable": r.unreachable, "breaks": r.breaks, "heals": r.heals,
+        })),
     })
+}
+
+/// The "Redundancy:" block (as IgH's `ethercat master` shows its backup device's state);
+/// `off` in one line.
+fn redundancy_text(r: Option<&pb::Redundancy>) -> String {
+    let Some(r) = r.filter(|r| !r.state.is_empty() && r.state != "off") else {
+        return "\n  Redundancy: off".to_owned();
+    };
+    let mut text = format!("\n  Redundancy:\n    State: {}", r.state);
+    if let Some(after) = r.break_after {
+        text.push_str(&format!(
+            "\n    Break after: {after} slaves ({} on the primary port, {} on the backup port)\n    \
+             Unreachable: {}",
+            r.primary_side, r.backup_side, r.unreachable
+        ));
+    } else {
+        text.push_str(&format!("\n    Ring slaves: {}", r.ring_slaves));
+    }
+    text.push_str(&format!(
+        "\n    Breaks: {}\n    Heals: {}",
+        r.breaks, r.heals
+    ));
+    text
 }
 
 impl Run for MasterCmd {
@@ -52,7 +80,7 @@ impl Run for MasterCmd {
             "Master0\n  Phase: {}\n  Slaves: {}\n  Ethernet devices:\n    Main: {} ({})\n      \
              Tx frames:   {}\n      Rx frames:   {}\n      Lost frames: {}\n      \
              Link errors: {}\n  Cycle period: {} us\n  Distributed clocks:\n    \
-             Reference clock: {dc}\n  ecatd: {}",
+             Reference clock: {dc}{}\n  ecatd: {}",
             if m.ready { "Operation" } else { "Scanning" },
             m.slave_count,
             m.mac,
@@ -62,6 +90,7 @@ impl Run for MasterCmd {
             m.frames_lost,
             m.link_errors,
             m.cycle_period_ns / 1000,
+            redundancy_text(m.redundancy.as_ref()),
             m.version,
         );
         Ok(out(master_json(&m), human))
