@@ -65,7 +65,6 @@ fn topology(size: u16) -> Topology {
     Topology {
         ring: false,
         slaves: vec![drive],
-        ring: false,
     }
 }
 
