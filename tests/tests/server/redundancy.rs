@@ -9,6 +9,7 @@ use crate::server_support;
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
+use server_support::gateway_client::GatewayClient;
 use server_support::{Ecatd, call, curl, ecat_ok, post_json, run_to_exit};
 use sim::topology::SIM_VENDOR_ID;
 
@@ -145,6 +146,13 @@ fn a_cut_ring_keeps_every_slave_in_op_and_every_api_says_where_it_broke() {
             "slave {slave}: {upload}"
         );
     }
+    // The ETG.8200 gateway too: an SDO upload from the CoE store behind the break.
+    let mut gateway = GatewayClient::new(ecatd.gateway_addr());
+    assert_eq!(
+        gateway.sdo_upload(1001 + 3, 0x1018, 1),
+        Ok(SIM_VENDOR_ID.to_le_bytes().to_vec()),
+        "the gateway through the backup port"
+    );
     assert_eq!(states(&ecatd), vec!["OP"; 5], "still OP after the uploads");
 
     let event = wait_event(&ecatd, "ring_broken", |e| e["ring"]["break_after"] == 3);
