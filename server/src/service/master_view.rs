@@ -34,7 +34,7 @@ pub struct MasterView {
     /// Send or receive errors of the link.
     pub link_errors: u64,
     /// Cable redundancy: the ring's state (`off` on one port; docs/redundancy.md).
-    pub redundancy: super::redundancy::RedundancyView,
+    pub redundancy: super::view::RedundancyView,
 }
 
 impl Core {

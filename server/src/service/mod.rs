@@ -57,7 +57,7 @@ use calls::{MailboxCalls, Outcome, Protocol};
 pub use gateway::GatewayView;
 pub use master_view::MasterView;
 pub use operation::{Operation, op};
-pub use redundancy::RedundancyView;
+pub use view::RedundancyView;
 pub use view::{
     EmergencyView, EntryView, EventView, IdentityView, IpView, ObjectView, SlaveView, VoeView,
 };

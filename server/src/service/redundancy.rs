@@ -12,67 +12,12 @@
 use std::time::Duration;
 
 use master_core::bus::redundancy::{RingState, RingStatus, RingWatch};
-use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::Core;
-use super::view::EventView;
+use super::view::{EventView, RedundancyView};
 
 /// How often the ring's generation is looked at: the most an event is late.
 pub const RING_POLL: Duration = Duration::from_millis(2);
-
-/// The ring, as the APIs show it.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-pub struct RedundancyView {
-    /// `off` (one port, no ring), `unknown` (no frame back yet), `closed` or `broken`.
-    pub state: String,
-    /// With the ring broken: the break is after this many slaves from the primary port
-    /// (0: the master's primary cable); null otherwise.
-    pub break_after: Option<u16>,
-    /// Slaves the last frame reached from the primary port.
-    pub primary_side: u16,
-    /// Slaves the last frame reached from the backup port (0 with the ring closed).
-    pub backup_side: u16,
-    /// Slaves in the ring as last seen closed.
-    pub ring_slaves: u16,
-    /// With the ring broken: slaves reached from neither port (a slave without power, or
-    /// the slaves between two breaks).
-    pub unreachable: u16,
-    /// Times the ring broke since ecatd started.
-    pub breaks: u64,
-    /// Times the ring closed again after a break.
-    pub heals: u64,
-}
-
-impl RedundancyView {
-    /// No ring: the bus runs on one port.
-    pub fn off() -> RedundancyView {
-        RedundancyView {
-            state: "off".into(),
-            break_after: None,
-            primary_side: 0,
-            backup_side: 0,
-            ring_slaves: 0,
-            unreachable: 0,
-            breaks: 0,
-            heals: 0,
-        }
-    }
-
-    /// The ring as `status` shows it.
-    pub fn of(status: &RingStatus) -> RedundancyView {
-        RedundancyView {
-            state: status.state.name().into(),
-            break_after: status.break_after,
-            primary_side: status.primary_side,
-            backup_side: status.backup_side,
-            ring_slaves: status.ring_slaves,
-            unreachable: status.unreachable,
-            breaks: status.breaks,
-            heals: status.heals,
-        }
-    }
-}
 
 impl Core {
     /// The ring's state now; `off` on a single port.

@@ -1,5 +1,6 @@
 //! What the core hands to both APIs: plain serialisable views of the master's types.
 
+use master_core::bus::redundancy::RingStatus;
 use master_core::master::{MasterEvent, SlaveInfo, TopologyProblem};
 use master_core::wire::register::AlState;
 use serde::{Deserialize, Serialize};
@@ -195,7 +196,7 @@ pub struct EventView {
     pub transfer: Option<TransferView>,
     /// The ring's state (kinds `ring_broken` and `ring_closed`, docs/redundancy.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ring: Option<super::redundancy::RedundancyView>,
+    pub ring: Option<RedundancyView>,
     /// Summary.
     pub text: String,
 }
@@ -524,5 +525,58 @@ mod tests {
         assert_eq!(ShownState::Al(AlState::PreOp).name(), "PREOP");
         assert_eq!(ShownState::Al(AlState::Unknown(0x6)).name(), "UNKNOWN(0x6)");
         assert!(serde_json::from_str::<ShownState>("\"RUNNING\"").is_err());
+    }
+}
+
+/// The ring, as the APIs show it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct RedundancyView {
+    /// `off` (one port, no ring), `unknown` (no frame back yet), `closed` or `broken`.
+    pub state: String,
+    /// With the ring broken: the break is after this many slaves from the primary port
+    /// (0: the master's primary cable); null otherwise.
+    pub break_after: Option<u16>,
+    /// Slaves the last frame reached from the primary port.
+    pub primary_side: u16,
+    /// Slaves the last frame reached from the backup port (0 with the ring closed).
+    pub backup_side: u16,
+    /// Slaves in the ring as last seen closed.
+    pub ring_slaves: u16,
+    /// With the ring broken: slaves reached from neither port (a slave without power, or
+    /// the slaves between two breaks).
+    pub unreachable: u16,
+    /// Times the ring broke since ecatd started.
+    pub breaks: u64,
+    /// Times the ring closed again after a break.
+    pub heals: u64,
+}
+
+impl RedundancyView {
+    /// No ring: the bus runs on one port.
+    pub fn off() -> RedundancyView {
+        RedundancyView {
+            state: "off".into(),
+            break_after: None,
+            primary_side: 0,
+            backup_side: 0,
+            ring_slaves: 0,
+            unreachable: 0,
+            breaks: 0,
+            heals: 0,
+        }
+    }
+
+    /// The ring as `status` shows it.
+    pub fn of(status: &RingStatus) -> RedundancyView {
+        RedundancyView {
+            state: status.state.name().into(),
+            break_after: status.break_after,
+            primary_side: status.primary_side,
+            backup_side: status.backup_side,
+            ring_slaves: status.ring_slaves,
+            unreachable: status.unreachable,
+            breaks: status.breaks,
+            heals: status.heals,
+        }
     }
 }
