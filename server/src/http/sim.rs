@@ -75,7 +75,7 @@ fn emergency(
     let data: [u8; 5] = hex::decode(body.data.trim())
         .ok()
         .and_then(|bytes| bytes.try_into().ok())
-        .ok_or_else(|| ApiError::invalid("data must be 5 bytes, hex"))?;
+        .ok_or_else(|| ApiError::invalid_field("data", "data must be 5 bytes, hex"))?;
     let position = core.get_slave(parse_name(slave)?)?.position;
     hooks.raise_emergency(position, body.error_code, body.error_register, data)?;
     Ok(Json(Done { ok: true }))

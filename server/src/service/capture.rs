@@ -113,10 +113,17 @@ impl Core {
             ));
         }
         if frames > MAX_FRAMES || duration > MAX_DURATION {
-            return Err(ApiError::invalid(format!(
-                "a capture is at most {MAX_FRAMES} frames and {} s",
-                MAX_DURATION.as_secs()
-            )));
+            return Err(ApiError::invalid_field(
+                if frames > MAX_FRAMES {
+                    "frames"
+                } else {
+                    "duration"
+                },
+                format!(
+                    "a capture is at most {MAX_FRAMES} frames and {} s",
+                    MAX_DURATION.as_secs()
+                ),
+            ));
         }
         let hub = self
             .capture

@@ -9,7 +9,7 @@
 //! everything as [`EventView`]s through the [`EventLog`], which numbers, stamps and keeps
 //! them and sends them on one bounded broadcast channel. The same task looks at the bus's
 //! fault counters ([`super::bus_fault`]). On a ring a second task looks at the ring's
-//! generation every [`RING_POLL`](super::redundancy::RING_POLL) ([`super::redundancy`]): a
+//! generation every `RING_POLL` ([`super::redundancy`]): a
 //! break must reach the operator within milliseconds, not at the next 200 ms look.
 
 use std::sync::{Arc, Weak};

@@ -422,9 +422,10 @@ impl Core {
         len: usize,
     ) -> Result<Vec<u8>> {
         if len == 0 || len > MAX_REGISTER_LEN {
-            return Err(ApiError::invalid(format!(
-                "register length must be 1..={MAX_REGISTER_LEN}"
-            )));
+            return Err(ApiError::invalid_field(
+                "length",
+                format!("register length must be 1..={MAX_REGISTER_LEN}"),
+            ));
         }
         let resolved = self.address(slave)?;
         let info = self.master.slave(resolved)?;
@@ -523,7 +524,8 @@ impl Core {
         force: bool,
     ) -> Result<()> {
         if data.is_empty() || !data.len().is_multiple_of(2) {
-            return Err(ApiError::invalid(
+            return Err(ApiError::invalid_field(
+                "data",
                 "SII data must be a non-empty even number of bytes",
             ));
         }

@@ -47,11 +47,14 @@ pub async fn keep_valid(
         if word7 & 0xFF == u16::from(crc) {
             return Ok(None);
         }
-        return Err(ApiError::invalid(format!(
-            "SII checksum 0x{:02x} (word 7, low byte) does not match words 0-6 (CRC 0x{crc:02x}); \
-             nothing written (force writes it anyway)",
-            word7 & 0xFF
-        )));
+        return Err(ApiError::invalid_field(
+            "data",
+            format!(
+                "SII checksum 0x{:02x} (word 7, low byte) does not match words 0-6 (CRC \
+                 0x{crc:02x}); nothing written (force writes it anyway)",
+                word7 & 0xFF
+            ),
+        ));
     }
     Ok(Some((word7 & 0xFF00) | u16::from(crc)))
 }

@@ -8,7 +8,7 @@
 //! unplugged with [`Segment::set_plugged`], which is the same thing on cable *position*)
 //! or a slave without power ([`Segment::kill`]) takes the link down on both of its ends.
 //!
-//! Where a frame goes is [`route`]'s job: an ESC forwards through its ports in the order
+//! Where a frame goes is `route`'s job: an ESC forwards through its ports in the order
 //! 0 → processing unit → 3 → 1 → 2 → 0 and a closed port loops back, so a frame from the
 //! primary port is processed on its way out and passes unprocessed on its way back, and a
 //! frame from the backup port passes unprocessed until a slave whose port 0 is closed turns

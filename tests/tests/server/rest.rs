@@ -715,6 +715,35 @@ fn every_malformed_request_is_answered_with_problem_json_and_changes_nothing() {
         after["data"], kept["data"],
         "a refused write changed the entry"
     );
+    // A register length out of range and SII data of an odd length name their field too.
+    let (_, _, sii_before) = answer(&ecatd, "GET", "/api/v1/slaves/1/sii", &[]);
+    for (method, path, extra, field) in [
+        (
+            "GET",
+            "/api/v1/slaves/0/registers/0x0130?length=0",
+            vec![],
+            "length",
+        ),
+        (
+            "PUT",
+            "/api/v1/slaves/1/sii/8",
+            with(r#"{"data":"aabbcc"}"#),
+            "data",
+        ),
+    ] {
+        let (status, _, answer) = answer(&ecatd, method, path, &extra);
+        let case = format!("{method} {path}: {status} {answer}");
+        assert_eq!(
+            (status, answer["field"].as_str()),
+            (400, Some(field)),
+            "{case}"
+        );
+    }
+    let (_, _, sii_after) = answer(&ecatd, "GET", "/api/v1/slaves/1/sii", &[]);
+    assert_eq!(
+        sii_after["data"], sii_before["data"],
+        "a refused SII write changed it"
+    );
     // Every refused state change changed nothing: the slave is still in OP.
     let (_, slave) = get(&ecatd, "/api/v1/slaves/0");
     assert_eq!(slave["state"], "OP", "{slave}");

@@ -3,7 +3,7 @@
 //!
 //! [`RingLink`] is a [`Link`] over two links, the primary and the backup port. It sends
 //! every frame of the bus out of both ports and hands the bus one frame back per frame
-//! sent, made from the two returned copies ([`merge`]), so the bus above does not know it
+//! sent, made from the two returned copies (`merge`), so the bus above does not know it
 //! runs on a ring. What the two copies show goes to a [`RingWatch`]:
 //! - **closed**: the copy sent on the primary port comes back on the backup port, having
 //!   passed every slave's processing unit; the backup copy comes back on the primary port,
@@ -12,7 +12,7 @@
 //! - **broken**: each copy comes back on its own port, processed by the slaves on its side
 //!   of the break (a closed port loops back), so together they still reach every slave
 //!   that has power and a path to one of the ports. A probe datagram in each copy counts
-//!   the slaves on each side ([`copies`]), which locates the break.
+//!   the slaves on each side (`copies`), which locates the break.
 //!
 //! The state is known from every frame, so a break is seen by the first frame after it and
 //! a heal likewise, without a rescan. A copy that does not come back (the cable at a
