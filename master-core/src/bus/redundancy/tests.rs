@@ -169,3 +169,68 @@ fn a_lost_copy_is_waited_for_once_then_not_expected() {
     assert!(!link.expect[0], "the primary copy is not expected any more");
     assert_eq!(round_trip(&mut link, 3), Some((0b111, 3)));
 }
+
+/// A port that hands out the frames it was given, whatever they hold.
+struct Replay(VecDeque<Vec<u8>>);
+
+impl Link for Replay {
+    fn send(&mut self, _frame: &[u8]) -> io::Result<()> {
+        Ok(())
+    }
+
+    fn recv(&mut self, buf: &mut [u8], _wait: Wait) -> io::Result<Option<usize>> {
+        Ok(self.0.pop_front().map(|f| {
+            let n = f.len().min(buf.len());
+            buf[..n].copy_from_slice(&f[..n]);
+            n
+        }))
+    }
+}
+
+mod damaged {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Whatever comes back on either port (a damaged copy of a frame in flight, or any
+        /// bytes at all), the ring link hands up at most one frame per frame received and
+        /// never panics.
+        #[test]
+        fn damaged_or_foreign_returns_never_panic(
+            flips in proptest::collection::vec((0usize..200, any::<u8>()), 0..12),
+            junk in proptest::collection::vec(any::<u8>(), 0..300),
+            cut in 0usize..120,
+        ) {
+            let sent = brd(5);
+            // A closed ring's copies as they would come back, then damaged.
+            let (mut good, _) = ring(3);
+            good.send(&sent).unwrap();
+            let (p, b) = {
+                let (primary, backup) = good.into_inner();
+                let mut w = primary.wiring.lock().unwrap();
+                let _ = backup;
+                (w.queues[1].pop_front().unwrap(), w.queues[0].pop_front().unwrap())
+            };
+            let mut damaged_p = p.clone();
+            for (at, value) in &flips {
+                if let Some(byte) = damaged_p.get_mut(*at) {
+                    *byte ^= value;
+                }
+            }
+            let mut short_b = b.clone();
+            short_b.truncate(cut.min(short_b.len()));
+            let mut link = RingLink::new(
+                Replay(VecDeque::from(vec![short_b, junk.clone()])),
+                Replay(VecDeque::from(vec![damaged_p, junk])),
+                Duration::ZERO,
+            );
+            link.send(&sent).unwrap();
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            for _ in 0..6 {
+                if let Some(len) = link.recv(&mut buf, Wait::NoWait).unwrap() {
+                    prop_assert!(len <= MAX_FRAME_LEN);
+                }
+            }
+        }
+    }
+}
