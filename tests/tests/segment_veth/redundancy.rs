@@ -166,10 +166,15 @@ fn cut_and_heal(ring: &mut Ring, command: &str, break_after: u16, unreachable: u
     ring.cycles(HELD);
     let bad = ring.bad() - before;
     println!("{command}: {bad} cycles with a wrong working counter (quiet window: {quiet})");
-    // A slave without power answers nothing: every cycle misses it, by design.
+    // A slave without power answers nothing: every cycle misses it, by design. Otherwise
+    // the goal is one cycle per cut, met exactly by the in-process test, where nothing is
+    // late. Here one more is allowed: a copy lost with a master port's own cable is waited
+    // for the ring link's grace, and the cycle sent meanwhile was built for a closed ring;
+    // a busy machine can make a copy later than the grace too. The test runs alone
+    // (.config/nextest.toml).
     if unreachable == 0 {
         assert!(
-            bad <= 1 + quiet,
+            bad <= 2 + quiet,
             "{command}: {bad} bad cycles, {quiet} when quiet"
         );
     }

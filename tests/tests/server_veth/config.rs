@@ -441,7 +441,7 @@ fn a_configuration_file_is_applied_and_applied_again_after_a_power_cycle() {
 /// REST route's.
 fn shown_config(ecatd: &Daemon) -> server::config::Config {
     let output = Command::new(bin_dir().join("ecat"))
-        .args(["--address", &ecatd.grpc, "--json", "config"])
+        .args(["--address", &ecatd.grpc, "--json", "config", "--toml"])
         .output()
         .expect("ecat runs");
     assert!(output.status.success(), "{output:?}");
