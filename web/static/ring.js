@@ -21,7 +21,13 @@ export function ringText(r) {
       return `Ring closed: all ${r.ring_slaves} slaves reached on both ports. Breaks ${r.breaks}, heals ${r.heals}.`;
     case "broken": {
       const lost = r.unreachable ? `, ${r.unreachable} unreachable` : "";
-      return `Ring BROKEN after slave ${r.break_after}: ${r.primary_side} on the primary port, ${r.backup_side} on the backup port${lost}. Breaks ${r.breaks}, heals ${r.heals}.`;
+      const place =
+        r.break_after === 0
+          ? "at the master's primary cable"
+          : r.break_after >= r.ring_slaves
+            ? "at the master's backup cable"
+            : `between positions ${r.break_after - 1} and ${r.break_after}`;
+      return `Ring BROKEN ${place}: ${r.primary_side} on the primary port, ${r.backup_side} on the backup port${lost}. Breaks ${r.breaks}, heals ${r.heals}.`;
     }
     case "unknown":
       return "Ring state not known yet: no frame has come back.";

@@ -79,7 +79,7 @@ impl RingEvents {
     }
 }
 
-/// `ring broken after slave 3 (positions 0-2 on the primary port, 3-7 on the backup
+/// `ring broken after 3 slaves (positions 0-2 on the primary port, 3-7 on the backup
 /// port)`: positions as the slaves have them in the closed ring, and the unreachable ones
 /// after a `;`.
 fn broken(status: &RingStatus) -> EventView {
@@ -103,8 +103,14 @@ fn broken(status: &RingStatus) -> EventView {
         (None, r) => worded(r),
         (Some(_), None) => "none".to_owned(),
     };
+    // "after 3 slaves", not "after slave 3": positions count from 0.
+    let place = match after {
+        0 => "at the master's primary cable".to_owned(),
+        1 => "after 1 slave".to_owned(),
+        n => format!("after {n} slaves"),
+    };
     let mut text = format!(
-        "ring broken after slave {after} ({} on the primary port, {backup} on the backup port)",
+        "ring broken {place} ({} on the primary port, {backup} on the backup port)",
         worded(primary)
     );
     if status.unreachable > 0 {
@@ -154,7 +160,7 @@ mod tests {
         assert_eq!(broken.kind, "ring_broken");
         assert_eq!(
             broken.text,
-            "ring broken after slave 3 (positions 0-2 on the primary port, 3-7 on the backup port)"
+            "ring broken after 3 slaves (positions 0-2 on the primary port, 3-7 on the backup port)"
         );
         let ring = broken.ring.expect("the ring's state");
         assert_eq!(
@@ -172,7 +178,7 @@ mod tests {
             .expect("moved");
         assert_eq!(
             killed.text,
-            "ring broken after slave 3 (positions 0-2 on the primary port, 4-7 on the backup \
+            "ring broken after 3 slaves (positions 0-2 on the primary port, 4-7 on the backup \
              port); 1 unreachable (position 3)"
         );
         let closed = events

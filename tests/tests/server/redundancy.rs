@@ -158,7 +158,7 @@ fn a_cut_ring_keeps_every_slave_in_op_and_every_api_says_where_it_broke() {
     let event = wait_event(&ecatd, "ring_broken", |e| e["ring"]["break_after"] == 3);
     assert_eq!(
         event["text"],
-        "ring broken after slave 3 (positions 0-2 on the primary port, 3-4 on the backup port)"
+        "ring broken after 3 slaves (positions 0-2 on the primary port, 3-4 on the backup port)"
     );
     assert_eq!(
         (
