@@ -50,7 +50,11 @@ impl Esc {
         device: &mut dyn Device,
     ) {
         let mask = self.mem.u16(reg::ECAT_EVENT_MASK.into());
-        datagram.set_irq(datagram.irq() | (self.ecat_event_request() & mask));
+        // Hundreds of slaves see every datagram: the events are gathered only if a mask
+        // lets any through.
+        if mask != 0 {
+            datagram.set_irq(datagram.irq() | (self.ecat_event_request() & mask));
+        }
         let command = datagram.command();
         let adp = datagram.adp();
         let ado = datagram.ado();
@@ -91,7 +95,11 @@ impl Esc {
             Command::Nop | Command::Unknown(_) => 0,
         };
         datagram.set_wkc(datagram.wkc().wrapping_add(increment));
-        self.service_mailbox(device);
+        // Only a datagram that read or wrote this slave's memory can have changed what its
+        // mailbox firmware sees (time-due replies are posted at the start of each frame).
+        if increment != 0 {
+            self.service_mailbox(device);
+        }
     }
 
     /// Whether a node-addressed datagram with `adp` is for this slave.

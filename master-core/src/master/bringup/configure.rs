@@ -47,12 +47,12 @@ fn malformed(position: u16, what: &'static str) -> impl FnOnce(WireError) -> Mas
 
 /// The EEPROM interface of `station` with the master's timing.
 pub(crate) fn eeprom(ctx: &Context, station: u16) -> Eeprom<'_> {
-    Eeprom {
-        bus: &ctx.bus,
+    Eeprom::new(
+        &ctx.bus,
         station,
-        poll: ctx.config.poll_interval,
-        timeout: ctx.config.eeprom_timeout,
-    }
+        ctx.config.poll_interval,
+        ctx.config.eeprom_timeout,
+    )
 }
 
 fn mailbox_layout(

@@ -11,6 +11,8 @@
 
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
+use futures_util::future::try_join_all;
+
 use crate::bus::redundancy::{RingClock, RingState};
 use crate::bus::{BusHandle, Pending};
 use crate::wire::register::address as reg;
@@ -129,8 +131,6 @@ pub(crate) async fn configure(
         // the reference to this slave (it saw the frame that much later).
         let offset = master_time.wrapping_sub(*pu).wrapping_add(u64::from(delay)) as i64;
         let station = record.info.station;
-        write_offset_delay(bus, record, offset, delay).await?;
-        reset_filter(bus, station).await?;
         slaves.push(DcSlave {
             position: record.info.position,
             station,
@@ -141,6 +141,12 @@ pub(crate) async fn configure(
             offset,
         });
     }
+    // Every slave's settings at once: the writes share frames.
+    try_join_all(dc.iter().zip(&slaves).map(|(record, slave)| async move {
+        write_offset_delay(bus, record, slave.offset, slave.delay_ns).await?;
+        reset_filter(bus, slave.station).await
+    }))
+    .await?;
     let reference = slaves.first().map(|s| s.station);
     if let Some(reference) = reference {
         compensate_static_drift(ctx, reference, settings.static_drift_frames).await?;
@@ -175,52 +181,21 @@ async fn measure(
     dc: &[&SlaveRecord],
     ring_end: Option<u16>,
 ) -> Result<(u64, Vec<(PortReceiveTimes, u64, u32)>), MasterError> {
-    let bus = &ctx.bus;
     let master_time = ecat_now();
-    bus.bwr(reg::DC_RECEIVE_TIME_PORT0, [0u8; 4])
-        .await
-        .map_err(MasterError::bus("latch DC receive times"))?;
-    let mut measured = Vec::with_capacity(dc.len());
-    for record in dc {
-        let station = record.info.station;
-        let raw = fprd(
-            bus,
-            station,
-            reg::DC_RECEIVE_TIME_PORT0,
-            PortReceiveTimes::LEN,
-            "DC receive times",
-        )
-        .await?;
-        let times = PortReceiveTimes::parse(&raw).map_err(|source| MasterError::Malformed {
-            position: record.info.position,
-            what: "DC receive times",
-            source,
-        })?;
-        let raw = fprd(
-            bus,
-            station,
-            reg::DC_RECEIVE_TIME_PROCESSING_UNIT,
-            8,
-            "DC processing unit time",
-        )
-        .await?;
-        let pu = read_time(&raw).map_err(|source| MasterError::Malformed {
-            position: record.info.position,
-            what: "DC processing unit time",
-            source,
-        })?;
-        let looped = if ring_end == Some(record.info.position) {
-            0
-        } else {
-            loop_time(record, &times)
-        };
-        measured.push((times, pu, looped));
+    let slaves: Vec<(u16, u16, &SlaveRecord)> = dc
+        .iter()
+        .map(|r| (r.info.position, r.info.station, *r))
+        .collect();
+    let mut measured = latch(ctx, &slaves).await?;
+    if let Some(end) = ring_end.and_then(|p| slaves.iter().position(|s| s.0 == p)) {
+        measured[end].2 = 0;
     }
     Ok((master_time, measured))
 }
 
 /// Latches the receive times (BWR 0x0900) and reads back each DC slave's port times,
-/// processing-unit time and loop time, in the order given.
+/// processing-unit time and loop time, in the order given. The slaves are read at once:
+/// their reads share frames, where one after the other they took a round trip each.
 async fn latch(
     ctx: &Context,
     slaves: &[(u16, u16, &SlaveRecord)],
@@ -229,36 +204,40 @@ async fn latch(
     bus.bwr(reg::DC_RECEIVE_TIME_PORT0, [0u8; 4])
         .await
         .map_err(MasterError::bus("latch DC receive times"))?;
-    let mut measured = Vec::with_capacity(slaves.len());
-    for &(position, station, record) in slaves {
-        let malformed = |what| {
-            move |source| MasterError::Malformed {
-                position,
-                what,
-                source,
-            }
-        };
-        let raw = fprd(
-            bus,
-            station,
-            reg::DC_RECEIVE_TIME_PORT0,
-            PortReceiveTimes::LEN,
-            "DC receive times",
-        )
-        .await?;
-        let times = PortReceiveTimes::parse(&raw).map_err(malformed("DC receive times"))?;
-        let raw = fprd(
-            bus,
-            station,
-            reg::DC_RECEIVE_TIME_PROCESSING_UNIT,
-            8,
-            "DC processing unit time",
-        )
-        .await?;
-        let pu = read_time(&raw).map_err(malformed("DC processing unit time"))?;
-        measured.push((times, pu, loop_time(record, &times)));
-    }
-    Ok(measured)
+    try_join_all(slaves.iter().map(|&(position, station, record)| async move {
+        let (times, pu) = read_latched(bus, position, station).await?;
+        Ok((times, pu, loop_time(record, &times)))
+    }))
+    .await
+}
+
+/// One slave's latched times in one read of 0x0900-0x091F: the port receive times, the
+/// system time (unused) and the processing unit's receive time (ETG.1000.4 Table 60).
+async fn read_latched(
+    bus: &BusHandle,
+    position: u16,
+    station: u16,
+) -> Result<(PortReceiveTimes, u64), MasterError> {
+    const PU_AT: usize = (reg::DC_RECEIVE_TIME_PROCESSING_UNIT - reg::DC_RECEIVE_TIME_PORT0) as usize;
+    let malformed = |what| {
+        move |source| MasterError::Malformed {
+            position,
+            what,
+            source,
+        }
+    };
+    let raw = fprd(
+        bus,
+        station,
+        reg::DC_RECEIVE_TIME_PORT0,
+        PU_AT + 8,
+        "DC receive times",
+    )
+    .await?;
+    let times = PortReceiveTimes::parse(&raw).map_err(malformed("DC receive times"))?;
+    let pu = read_time(raw.get(PU_AT..).unwrap_or_default())
+        .map_err(malformed("DC processing unit time"))?;
+    Ok((times, pu))
 }
 
 /// Measures the delay of the slave of `record` again and gives it the offset that brings

@@ -1,6 +1,7 @@
 //! The SII EEPROM interface 0x0500–0x050F of one slave (spec-notes §esc.sii-if): read, write, reload,
 //! and reading a whole image (ETG.2010, spec-notes §sii).
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use tokio::time::Instant;
@@ -19,15 +20,41 @@ use crate::master::error::MasterError;
 /// How often a command that reports a missing acknowledge (bit 13) is tried (SOEM: 3).
 const NACK_TRIES: u32 = 3;
 
-/// One slave's EEPROM interface.
-pub(crate) struct Eeprom<'a> {
-    pub bus: &'a BusHandle,
-    pub station: u16,
-    pub poll: Duration,
-    pub timeout: Duration,
+/// The interface registers read in one datagram: control/status (0x0502), address
+/// (0x0504) and data (0x0508, 8 bytes; an ESC with 4-byte reads uses the first 4).
+const INTERFACE_LEN: usize = (reg::EEPROM_DATA - reg::EEPROM_CONTROL) as usize + 8;
+
+/// The interface as one read saw it.
+struct Interface {
+    status: EepromControl,
+    data: [u8; 8],
 }
 
-impl Eeprom<'_> {
+/// One slave's EEPROM interface.
+pub(crate) struct Eeprom<'a> {
+    bus: &'a BusHandle,
+    station: u16,
+    poll: Duration,
+    timeout: Duration,
+    /// The last status this master read was idle without error, and nothing was written
+    /// since: the next command needs no check first. An SII image is hundreds of reads, and
+    /// the check was one frame round trip of four per read.
+    idle: AtomicBool,
+}
+
+impl<'a> Eeprom<'a> {
+    /// The interface of the slave at `station`, polled every `poll` while busy, for at most
+    /// `timeout` per wait.
+    pub fn new(bus: &'a BusHandle, station: u16, poll: Duration, timeout: Duration) -> Self {
+        Eeprom {
+            bus,
+            station,
+            poll,
+            timeout,
+            idle: AtomicBool::new(false),
+        }
+    }
+
     fn error(&self, reason: &'static str) -> MasterError {
         MasterError::Eeprom {
             station: self.station,
@@ -56,25 +83,39 @@ impl Eeprom<'_> {
         .await
     }
 
-    async fn status(&self) -> Result<EepromControl, MasterError> {
-        let data = fprd(
+    /// Reads status and data together: a finished read command's data come with
+    /// the status that says they are there, one round trip instead of two.
+    async fn interface(&self) -> Result<Interface, MasterError> {
+        let bytes = fprd(
             self.bus,
             self.station,
             reg::EEPROM_CONTROL,
-            2,
+            INTERFACE_LEN,
             "EEPROM status",
         )
         .await?;
-        EepromControl::parse(&data).map_err(|_| self.error("status unreadable"))
+        let status = EepromControl::parse(&bytes).map_err(|_| self.error("status unreadable"))?;
+        let at = usize::from(reg::EEPROM_DATA - reg::EEPROM_CONTROL);
+        let Some(data) = bytes.get(at..at + 8) else {
+            return Err(self.error("status unreadable"));
+        };
+        let mut interface = Interface {
+            status,
+            data: [0; 8],
+        };
+        interface.data.copy_from_slice(data);
+        Ok(interface)
     }
 
     /// Polls until the interface is not busy.
-    async fn not_busy(&self) -> Result<EepromControl, MasterError> {
+    async fn not_busy(&self) -> Result<Interface, MasterError> {
         let deadline = Instant::now() + self.timeout;
         loop {
-            let status = self.status().await?;
-            if !status.busy {
-                return Ok(status);
+            let interface = self.interface().await?;
+            if !interface.status.busy {
+                self.idle
+                    .store(!interface.status.has_error(), Ordering::Relaxed);
+                return Ok(interface);
             }
             if Instant::now() >= deadline {
                 return Err(self.error("stays busy"));
@@ -84,10 +125,13 @@ impl Eeprom<'_> {
     }
 
     /// Waits until idle and clears error bits left by an earlier command.
-    async fn idle(&self) -> Result<EepromControl, MasterError> {
-        let status = self.not_busy().await?;
+    async fn idle(&self) -> Result<(), MasterError> {
+        if self.idle.load(Ordering::Relaxed) {
+            return Ok(());
+        }
+        let status = self.not_busy().await?.status;
         if !status.has_error() {
-            return Ok(status);
+            return Ok(());
         }
         let clear = [0u8; 2];
         fpwr(
@@ -98,17 +142,18 @@ impl Eeprom<'_> {
             "EEPROM clear",
         )
         .await?;
-        self.not_busy().await
+        self.not_busy().await.map(drop)
     }
 
-    /// Issues `request` and waits for it to finish; returns the status after it.
-    async fn command(&self, request: EepromRequestRepr) -> Result<EepromControl, MasterError> {
+    /// Issues `request` and waits for it to finish; returns the interface after it.
+    async fn command(&self, request: EepromRequestRepr) -> Result<Interface, MasterError> {
         let mut bytes = [0u8; crate::wire::register::eeprom::REQUEST_LEN];
         request
             .emit(&mut EepromRequest::new_unchecked(&mut bytes[..]))
             .map_err(|_| self.error("request not encodable"))?;
         for _ in 0..NACK_TRIES {
             self.idle().await?;
+            self.idle.store(false, Ordering::Relaxed);
             fpwr(
                 self.bus,
                 self.station,
@@ -117,7 +162,8 @@ impl Eeprom<'_> {
                 "EEPROM command",
             )
             .await?;
-            let status = self.not_busy().await?;
+            let interface = self.not_busy().await?;
+            let status = &interface.status;
             if status.ack_error {
                 tokio::time::sleep(self.poll).await;
                 continue;
@@ -126,28 +172,22 @@ impl Eeprom<'_> {
                 return Err(self.error("refused a write without write enable"));
             }
             // The checksum bit describes the configuration area, not this command.
-            return Ok(status);
+            return Ok(interface);
         }
         Err(self.error("does not acknowledge"))
     }
 
     /// Reads the 2 or 4 words at `word` (as many as the slave returns per read).
     pub async fn read(&self, word: u16) -> Result<Vec<u16>, MasterError> {
-        let status = self.command(EepromRequestRepr::read(word)).await?;
-        let data = fprd(
-            self.bus,
-            self.station,
-            reg::EEPROM_DATA,
-            status.read_size(),
-            "EEPROM data",
-        )
-        .await?;
-        Ok(crate::wire::register::eeprom::data_words(&data).collect())
+        let interface = self.command(EepromRequestRepr::read(word)).await?;
+        let data = &interface.data[..interface.status.read_size()];
+        Ok(crate::wire::register::eeprom::data_words(data).collect())
     }
 
     /// Writes one word.
     pub async fn write(&self, word: u16, value: u16) -> Result<(), MasterError> {
         self.idle().await?;
+        self.idle.store(false, Ordering::Relaxed);
         let data = value.to_le_bytes();
         fpwr(
             self.bus,
@@ -166,7 +206,7 @@ impl Eeprom<'_> {
             control: EepromControl::command(EepromCommand::Reload),
             address: 0,
         };
-        let status = self.command(request).await?;
+        let status = self.command(request).await?.status;
         if status.checksum_error {
             return Err(self.error("reload found a bad checksum"));
         }
