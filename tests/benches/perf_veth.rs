@@ -1062,7 +1062,7 @@ fn main() {
         .filter_map(|s| s.trim().parse().ok())
         .collect();
     // Every client of the aggregate rows reads this often.
-    let each = (count / 8).max(10);
+    let each = env_usize("PERF_VETH_EACH", (count / 8).max(10));
     println!(
         "SDO upload of 0x1018:01 over veth against ecat-sim ({SLAVES} drives, spinning {} µs \
          after each frame), {count} per row, {CLIENTS} x {each} in the aggregate rows",

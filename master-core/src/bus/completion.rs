@@ -13,6 +13,7 @@
 use std::fmt;
 use std::future::Future;
 use std::pin::Pin;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 use std::task::{Context, Poll, Waker};
 use std::time::{Duration, Instant};
@@ -39,6 +40,10 @@ pub(crate) struct Completer {
 struct Slot {
     state: Mutex<State>,
     done: Condvar,
+    /// A blocking caller sleeps on `done` (set under the lock before it sleeps). Almost
+    /// every caller awaits instead, and a condition variable's notify is a system call
+    /// whether anyone sleeps or not: the bus thread makes it only when someone does.
+    blocked: AtomicBool,
 }
 
 enum State {
@@ -55,6 +60,7 @@ pub(crate) fn pair() -> (Pending, Completer) {
     let slot = Arc::new(Slot {
         state: Mutex::new(State::Waiting(None)),
         done: Condvar::new(),
+        blocked: AtomicBool::new(false),
     });
     (
         Pending {
@@ -88,6 +94,7 @@ impl Pending {
             if let Some(result) = take(&mut state) {
                 return result;
             }
+            self.slot.blocked.store(true, Ordering::Relaxed);
             state = self
                 .slot
                 .done
@@ -109,6 +116,7 @@ impl Pending {
             if now >= deadline {
                 return None;
             }
+            self.slot.blocked.store(true, Ordering::Relaxed);
             state = self
                 .slot
                 .done
@@ -175,19 +183,23 @@ impl Completer {
 }
 
 fn fulfil(slot: &Slot, result: DatagramResult) {
-    let waker = {
+    let (waker, blocked) = {
         let mut state = slot.lock();
+        // Read under the lock: a caller that is to sleep set it before releasing the lock.
+        let blocked = slot.blocked.load(Ordering::Relaxed);
         match std::mem::replace(&mut *state, State::Done(result)) {
-            State::Waiting(waker) => waker,
+            State::Waiting(waker) => (waker, blocked),
             // A slot is completed once; keep what came first.
             earlier => {
                 *state = earlier;
-                None
+                (None, false)
             }
         }
     };
     // Wake outside the lock: a waker may run executor code, a waiting thread re-locks.
-    slot.done.notify_all();
+    if blocked {
+        slot.done.notify_all();
+    }
     if let Some(waker) = waker {
         waker.wake();
     }
