@@ -333,7 +333,12 @@ fn an_eeprom_read_is_a_command_and_one_read_of_status_and_data() {
         let before = rig.master().bus_stats().datagrams_sent;
         let read = block_on(rig.master().read_sii(address)).unwrap();
         let sent = rig.master().bus_stats().datagrams_sent - before;
-        let image = rig.segment().esc(usize::from(info.position)).unwrap().sii().to_vec();
+        let image = rig
+            .segment()
+            .esc(usize::from(info.position))
+            .unwrap()
+            .sii()
+            .to_vec();
         assert_eq!(&image[..read.len()], &read[..]);
         // As above: the owner, one check, then the command and one read per 8 bytes.
         let reads = read.len().div_ceil(8) as u64;

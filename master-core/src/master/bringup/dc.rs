@@ -204,21 +204,26 @@ async fn latch(
     bus.bwr(reg::DC_RECEIVE_TIME_PORT0, [0u8; 4])
         .await
         .map_err(MasterError::bus("latch DC receive times"))?;
-    try_join_all(slaves.iter().map(|&(position, station, record)| async move {
-        let (times, pu) = read_latched(bus, position, station).await?;
-        Ok((times, pu, loop_time(record, &times)))
-    }))
+    try_join_all(
+        slaves
+            .iter()
+            .map(|&(position, station, record)| async move {
+                let (times, pu) = read_latched(bus, position, station).await?;
+                Ok((times, pu, loop_time(record, &times)))
+            }),
+    )
     .await
 }
 
 /// One slave's latched times in one read of 0x0900-0x091F: the port receive times, the
-/// system time (unused) and the processing unit's receive time (ETG.1000.4 Table 60).
+/// system time (unused) and the processing unit's receive time (spec-notes §dc).
 async fn read_latched(
     bus: &BusHandle,
     position: u16,
     station: u16,
 ) -> Result<(PortReceiveTimes, u64), MasterError> {
-    const PU_AT: usize = (reg::DC_RECEIVE_TIME_PROCESSING_UNIT - reg::DC_RECEIVE_TIME_PORT0) as usize;
+    const PU_AT: usize =
+        (reg::DC_RECEIVE_TIME_PROCESSING_UNIT - reg::DC_RECEIVE_TIME_PORT0) as usize;
     let malformed = |what| {
         move |source| MasterError::Malformed {
             position,
