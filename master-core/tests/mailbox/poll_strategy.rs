@@ -1,7 +1,8 @@
 //! How many reads of SM1 one exchange costs: a slave that answers at once is read in the
 //! write's own frame, and a slow one (a real ESC's application answers after its own delay)
-//! gets a few eager reads, then one read per poll interval or "mailbox full" notice, never
-//! a read per round trip for as long as it takes.
+//! gets a few eager reads, then reads after growing pauses or a "mailbox full" notice, never
+//! a read per round trip for as long as it takes; once its answer time is known, it is read
+//! when the answer is due.
 
 use crate::mailbox_support;
 
@@ -77,37 +78,62 @@ async fn a_slave_that_answers_at_once_costs_one_write_and_one_read_per_upload() 
 }
 
 /// Datagrams (the write and every read of SM1) for `uploads` uploads from the drive when
-/// it answers `delay_us` after each request; each upload is checked.
-async fn datagrams_per_upload(delay_us: u32, uploads: u64) -> f64 {
+/// it answers `delay_us` after each request, after `learn` uploads not counted (from which
+/// the engine learns when the drive answers); each upload is checked.
+async fn datagrams_per_upload(delay_us: u32, learn: u64, uploads: u64) -> f64 {
     let rig = rig(delay_us);
     let drive = rig.slave(DRIVE);
-    let before = rig.bus.stats();
-    for _ in 0..uploads {
+    let upload = || async {
         let t = Instant::now();
         assert_eq!(drive.sdo_upload(0x1018, 1).await.unwrap(), vendor_id());
         assert!(
             t.elapsed() >= Duration::from_micros(delay_us.into()),
             "answered before the slave had the answer ready"
         );
+    };
+    for _ in 0..learn {
+        upload().await;
+    }
+    let before = rig.bus.stats();
+    for _ in 0..uploads {
+        upload().await;
     }
     (rig.bus.stats().datagrams_sent - before.datagrams_sent) as f64 / uploads as f64
 }
 
 #[tokio::test]
 async fn a_slave_that_answers_after_100_us_is_read_a_few_times_per_upload() {
-    // The write, the read behind it, four eager reads, then pauses of 50 and 75 µs: eight
-    // datagrams when every pause ends on time, fewer when the machine makes them late; one
-    // more when a "mailbox full" notice left over from the last upload ends a pause early.
-    let per_upload = datagrams_per_upload(100, 20).await;
+    // Before the engine knows the slave: the write, the read behind it, four eager reads,
+    // then pauses of 50 and 75 µs: eight datagrams when every pause ends on time, fewer
+    // when the machine makes them late; one more when a "mailbox full" notice left over
+    // from the last upload ends a pause early.
+    let per_upload = datagrams_per_upload(100, 0, 2).await;
     assert!(per_upload <= 9.0, "{per_upload} datagrams per upload");
+}
+
+#[tokio::test]
+async fn a_slave_that_answers_after_100_us_is_read_when_its_answer_is_due_once_known() {
+    // Two answers known, the first read after the write's own goes 30 µs before the least
+    // of them: usually it finds the answer (three datagrams with the write and the read
+    // behind it); a wake-up early enough to spend the eager reads costs four more and a
+    // pause's read at most.
+    let per_upload = datagrams_per_upload(100, 2, 20).await;
+    assert!(per_upload <= 6.0, "{per_upload} datagrams per upload");
 }
 
 #[tokio::test]
 async fn a_slave_that_answers_after_1_ms_is_answered_without_a_read_per_round_trip() {
     // Pauses of 50, 75, 112, 168, 253, 379 µs reach 1 ms: twelve datagrams with the write
-    // and the five first reads (thirteen with a left-over "mailbox full" notice). The in-process link answers in microseconds, so a
-    // strategy that read at every round trip would send hundreds, and one that paused a
-    // whole poll interval after the eager reads would answer a millisecond late.
-    let per_upload = datagrams_per_upload(1000, 10).await;
+    // and the five first reads (thirteen with a left-over "mailbox full" notice). The
+    // in-process link answers in microseconds, so a strategy that read at every round trip
+    // would send hundreds, and one that paused a whole poll interval after the eager reads
+    // would answer a millisecond late.
+    let per_upload = datagrams_per_upload(1000, 0, 2).await;
     assert!(per_upload <= 13.0, "{per_upload} datagrams per upload");
+    // Once its time is known, the slave is read when its answer is due.
+    let per_upload = datagrams_per_upload(1000, 2, 10).await;
+    assert!(
+        per_upload <= 7.0,
+        "{per_upload} datagrams per upload, once known"
+    );
 }

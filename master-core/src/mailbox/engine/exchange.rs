@@ -25,7 +25,10 @@
 //! trip or two; the bus thread repeats an empty read itself, so no thread wakes between
 //! them), then the pauses between reads grow from [`FIRST_PAUSE`] by half each time
 //! up to [`MailboxConfig::poll_interval`] ([`next_pause`]), so that a slow slave costs a
-//! few frames per exchange and is read at most about half its delay late. A "mailbox full"
+//! few frames per exchange and is read at most about half its delay late. A slave that
+//! keeps answering late is read when its answer is due instead: the first read after the
+//! write's own waits for the least of its last answer times less a lead
+//! ([`super::answer_time`]), and the eager reads go from there. A "mailbox full"
 //! notice (SM1 status 0x080D bit 3 mapped into the cyclic frame; ETG.1000.4, spec-notes
 //! §esc.sm) ends a pause at once. The pauses run on the engine's own timer thread
 //! ([`super::timer`]): tokio's timer would round each up to 1-2 ms.
@@ -43,6 +46,7 @@ use crate::wire::mailbox::{
     ErrorReply, ErrorReplyRepr, HEADER_LEN, Mailbox, MailboxHeader, MailboxType,
 };
 
+use super::answer_time::AnswerTimes;
 use super::counter::Counters;
 use super::demux::{Route, Want, route};
 use super::events::{EoeFrame, SoeNotification};
@@ -134,6 +138,10 @@ pub(crate) struct Exchange {
     repeat_owed: bool,
     /// The last turn was dropped in the middle of its work (see [`super::turn`]).
     was_interrupted: bool,
+    /// When the message now awaiting its answer was written.
+    written_at: Option<Instant>,
+    /// How long this slave took to answer lately.
+    answer_times: AnswerTimes,
 }
 
 impl Exchange {
@@ -156,6 +164,8 @@ impl Exchange {
             ahead: None,
             repeat_owed: false,
             was_interrupted: false,
+            written_at: None,
+            answer_times: AnswerTimes::default(),
         }
     }
 
@@ -387,6 +397,7 @@ impl Exchange {
         loop {
             self.check_owned()?;
             self.recover().await?;
+            let sent = Instant::now();
             let write = self
                 .bus
                 .fpwr(station, start, DatagramData::from_slice(&self.tx));
@@ -400,6 +411,7 @@ impl Exchange {
             {
                 inc(&self.shared.stats.writes);
                 self.ahead = Some((read, want));
+                self.written_at = Some(sent);
                 return Ok(());
             }
             // Never drop a read that may have emptied SM1: route what it brought first.
@@ -438,6 +450,11 @@ impl Exchange {
         let want = Want::Reply(mailbox_type);
         let mut reads = 0u32;
         let mut pause = Duration::ZERO;
+        // Only the first answer after a write is timed, and only it may be planned for.
+        let written_at = self.written_at.take();
+        let mut planned = written_at
+            .zip(self.answer_times.planned())
+            .map(|(at, after)| at + after);
         // A notice kept from before this message was written is about an older one.
         std::pin::pin!(self.shared.answer.notified()).enable();
         loop {
@@ -453,6 +470,14 @@ impl Exchange {
             self.check_owned()?;
             if self.settle().await? == Read::Answer {
                 break;
+            }
+            // A slave that has taken long to answer lately is read when its answer is due
+            // (the eager reads then go from there), not from the write on.
+            if let Some(at) = planned.take() {
+                let now = Instant::now();
+                if at > now {
+                    self.pause(at - now).await;
+                }
             }
             // The eager reads go as one poll the bus thread repeats while SM1 is empty, so
             // they follow each other at the wire's pace, without waking this task between
@@ -474,6 +499,9 @@ impl Exchange {
                 pause = next_pause(pause, self.shared.engine.poll_interval);
                 self.pause(pause).await;
             }
+        }
+        if let Some(at) = written_at {
+            self.answer_times.record(at.elapsed());
         }
         let header = Mailbox::new_checked(&self.rx[..])
             .and_then(|m| MailboxHeader::parse(&m))

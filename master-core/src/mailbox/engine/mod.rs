@@ -9,12 +9,14 @@
 //! - [`owner`]: the owner task's loop (EoE, then idle reads);
 //! - [`exchange`]: writing SM0, reading SM1, routing what was read;
 //! - [`counter`], [`repeat`]: the guards against retried writes and lost reads;
+//! - [`answer_time`]: when a slow slave's answer is due, learned from its last answers;
 //! - [`demux`]: where each message from a slave goes;
 //! - [`hook`]: how the side traffic (EoE) plugs in, without the engine knowing it;
 //! - [`events`], [`stats`]: unsolicited messages and counters;
 //! - [`report`]: log lines for failures, rate-limited per slave;
 //! - [`timer`]: the sub-millisecond pauses of the poll back-off.
 
+pub(crate) mod answer_time;
 pub(crate) mod counter;
 pub(crate) mod demux;
 pub(crate) mod events;

@@ -1,0 +1,91 @@
+//! How long a slave takes to answer, learned from its last answers, so that the first read
+//! of SM1 after the eager ones goes when the answer is due instead of after a fixed pause.
+//!
+//! A slave's application answers after its own delay (ETG.1000.4, spec-notes
+//! §mbx.handshake), often about the same from one request to the next. The least of the
+//! last [`KEPT`] answer times is taken: one slow request (a long SDO, an FoE block) does not
+//! make the next fast ones wait, and a slave that answers at once (in the write's own frame)
+//! keeps the learned time below [`PLAN_FROM`], where nothing is planned.
+
+use std::time::Duration;
+
+use super::exchange::FIRST_PAUSE;
+
+/// Answer times kept per slave.
+pub(crate) const KEPT: usize = 8;
+/// Learned times shorter than this plan nothing: the eager reads cover them.
+pub(crate) const PLAN_FROM: Duration = FIRST_PAUSE;
+/// How long before the learned time the planned read is asked for: the timer's wake-up and
+/// the frame's way out come before the read reaches the slave.
+pub(crate) const LEAD: Duration = Duration::from_micros(30);
+
+/// The last answer times of one slave: from the write of a request to its answer in hand.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct AnswerTimes {
+    times: [Duration; KEPT],
+    next: usize,
+    len: usize,
+}
+
+impl AnswerTimes {
+    /// Notes one answer time.
+    pub fn record(&mut self, time: Duration) {
+        self.times[self.next] = time;
+        self.next = (self.next + 1) % KEPT;
+        self.len = (self.len + 1).min(KEPT);
+    }
+
+    /// How long after the write the first planned read should go, if the slave is known
+    /// to take long enough for one: the least recent answer time less [`LEAD`]. Nothing
+    /// before two answers are known.
+    pub fn planned(&self) -> Option<Duration> {
+        if self.len < 2 {
+            return None;
+        }
+        let least = self.times[..self.len].iter().min().copied()?;
+        (least >= PLAN_FROM).then(|| least.saturating_sub(LEAD))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn us(n: u64) -> Duration {
+        Duration::from_micros(n)
+    }
+
+    #[test]
+    fn a_slow_slave_is_read_shortly_before_its_least_recent_answer_time() {
+        let mut times = AnswerTimes::default();
+        assert_eq!(times.planned(), None);
+        times.record(us(130));
+        assert_eq!(times.planned(), None, "one answer is no pattern");
+        times.record(us(112));
+        times.record(us(190));
+        assert_eq!(times.planned(), Some(us(112) - LEAD));
+    }
+
+    #[test]
+    fn a_fast_answer_among_the_kept_ones_plans_nothing() {
+        let mut times = AnswerTimes::default();
+        for t in [400, 420, 20, 410] {
+            times.record(us(t));
+        }
+        assert_eq!(times.planned(), None);
+        // Once the fast one is KEPT answers old, the slow pattern counts again.
+        for _ in 0..KEPT - 1 {
+            times.record(us(400));
+        }
+        assert_eq!(times.planned(), Some(us(400) - LEAD));
+    }
+
+    #[test]
+    fn one_slow_answer_does_not_delay_the_next_reads() {
+        let mut times = AnswerTimes::default();
+        for t in [120, 110, 5_000, 115] {
+            times.record(us(t));
+        }
+        assert_eq!(times.planned(), Some(us(110) - LEAD));
+    }
+}
