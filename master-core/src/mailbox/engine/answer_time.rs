@@ -15,9 +15,12 @@ use super::exchange::FIRST_PAUSE;
 pub(crate) const KEPT: usize = 8;
 /// Learned times shorter than this plan nothing: the eager reads cover them.
 pub(crate) const PLAN_FROM: Duration = FIRST_PAUSE;
-/// How long before the learned time the planned read is asked for: the timer's wake-up and
-/// the frame's way out come before the read reaches the slave.
+/// How long before the learned time the planned read is asked for, besides how late the
+/// pauses lately ended: the frame's way out comes before the read reaches the slave.
 pub(crate) const LEAD: Duration = Duration::from_micros(30);
+/// The most a pause's lateness adds to the lead: a stall of the machine must not move the
+/// planned reads far ahead of the answer.
+const MAX_LATE: Duration = Duration::from_micros(200);
 
 /// The last answer times of one slave: from the write of a request to its answer in hand.
 #[derive(Debug, Clone, Default)]
@@ -25,6 +28,9 @@ pub(crate) struct AnswerTimes {
     times: [Duration; KEPT],
     next: usize,
     len: usize,
+    /// How late the planned pauses ended lately (a moving average): the wake-ups of the
+    /// timer's thread and of the caller, which on an idle machine take tens of µs.
+    late: Duration,
 }
 
 impl AnswerTimes {
@@ -35,15 +41,20 @@ impl AnswerTimes {
         self.len = (self.len + 1).min(KEPT);
     }
 
+    /// Notes how late a planned pause ended.
+    pub fn woke_late(&mut self, late: Duration) {
+        self.late = (self.late * 3 + late.min(MAX_LATE)) / 4;
+    }
+
     /// How long after the write the first planned read should go, if the slave is known
-    /// to take long enough for one: the least recent answer time less [`LEAD`]. Nothing
-    /// before two answers are known.
+    /// to take long enough for one: the least recent answer time less [`LEAD`] and less
+    /// how late the pauses lately ended. Nothing before two answers are known.
     pub fn planned(&self) -> Option<Duration> {
         if self.len < 2 {
             return None;
         }
         let least = self.times[..self.len].iter().min().copied()?;
-        (least >= PLAN_FROM).then(|| least.saturating_sub(LEAD))
+        (least >= PLAN_FROM).then(|| least.saturating_sub(LEAD + self.late))
     }
 }
 
@@ -78,6 +89,26 @@ mod tests {
             times.record(us(400));
         }
         assert_eq!(times.planned(), Some(us(400) - LEAD));
+    }
+
+    #[test]
+    fn pauses_that_end_late_plan_the_read_earlier_by_as_much() {
+        let mut times = AnswerTimes::default();
+        times.record(us(300));
+        times.record(us(320));
+        for _ in 0..20 {
+            times.woke_late(us(40));
+        }
+        let planned = times.planned().unwrap();
+        assert!(
+            planned <= us(300) - LEAD - us(38) && planned >= us(300) - LEAD - us(40),
+            "{planned:?}"
+        );
+        // A stall counts only up to its bound.
+        for _ in 0..20 {
+            times.woke_late(Duration::from_secs(1));
+        }
+        assert!(times.planned().unwrap() >= us(300) - LEAD - MAX_LATE);
     }
 
     #[test]

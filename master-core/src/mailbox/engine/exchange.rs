@@ -477,6 +477,8 @@ impl Exchange {
                 let now = Instant::now();
                 if at > now {
                     self.pause(at - now).await;
+                    let late = Instant::now().saturating_duration_since(at);
+                    self.answer_times.woke_late(late);
                 }
             }
             // The eager reads go as one poll the bus thread repeats while SM1 is empty, so
