@@ -31,14 +31,18 @@
 //!    ordinary scheduling and as deployed (the bus thread at `SCHED_FIFO` 50): the gateway's
 //!    p50 from Rust, by how much it exceeds the delay, and the frames beyond the cycle's per
 //!    read (from `ecat_bus_frames_sent_total` less `ecat_bus_cycles_total`);
-//! 4. bring-up to OP of `ecat-sim --slaves N`: ecatd's master (in-process, its scan) and
+//! 4. everything at once (`PERF_VETH_STORM_S`, default 5 s): ecatd as deployed on the
+//!    default segment, its cycle over a quiet window, then while 64 gateway clients, a REST
+//!    and a gRPC client and an application-interface owner (`app_program bench`, every
+//!    cycle, `SCHED_FIFO` 40) run together;
+//! 5. bring-up to OP of `ecat-sim --slaves N`: ecatd's master (in-process, its scan) and
 //!    pysoem (`config_init` + `config_map` + SAFEOP + OP with process data running).
 //!
 //! "vs pysoem" is pysoem's p50 over the row's (above 1: faster); "vs direct" the row's p50
 //! over the direct API's. Each mode ends with issue 38's goals judged on its rows, each with
 //! its bound. Knobs: `PERF_VETH_COUNT` (reads per latency row, default 2000),
 //! `PERF_VETH_EACH` (reads per client of the aggregate rows, default a eighth of the count),
-//! `PERF_VETH_ROWS` (phases to run, comma-separated from `latency,clients,delay,bringup`;
+//! `PERF_VETH_ROWS` (phases to run, comma-separated from `latency,clients,delay,storm,bringup`;
 //! default all), `PERF_VETH_WARM` (`idle,warm` by default; `idle` or `warm` alone),
 //! `PERF_VETH_SOAK` (gateway requests of the memory soak, default 1,000,000;
 //! 0 skips it), `PERF_VETH_RT` (`SCHED_FIFO` priority of ecatd's bus thread in phase 2,
@@ -90,7 +94,7 @@ use master_core::wire::register::AlState;
 use serde_json::Value;
 use server_support::Ecatd;
 use server_support::gateway_client::{GatewayClient, coe_bytes, datagram};
-use sim::topology::{SIM_VENDOR_ID, Topology};
+use sim::topology::{Protocol, SIM_VENDOR_ID, Topology};
 
 const SLAVES: usize = 16;
 /// Clients (or direct callers) of the aggregate rows.
@@ -1040,6 +1044,168 @@ fn phase_delay(table: &Table, count: usize) {
     }
 }
 
+/// How long the storm of goal 6 lasts (`PERF_VETH_STORM_S`, default 5 s).
+fn storm_seconds() -> u64 {
+    env_usize("PERF_VETH_STORM_S", 5) as u64
+}
+
+/// Goal 6: ecatd as deployed (the bus thread at `SCHED_FIFO` 50) on the default segment
+/// (drives, DIO, an EoE port), its 1 kHz cycle over a quiet window, then while everything
+/// runs at once: 64 gateway clients over the CoE slaves, a REST and a gRPC client reading
+/// in a loop, and a control program owning the outputs through the application interface
+/// (`app_program bench`, every cycle, at `SCHED_FIFO` 40). EoE traffic is not part of it (it needs the TAP's
+/// addresses set up; `eoe_veth` measures EoE alone).
+fn phase_storm(table: &Table) {
+    let seconds = storm_seconds();
+    let topology = Topology::default_segment();
+    let coe: Vec<u16> = topology
+        .slaves
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.protocols.contains(&Protocol::Coe))
+        .map(|(p, _)| p as u16)
+        .collect();
+    let file = TempFile::new("storm-topology", &topology.to_toml().expect("toml"));
+    let dir = std::env::temp_dir().join(format!("ecatd-perf-veth-{}-storm", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("run dir");
+    let socket = dir.join("app.sock");
+    let config = TempFile::new("storm", "[bus]\nrt_priority = 50\n[app]\nwatchdog = 1000\n");
+    let ecatd = Ecatd::start_with(
+        &["--simulate", file.path()],
+        &[
+            "--config",
+            config.path(),
+            "--app-socket",
+            socket.to_str().expect("UTF-8 path"),
+        ],
+    );
+    let agent = ureq::Agent::new_with_defaults();
+    let quiet_start = cycle_metrics(&agent, &ecatd.http);
+    std::thread::sleep(QUIET);
+    let quiet_end = cycle_metrics(&agent, &ecatd.http);
+    let deadline = Instant::now() + Duration::from_secs(seconds);
+    let gateway = ecatd.gateway_addr();
+    let request = upload_request();
+    let mut program = Command::new(env!("CARGO_BIN_EXE_app_program"));
+    program
+        .arg(&socket)
+        .arg("bench")
+        .arg(seconds.to_string())
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+    // As a control program is deployed: real-time, below the bus thread (as app_cycle.rs).
+    {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: only a system call between fork and exec, on plain data.
+        unsafe {
+            program.pre_exec(|| {
+                let param = libc::sched_param { sched_priority: 40 };
+                if libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                Ok(())
+            });
+        }
+    }
+    let program = program.spawn().expect("app_program runs");
+    let (gateway_reads, rest_reads, grpc_reads) = std::thread::scope(|scope| {
+        let rest = scope.spawn(|| {
+            let mut client = RestClient::new(&ecatd.http);
+            let mut n = 0usize;
+            while Instant::now() < deadline {
+                assert!(!client.upload(coe[n % coe.len()]).is_empty());
+                n += 1;
+            }
+            n
+        });
+        let grpc = scope.spawn(|| {
+            let mut client = GrpcClient::new(&ecatd.grpc);
+            let mut n = 0usize;
+            while Instant::now() < deadline {
+                assert!(!client.upload(coe[n % coe.len()]).is_empty());
+                n += 1;
+            }
+            n
+        });
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .expect("runtime");
+        let gateway_reads = runtime.block_on(async {
+            let mut tasks = tokio::task::JoinSet::new();
+            for c in 0..CLIENTS {
+                let request = request.clone();
+                let at = station(coe[c % coe.len()]);
+                tasks.spawn(async move {
+                    let host = std::net::Ipv4Addr::new(127, 0, 3, c as u8 + 1);
+                    let socket = tokio::net::UdpSocket::bind((host, 0))
+                        .await
+                        .expect("socket");
+                    let mut reply = [0u8; 2048];
+                    let mut n = 0usize;
+                    while Instant::now() < deadline {
+                        let bytes = datagram(at, MailboxType::Coe, (n % 7 + 1) as u8, &request);
+                        socket.send_to(&bytes, gateway).await.expect("send");
+                        tokio::time::timeout(Duration::from_secs(5), socket.recv(&mut reply))
+                            .await
+                            .expect("a reply in time")
+                            .expect("recv");
+                        n += 1;
+                    }
+                    n
+                });
+            }
+            let mut all = 0;
+            while let Some(joined) = tasks.join_next().await {
+                all += joined.expect("client");
+            }
+            all
+        });
+        (
+            gateway_reads,
+            rest.join().expect("REST client"),
+            grpc.join().expect("gRPC client"),
+        )
+    });
+    let output = program.wait_with_output().expect("app_program ends");
+    let storm_end = cycle_metrics(&agent, &ecatd.http);
+    println!();
+    println!(
+        "everything at once for {seconds} s, ecatd as deployed (bus thread SCHED_FIFO 50), \
+         default segment: {CLIENTS} gateway clients {:.0}/s, REST {:.0}/s, gRPC {:.0}/s, \
+         an application-interface owner every cycle",
+        gateway_reads as f64 / seconds as f64,
+        rest_reads as f64 / seconds as f64,
+        grpc_reads as f64 / seconds as f64,
+    );
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    match stdout.lines().rev().find(|l| !l.trim().is_empty()) {
+        Some(line) if output.status.success() => println!("  the owner: {line}"),
+        _ => println!(
+            "  the owner failed: {}{}",
+            stdout,
+            String::from_utf8_lossy(&output.stderr)
+        ),
+    }
+    print_header();
+    let quiet = print_window("quiet", &quiet_start, &quiet_end);
+    let loaded = print_window("everything at once", &quiet_end, &storm_end);
+    for (i, name) in JITTER_GOAL {
+        table.judge(
+            format!(
+                "cycle {name} with everything at once ≤ quiet's (≤ {} µs)",
+                quiet[i]
+            ),
+            format!("≤ {} µs", loaded[i]),
+            loaded[i] <= quiet[i],
+        );
+    }
+    drop(ecatd);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// ecatd's master (in-process, as `bringup_veth.rs`) scanning `slaves` to OP.
 fn ecatd_bringup(slaves: usize) -> Duration {
     let rig = Rig::new();
@@ -1157,8 +1323,8 @@ impl Drop for Spinner {
 fn main() {
     let count = env_usize("PERF_VETH_COUNT", 2000).max(20);
     let soak = env_usize("PERF_VETH_SOAK", 1_000_000);
-    let rows =
-        std::env::var("PERF_VETH_ROWS").unwrap_or_else(|_| "latency,clients,delay,bringup".into());
+    let rows = std::env::var("PERF_VETH_ROWS")
+        .unwrap_or_else(|_| "latency,clients,delay,storm,bringup".into());
     let has = |name: &str| rows.split(',').any(|r| r.trim() == name);
     let sizes: Vec<usize> = std::env::var("PERF_VETH_BRINGUP")
         .unwrap_or_else(|_| "64,512".into())
@@ -1195,6 +1361,9 @@ fn main() {
         }
         if has("delay") {
             phase_delay(&table, count / 4);
+        }
+        if has("storm") {
+            phase_storm(&table);
         }
         if has("bringup") && !sizes.is_empty() {
             phase_bringup(&table, &sizes);
