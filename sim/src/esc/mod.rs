@@ -36,6 +36,7 @@
 //! - Writes to read-only registers are ignored but counted in the working counter.
 
 mod al;
+mod chain;
 mod command;
 mod config;
 mod dc;
@@ -50,7 +51,7 @@ mod sync_manager;
 pub mod time;
 mod watchdog;
 
-use ecat_wire::datagram::DatagramsMut;
+pub use chain::Chain;
 use ecat_wire::register::address as reg;
 use ecat_wire::register::al::{AlState, AlStatus};
 use ecat_wire::register::al_status_code::AlStatusCode;
@@ -185,6 +186,19 @@ impl Esc {
         device: &mut dyn Device,
         timing: FrameTiming,
     ) {
+        let chain = Chain::of(payload);
+        self.process_chain(payload, &chain, device, timing);
+    }
+
+    /// [`Esc::process_frame`] with the payload's chain read already (once for all the
+    /// slaves a frame passes: [`Chain`]).
+    pub fn process_chain(
+        &mut self,
+        payload: &mut [u8],
+        chain: &Chain,
+        device: &mut dyn Device,
+        timing: FrameTiming,
+    ) {
         self.frame = timing;
         self.check_watchdog(timing.port0_ns, device);
         // The firmware runs between frames, not only when one passes: a reply that came due
@@ -192,15 +206,11 @@ impl Esc {
         // whose application writes SM1 over the PDI at its own time (spec-notes
         // §mbx.handshake). Without this, a delayed reply would wait one frame more.
         self.run_firmware(device);
-        // A real ESC ignores the reserved length bits; KickCAT leaves them uninitialised.
-        for datagram in DatagramsMut::ignoring_reserved_bits(payload) {
-            match datagram {
-                Ok(mut datagram) => self.process_datagram(&mut datagram, device),
-                Err(_) => {
-                    self.count_error(ErrorCounter::ProcessingUnit);
-                    break;
-                }
-            }
+        for mut datagram in chain.datagrams(payload) {
+            self.process_datagram(&mut datagram, device);
+        }
+        if chain.malformed() {
+            self.count_error(ErrorCounter::ProcessingUnit);
         }
         self.end_of_frame(device);
     }

@@ -133,6 +133,8 @@ pub struct Segment {
     backup_cable: bool,
     /// The last frame's route, kept so that routing a frame does not allocate.
     route: Route,
+    /// The last frame's datagram layout, kept for the same reason.
+    chain: crate::esc::Chain,
 }
 
 impl std::fmt::Debug for Segment {
@@ -162,6 +164,7 @@ impl Segment {
             ring: false,
             backup_cable: true,
             route: Route::default(),
+            chain: crate::esc::Chain::default(),
         }
     }
 
@@ -261,6 +264,11 @@ impl Segment {
                 slave.esc.idle(now, slave.device.as_mut());
             }
         }
+        // The chain's layout is the same at every slave: read once (`esc::Chain`).
+        let mut chain = std::mem::take(&mut self.chain);
+        if let Some(payload) = frame.get_mut(start..end) {
+            chain.read(payload);
+        }
         for &(position, timing) in route.processed() {
             let (Some(slave), Some(payload)) =
                 (self.slaves.get_mut(position), frame.get_mut(start..end))
@@ -269,8 +277,9 @@ impl Segment {
             };
             slave
                 .esc
-                .process_frame(payload, slave.device.as_mut(), timing);
+                .process_chain(payload, &chain, slave.device.as_mut(), timing);
         }
+        self.chain = chain;
         let exit = route.exit();
         self.route = route;
         if exit.is_some()
