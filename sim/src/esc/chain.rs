@@ -56,9 +56,7 @@ impl Chain {
             let skip = start.checked_sub(at)?;
             let taken = std::mem::take(&mut rest);
             let (_, tail) = taken.split_at_mut_checked(skip)?;
-            let Some((head, tail)) = tail.split_at_mut_checked(len) else {
-                return None;
-            };
+            let (head, tail) = tail.split_at_mut_checked(len)?;
             rest = tail;
             at = start + len;
             Some(Datagram::new_unchecked(head))
