@@ -93,7 +93,7 @@ mod tests {
             address: 0x0010_03E9,
             data: &[0; 4],
             more: false,
-            ..first.clone()
+            ..first
         };
         let split = first.buffer_len();
         let mut payload = vec![0u8; split + second.buffer_len()];
