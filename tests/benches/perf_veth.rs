@@ -502,7 +502,12 @@ fn vendor_of(reply: &[u8]) -> u32 {
 /// `CLIENTS` gateway clients, each its own socket and host, as tasks of one current-thread
 /// runtime (as the direct API's callers are): what the gateway serves without the
 /// benchmark's own 64 threads competing for the cores.
-fn gateway_clients_async(gateway: std::net::SocketAddr, clients: usize, each: usize) -> Row {
+fn gateway_clients_async(
+    gateway: std::net::SocketAddr,
+    clients: usize,
+    positions: &[u16],
+    until: Until,
+) -> Row {
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -522,11 +527,12 @@ fn gateway_clients_async(gateway: std::net::SocketAddr, clients: usize, each: us
         let mut tasks = tokio::task::JoinSet::new();
         for (c, socket) in sockets.into_iter().enumerate() {
             let request = request.clone();
+            let at = station(positions[c % positions.len()]);
             tasks.spawn(async move {
-                let at = station((c % SLAVES) as u16);
                 let mut reply = [0u8; 2048];
-                let mut samples = Vec::with_capacity(each);
-                for i in 0..each {
+                let mut samples = Vec::new();
+                let mut i = 0usize;
+                while until.goes_on(i) {
                     let bytes = datagram(at, MailboxType::Coe, (i % 7 + 1) as u8, &request);
                     let t = Instant::now();
                     socket.send_to(&bytes, gateway).await.expect("send");
@@ -536,6 +542,7 @@ fn gateway_clients_async(gateway: std::net::SocketAddr, clients: usize, each: us
                         .expect("recv");
                     assert_eq!(vendor_of(&reply[..len]), SIM_VENDOR_ID);
                     samples.push(t.elapsed());
+                    i += 1;
                 }
                 samples
             });
@@ -546,6 +553,35 @@ fn gateway_clients_async(gateway: std::net::SocketAddr, clients: usize, each: us
         }
         row(all, start.elapsed())
     })
+}
+
+/// How long a client of the aggregate rows goes on.
+#[derive(Clone, Copy)]
+enum Until {
+    /// So many reads.
+    Reads(usize),
+    /// Until then.
+    Deadline(Instant),
+}
+
+impl Until {
+    /// Whether a client that made `done` reads makes another.
+    fn goes_on(self, done: usize) -> bool {
+        match self {
+            Until::Reads(each) => done < each,
+            Until::Deadline(at) => Instant::now() < at,
+        }
+    }
+}
+
+/// Reads by `read(n)` (n counting from 0) until `deadline`; how many.
+fn reads_until(deadline: Instant, mut read: impl FnMut(usize)) -> usize {
+    let mut n = 0;
+    while Instant::now() < deadline {
+        read(n);
+        n += 1;
+    }
+    n
 }
 
 /// CPU time (ns) of every live thread of process `pid`.
@@ -918,7 +954,8 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
         judge_cpu(table, CLIENTS, "threads", ecatd_cpu);
         for clients in [SLAVES, CLIENTS] {
             let cpu = CpuMeter::start(Some(ecatd.pid()));
-            let tasks = gateway_clients_async(gateway, clients, each);
+            let positions: Vec<u16> = (0..SLAVES as u16).collect();
+            let tasks = gateway_clients_async(gateway, clients, &positions, Until::Reads(each));
             let name = format!("ecatd gateway (UDP), {clients} Rust clients, tasks of 1 thread");
             if clients == CLIENTS {
                 table.print_as(Key::ClientsTasks, &name, &tasks);
@@ -1086,7 +1123,6 @@ fn phase_storm(table: &Table) {
     let quiet_end = cycle_metrics(&agent, &ecatd.http);
     let deadline = Instant::now() + Duration::from_secs(seconds);
     let gateway = ecatd.gateway_addr();
-    let request = upload_request();
     let mut program = Command::new(env!("CARGO_BIN_EXE_app_program"));
     program
         .arg(&socket)
@@ -1110,61 +1146,22 @@ fn phase_storm(table: &Table) {
         }
     }
     let program = program.spawn().expect("app_program runs");
-    let (gateway_reads, rest_reads, grpc_reads) = std::thread::scope(|scope| {
+    let (gateway, rest_reads, grpc_reads) = std::thread::scope(|scope| {
         let rest = scope.spawn(|| {
             let mut client = RestClient::new(&ecatd.http);
-            let mut n = 0usize;
-            while Instant::now() < deadline {
-                assert!(!client.upload(coe[n % coe.len()]).is_empty());
-                n += 1;
-            }
-            n
+            reads_until(deadline, |n| {
+                assert!(!client.upload(coe[n % coe.len()]).is_empty())
+            })
         });
         let grpc = scope.spawn(|| {
             let mut client = GrpcClient::new(&ecatd.grpc);
-            let mut n = 0usize;
-            while Instant::now() < deadline {
-                assert!(!client.upload(coe[n % coe.len()]).is_empty());
-                n += 1;
-            }
-            n
+            reads_until(deadline, |n| {
+                assert!(!client.upload(coe[n % coe.len()]).is_empty())
+            })
         });
-        let runtime = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .expect("runtime");
-        let gateway_reads = runtime.block_on(async {
-            let mut tasks = tokio::task::JoinSet::new();
-            for c in 0..CLIENTS {
-                let request = request.clone();
-                let at = station(coe[c % coe.len()]);
-                tasks.spawn(async move {
-                    let host = std::net::Ipv4Addr::new(127, 0, 3, c as u8 + 1);
-                    let socket = tokio::net::UdpSocket::bind((host, 0))
-                        .await
-                        .expect("socket");
-                    let mut reply = [0u8; 2048];
-                    let mut n = 0usize;
-                    while Instant::now() < deadline {
-                        let bytes = datagram(at, MailboxType::Coe, (n % 7 + 1) as u8, &request);
-                        socket.send_to(&bytes, gateway).await.expect("send");
-                        tokio::time::timeout(Duration::from_secs(5), socket.recv(&mut reply))
-                            .await
-                            .expect("a reply in time")
-                            .expect("recv");
-                        n += 1;
-                    }
-                    n
-                });
-            }
-            let mut all = 0;
-            while let Some(joined) = tasks.join_next().await {
-                all += joined.expect("client");
-            }
-            all
-        });
+        let gateway = gateway_clients_async(gateway, CLIENTS, &coe, Until::Deadline(deadline));
         (
-            gateway_reads,
+            gateway,
             rest.join().expect("REST client"),
             grpc.join().expect("gRPC client"),
         )
@@ -1176,7 +1173,7 @@ fn phase_storm(table: &Table) {
         "everything at once for {seconds} s, ecatd as deployed (bus thread SCHED_FIFO 50), \
          default segment: {CLIENTS} gateway clients {:.0}/s, REST {:.0}/s, gRPC {:.0}/s, \
          an application-interface owner every cycle",
-        gateway_reads as f64 / seconds as f64,
+        gateway.per_second,
         rest_reads as f64 / seconds as f64,
         grpc_reads as f64 / seconds as f64,
     );

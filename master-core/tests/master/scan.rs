@@ -271,30 +271,40 @@ fn a_second_scan_starts_over_and_ends_in_the_same_place() {
     }));
 }
 
-#[test]
-fn slaves_that_return_four_bytes_per_eeprom_read_are_read_whole() {
+/// A rig of the default segment's slaves at `picked`, on ESCs that return 8 bytes per
+/// EEPROM read or 4 (`eight`), with its topology.
+fn eeprom_rig(
+    picked: &[usize],
+    eight: bool,
+    config: MasterConfig,
+) -> (master_support::Rig<sim::link::InProcessLink>, Topology) {
     use sim::device::SlaveDevice;
     use sim::esc::{Esc, EscConfig, ManualTime};
     use sim::segment::Segment;
-    // The CoE store and the EoE port (no process data) on ESCs with 4-byte EEPROM reads.
     let default = Topology::default_segment();
     let built = sim::topology::build(&default).unwrap();
-    let picked = [3usize, 4];
     let time = ManualTime::new(0);
     let mut segment = Segment::new(Box::new(time.clone()));
-    for &p in &picked {
-        let config = EscConfig {
-            eeprom_read_8_bytes: false,
+    for &p in picked {
+        let esc = EscConfig {
+            eeprom_read_8_bytes: eight,
             ..EscConfig::default()
         };
         let sii = built.esc(p).unwrap().sii().to_vec();
-        segment.push(Esc::new(config, sii), Box::new(SlaveDevice::new()));
+        segment.push(Esc::new(esc, sii), Box::new(SlaveDevice::new()));
     }
     let topology = Topology {
         ring: false,
         slaves: picked.iter().map(|&p| default.slaves[p].clone()).collect(),
     };
-    let rig = master_support::rig_on(segment, time, topology.clone(), MasterConfig::default());
+    let rig = master_support::rig_on(segment, time, topology.clone(), config);
+    (rig, topology)
+}
+
+#[test]
+fn slaves_that_return_four_bytes_per_eeprom_read_are_read_whole() {
+    // The CoE store and the EoE port (no process data) on ESCs with 4-byte EEPROM reads.
+    let (rig, topology) = eeprom_rig(&[3, 4], false, MasterConfig::default());
     let report = block_on(rig.master().scan()).expect("scan");
     assert!(report.failures.is_empty(), "{:?}", report.failures);
     for (info, spec) in report.slaves.iter().zip(&topology.slaves) {
@@ -314,22 +324,8 @@ fn slaves_that_return_four_bytes_per_eeprom_read_are_read_whole() {
 #[test]
 fn an_eeprom_read_is_a_command_and_one_read_of_status_and_data() {
     use master_core::mailbox::MailboxConfig;
-    use sim::device::SlaveDevice;
-    use sim::esc::{Esc, EscConfig, ManualTime};
-    use sim::segment::Segment;
-    let default = Topology::default_segment();
-    let built = sim::topology::build(&default).unwrap();
+    let every: Vec<usize> = (0..Topology::default_segment().slaves.len()).collect();
     for eight in [true, false] {
-        let time = ManualTime::new(0);
-        let mut segment = Segment::new(Box::new(time.clone()));
-        for position in 0..default.slaves.len() {
-            let config = EscConfig {
-                eeprom_read_8_bytes: eight,
-                ..EscConfig::default()
-            };
-            let sii = built.esc(position).unwrap().sii().to_vec();
-            segment.push(Esc::new(config, sii), Box::new(SlaveDevice::new()));
-        }
         // In INIT, with no watch and no idle mailbox reads: every datagram counted is one
         // the SII read sent.
         let config = MasterConfig {
@@ -341,7 +337,7 @@ fn an_eeprom_read_is_a_command_and_one_read_of_status_and_data() {
             },
             ..MasterConfig::default()
         };
-        let rig = master_support::rig_on(segment, time, default.clone(), config);
+        let (rig, _) = eeprom_rig(&every, eight, config);
         let report = block_on(rig.master().scan()).expect("scan");
         assert!(report.failures.is_empty(), "{:?}", report.failures);
         let chunk = if eight { 8 } else { 4 };
