@@ -546,8 +546,15 @@ impl<L: Link> Engine<L> {
                         entry.again -= 1;
                         stats.datagrams_polled_again.inc();
                         self.staging.push_back(entry);
-                    } else {
-                        complete(entry, &datagram, stats);
+                        continue;
+                    }
+                    let then = entry.then.take();
+                    complete(entry, &datagram, stats);
+                    // The next step of a chain goes in the next frame out; after a datagram
+                    // that did not count, the rest is skipped (dropped).
+                    if let Some(rest) = then.filter(|_| datagram.wkc > 0) {
+                        stats.datagrams_chained.inc();
+                        self.staging.extend(rest.next_step());
                     }
                 }
             }

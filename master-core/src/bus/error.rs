@@ -53,6 +53,10 @@ pub enum BusError {
     /// frame; acyclic datagrams wait for an index instead).
     #[error("all 256 datagram indices are in flight")]
     IndicesExhausted,
+    /// Not sent: the datagram of a chain it was to follow did not count or failed
+    /// ([`BusHandle::submit_chain`](super::BusHandle::submit_chain)).
+    #[error("not sent: the step of its chain before it did not count")]
+    Skipped,
     /// The link refused to send the frame on its last attempt (interface down, say).
     #[error("the link failed to send: {0}")]
     Link(io::ErrorKind),

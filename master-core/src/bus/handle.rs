@@ -6,6 +6,7 @@ use std::sync::Arc;
 use crate::wire::datagram::OVERHEAD;
 
 use super::Shared;
+use super::chain::{Chain, Chained};
 use super::completion::{self, Pending};
 use super::config::BusConfig;
 use super::cyclic::CyclicTask;
@@ -100,6 +101,7 @@ impl BusHandle {
             group_left: 1,
             once,
             again,
+            then: None,
         };
         if let Err((err, refused)) = self.shared().queue.push(std::iter::once(queued)) {
             for entry in refused {
@@ -142,6 +144,7 @@ impl BusHandle {
                     group_left: (count - i) as u16,
                     once: false,
                     again: 0,
+                    then: None,
                 });
         let refused = match checked {
             Ok(()) => self.shared().queue.push(batch).err(),
@@ -149,6 +152,70 @@ impl BusHandle {
         };
         if let Some((err, refused)) = refused {
             for entry in refused {
+                entry.completer.complete(Err(err.clone()));
+            }
+        }
+        pendings
+    }
+
+    /// Queues `steps`, each a group of datagrams that share a frame, to be sent one step
+    /// after the other: the bus thread sends a step in the next frame out once the step
+    /// before came back with its **first** datagram counted (working counter above 0),
+    /// without waking the caller in between. After a first datagram that did not count or
+    /// failed, the steps behind it are not sent and complete with [`BusError::Skipped`].
+    /// Returns one `Pending` per datagram, by step.
+    ///
+    /// For messages to a slave's receive mailbox, one write per step: the next is written
+    /// as soon as the one before was taken, at the frame round trip's pace (see
+    /// `chain`'s module documentation). Every step is checked as [`Self::submit_group`]
+    /// checks a group; if one is refused, every `Pending` completes with the error.
+    pub fn submit_chain(&self, steps: Vec<Vec<Chained>>) -> Vec<Vec<Pending>> {
+        let checked = steps.iter().try_for_each(|step| {
+            if step.is_empty() {
+                return Err(BusError::InvalidRequest("an empty step of a chain"));
+            }
+            let requests: Vec<&DatagramRequest> = step.iter().map(|c| &c.request).collect();
+            self.check_requests(&requests)
+        });
+        let mut pendings = Vec::with_capacity(steps.len());
+        let mut queued = std::collections::VecDeque::with_capacity(steps.len());
+        for step in steps {
+            let count = step.len();
+            let mut step_pendings = Vec::with_capacity(count);
+            let mut entries = Vec::with_capacity(count);
+            for (i, chained) in step.into_iter().enumerate() {
+                let (pending, completer) = completion::pair();
+                step_pendings.push(pending);
+                entries.push(Queued {
+                    request: chained.request,
+                    completer,
+                    // Checked: a step has at most `MAX_DATAGRAMS_PER_FRAME` members.
+                    group_left: (count - i) as u16,
+                    once: chained.once,
+                    again: 0,
+                    then: None,
+                });
+            }
+            pendings.push(step_pendings);
+            queued.push_back(entries);
+        }
+        if let Err(err) = checked {
+            for entry in queued.into_iter().flatten() {
+                entry.completer.complete(Err(err.clone()));
+            }
+            return pendings;
+        }
+        let Some(mut first) = queued.pop_front() else {
+            return pendings;
+        };
+        if let Some(head) = first.first_mut() {
+            head.then = Chain::new(queued);
+        }
+        if let Err((err, refused)) = self.shared().queue.push(first.into_iter()) {
+            for mut entry in refused {
+                if let Some(rest) = entry.then.take() {
+                    (*rest).fail(&err);
+                }
                 entry.completer.complete(Err(err.clone()));
             }
         }
@@ -171,6 +238,11 @@ impl BusHandle {
     }
 
     fn check_group(&self, requests: &[DatagramRequest]) -> Result<(), BusError> {
+        let requests: Vec<&DatagramRequest> = requests.iter().collect();
+        self.check_requests(&requests)
+    }
+
+    fn check_requests(&self, requests: &[&DatagramRequest]) -> Result<(), BusError> {
         for request in requests {
             self.check(request)?;
         }

@@ -97,6 +97,7 @@ use std::thread::JoinHandle;
 
 use crate::link::Link;
 
+mod chain;
 mod completion;
 mod config;
 mod cyclic;
@@ -117,6 +118,7 @@ mod request;
 mod sched;
 mod stats;
 
+pub use chain::Chained;
 pub use completion::{DatagramResult, Pending};
 pub use config::{BusConfig, WaitMode};
 pub use cyclic::{CyclicFrame, CyclicReply, CyclicTask, DEFAULT_PERIOD, MIN_PERIOD};

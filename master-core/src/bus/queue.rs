@@ -31,6 +31,9 @@ pub(crate) struct Queued {
     /// Sent again at once, up to this many more times, while it comes back with working
     /// counter 0 (see [`BusHandle::submit_once_polling`](super::BusHandle::submit_once_polling)).
     pub again: u16,
+    /// The steps of its chain still to go, on the first datagram of a chain's step: staged
+    /// once this one came back counted, skipped otherwise (see [`super::chain`]).
+    pub then: Option<Box<super::chain::Chain>>,
 }
 
 /// A change of cyclic task asked for: `Some(task)` to run one, `None` to stop.
@@ -218,6 +221,7 @@ mod tests {
             group_left: 1,
             once: false,
             again: 0,
+            then: None,
         }
     }
 

@@ -23,6 +23,7 @@ pub(crate) struct BusStats {
     pub datagrams_completed: Counter,
     pub datagrams_failed: Counter,
     pub datagrams_polled_again: Counter,
+    pub datagrams_chained: Counter,
     pub wkc_mismatches: Counter,
     pub cycles_run: Counter,
     pub cycles_late: Counter,
@@ -83,6 +84,9 @@ pub struct BusStatsSnapshot {
     /// thread itself ([`BusHandle::submit_once_polling`](super::BusHandle::submit_once_polling));
     /// each try also counts in `datagrams_sent`.
     pub datagrams_polled_again: u64,
+    /// Steps of chains the bus thread staged itself after the step before counted
+    /// ([`BusHandle::submit_chain`](super::BusHandle::submit_chain)).
+    pub datagrams_chained: u64,
     /// Replies whose working counter was not the one the caller expected.
     pub wkc_mismatches: u64,
     /// Cycles of the cyclic task that were started.
@@ -136,6 +140,7 @@ impl BusStats {
             datagrams_completed: self.datagrams_completed.get(),
             datagrams_failed: self.datagrams_failed.get(),
             datagrams_polled_again: self.datagrams_polled_again.get(),
+            datagrams_chained: self.datagrams_chained.get(),
             wkc_mismatches: self.wkc_mismatches.get(),
             cycles_run: self.cycles_run.get(),
             cycles_late: self.cycles_late.get(),

@@ -5,6 +5,7 @@
 #[path = "../bus_support/mod.rs"]
 mod bus_support;
 
+mod chains;
 mod cyclic;
 mod faults;
 mod late_replies;

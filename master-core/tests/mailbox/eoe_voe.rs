@@ -10,10 +10,14 @@ use std::time::Duration;
 use etherparse::{Icmpv4Type, NetSlice, PacketBuilder, SlicedPacket, TransportSlice};
 use mailbox_support::{DRIVE, EOE_PORT, Rig, station};
 use master_core::mailbox::{IpSettings, MailboxError, SlaveMailbox};
-use master_core::wire::eoe::AddressFilter;
+use master_core::wire::eoe::{AddressFilter, Fragmenter};
+
+/// Fragments per turn of the mailbox's owner (master-core's `mailbox::eoe::tx::CHAIN`).
+const CHAIN: usize = 4;
+use master_core::link::FaultConfig;
 use master_core::wire::mailbox::MailboxErrorCode;
 use sim::device::voe::VoeEcho;
-use sim::topology::Topology;
+use sim::topology::{MailboxSpec, Topology};
 
 const MASTER_MAC: [u8; 6] = [0x02, 0x00, 0x00, 0x00, 0x00, 0x01];
 const MASTER_IP: Ipv4Addr = Ipv4Addr::new(192, 168, 100, 1);
@@ -118,6 +122,66 @@ async fn an_icmp_echo_request_through_eoe_gets_the_slaves_reply() {
         assert_eq!(stats.eoe_reassembly_errors, 0);
     }
     assert_eq!(rig.slave(EOE_PORT).station(), station(EOE_PORT));
+}
+
+/// The default segment with the drive's mailboxes `size` bytes each way.
+fn with_drive_mailboxes(size: u16) -> Rig {
+    let mut topology = Topology::default_segment();
+    let drive = &mut topology.slaves[DRIVE];
+    drive.mailbox = Some(MailboxSpec {
+        rx_size: size,
+        tx_size: size,
+        start: None,
+    });
+    drive.esc.ram_kib = drive.esc.ram_kib.max(8);
+    Rig::start(
+        &topology,
+        FaultConfig::default(),
+        1,
+        mailbox_support::bus_config(),
+    )
+}
+
+#[tokio::test]
+async fn a_frame_of_many_fragments_goes_in_chains_the_bus_writes_as_the_slave_takes_them() {
+    // 128 bytes: a write and the read beside it share a frame; 1 KiB: they do not fit one.
+    for size in [128u16, 1024] {
+        let rig = with_drive_mailboxes(size);
+        let slave = rig.slave(DRIVE);
+        let me = settings(40);
+        slave.eoe_set_ip(&me).await.unwrap();
+        assert_eq!(usize::from(slave.config().write.len), usize::from(size));
+        let frame = echo_request(&me, 0x4343, 1, &[0x5A; 1400]);
+        let fragments = Fragmenter::new(&frame, size.into(), 0).unwrap().count();
+        let turns = fragments.div_ceil(CHAIN);
+        let (bus, mailbox) = (rig.bus.stats(), slave.stats());
+        let mut replies = slave.subscribe_eoe();
+        slave.eoe_send(&frame).await.unwrap();
+        let (bus_after, mailbox_after) = (rig.bus.stats(), slave.stats());
+        // The simulated slave takes each fragment within the frame that wrote it: every
+        // write counts, and in each turn of up to CHAIN fragments the bus wrote all but
+        // the first. The echo reply comes back the same way, in chains of reads.
+        assert_eq!(mailbox_after.write_full, mailbox.write_full, "{size}");
+        assert_eq!(
+            mailbox_after.writes - mailbox.writes,
+            fragments as u64,
+            "{size}"
+        );
+        let chained = bus_after.datagrams_chained - bus.datagrams_chained;
+        assert_eq!(chained, (fragments - turns) as u64, "{size}");
+        assert_eq!(mailbox_after.eoe_frames_out - mailbox.eoe_frames_out, 1);
+        // The device got the whole frame: it answers the echo request, as long.
+        let reply = tokio::time::timeout(Duration::from_secs(5), replies.recv())
+            .await
+            .expect("the echo reply")
+            .unwrap();
+        assert_eq!(reply.frame.len(), frame.len(), "{size}");
+        let read_chained = rig.bus.stats().datagrams_chained - bus_after.datagrams_chained;
+        assert!(
+            read_chained > 0,
+            "{size}: the reply's fragments were read by chained reads"
+        );
+    }
 }
 
 #[tokio::test]

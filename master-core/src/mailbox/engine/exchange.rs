@@ -56,6 +56,8 @@ use super::report;
 use super::slave::SlaveShared;
 use super::stats::inc;
 
+mod chain;
+
 /// Answers read while a request waited for room in SM0, kept for it.
 const STASH_LEN: usize = 8;
 /// Messages an idle read takes from SM1 in a row at most.
@@ -367,27 +369,7 @@ impl Exchange {
         mailbox_type: MailboxType,
         emit: impl FnOnce(&mut [u8]) -> core::result::Result<usize, WireError>,
     ) -> Result<()> {
-        if self.tx.len() <= HEADER_LEN {
-            return Err(self.violation("the receive mailbox is too small"));
-        }
-        self.tx.fill(0);
-        // Taken even if the body does not encode: a skipped counter is harmless, the slave
-        // only discards a repeat of the last one.
-        let counter = self.next_counter();
-        let (head, body) = self.tx.split_at_mut(HEADER_LEN);
-        let length = emit(body).map_err(MailboxError::Invalid)?;
-        let header = MailboxHeader {
-            // At most the SM0 length − 6: `emit` wrote no more than `body` holds.
-            length: u16::try_from(length).unwrap_or(u16::MAX),
-            address: 0,
-            channel: 0,
-            priority: 0,
-            mailbox_type,
-            counter,
-        };
-        header
-            .emit(&mut Mailbox::new_unchecked(head))
-            .map_err(MailboxError::Invalid)?;
+        self.compose(mailbox_type, emit)?;
         let station = self.station();
         let start = self.shared.config.write.start;
         let want = Some(Want::Reply(mailbox_type));
@@ -425,6 +407,36 @@ impl Exchange {
             }
             self.sleep(self.shared.engine.full_retry_interval).await;
         }
+    }
+
+    /// Puts one message of `mailbox_type` in `tx`, under the next counter: the header, and
+    /// the data `emit` writes.
+    fn compose(
+        &mut self,
+        mailbox_type: MailboxType,
+        emit: impl FnOnce(&mut [u8]) -> core::result::Result<usize, WireError>,
+    ) -> Result<()> {
+        if self.tx.len() <= HEADER_LEN {
+            return Err(self.violation("the receive mailbox is too small"));
+        }
+        self.tx.fill(0);
+        // Taken even if the body does not encode: a skipped counter is harmless, the slave
+        // only discards a repeat of the last one.
+        let counter = self.next_counter();
+        let (head, body) = self.tx.split_at_mut(HEADER_LEN);
+        let length = emit(body).map_err(MailboxError::Invalid)?;
+        let header = MailboxHeader {
+            // At most the SM0 length − 6: `emit` wrote no more than `body` holds.
+            length: u16::try_from(length).unwrap_or(u16::MAX),
+            address: 0,
+            channel: 0,
+            priority: 0,
+            mailbox_type,
+            counter,
+        };
+        header
+            .emit(&mut Mailbox::new_unchecked(head))
+            .map_err(MailboxError::Invalid)
     }
 
     /// Keeps the answer just read (in `rx`) for the next [`Self::receive`].
@@ -546,13 +558,7 @@ impl Exchange {
             Read::Routed => found = true,
             Read::Nothing => {}
         }
-        for _ in 0..IDLE_DRAIN {
-            if self.read_one(None, 0).await? == Read::Nothing {
-                break;
-            }
-            found = true;
-        }
-        Ok(found)
+        Ok(self.drain(IDLE_DRAIN).await? > 0 || found)
     }
 
     /// Sends one read of the whole SM1, never to be resent by the bus after a lost frame;

@@ -38,7 +38,8 @@ pub(crate) enum Pushed {
 }
 
 /// Traffic the owner task sends while no request waits (EoE frames), from a queue of its
-/// own, one message per turn so a request that arrives meanwhile goes first.
+/// own, one short step per turn (a few messages) so a request that arrives meanwhile goes
+/// first.
 pub(crate) trait Background: Send {
     /// Whether a send is under way.
     fn busy(&self) -> bool;
@@ -49,7 +50,7 @@ pub(crate) trait Background: Send {
     /// Waits for the next queued send and starts it (nothing if the queue is closed).
     fn start_next(&mut self) -> BoxFuture<'_, ()>;
 
-    /// Writes the next message of the send under way.
+    /// Writes the next messages of the send under way (one step: a few at most).
     fn step<'a>(&'a mut self, exchange: &'a mut Exchange) -> BoxFuture<'a, ()>;
 
     /// Closes the queue: sends still queued fail when dropped.
