@@ -795,11 +795,7 @@ fn a_force_is_refused_while_an_application_owns_the_outputs_unless_it_says_overr
     // The owner's channel 1 and the forced channel 2, in the same frames.
     ecatd.wait_sim_outputs(1, &[0x03], PATIENCE);
     // The audit line says the force went over the owner.
-    let log = ecatd.log();
-    assert!(
-        log.contains(r#""target":"slave 1 0x7000:02 over_owner","outcome":"done""#),
-        "{log}"
-    );
+    ecatd.wait_log(r#""target":"slave 1 0x7000:02 over_owner","outcome":"done""#);
 }
 
 #[test]

@@ -896,11 +896,7 @@ fn process_data_refuses_bad_requests_and_forces_over_an_owner_only_with_override
     assert_eq!(forced["force"]["override"], true, "{forced}");
     ecatd.wait_sim_outputs(1, &[0x03], PD_PATIENCE);
     // The audit line says the force went over the owner.
-    let log = ecatd.log();
-    assert!(
-        log.contains(r#""target":"slave 1 0x7000:02 over_owner","outcome":"done""#),
-        "{log}"
-    );
+    ecatd.wait_log(r#""target":"slave 1 0x7000:02 over_owner","outcome":"done""#);
     drop(owner);
 }
 

@@ -464,6 +464,22 @@ impl Ecatd {
         }
     }
 
+    /// Waits until ecatd's log holds `text` (panics at the deadline): a line written
+    /// after the call it follows has answered (an audit line) reaches the log reader a
+    /// little later.
+    pub fn wait_log(&self, text: &str) {
+        let deadline = Instant::now() + DEADLINE;
+        while !self.log().contains(text) {
+            assert!(
+                Instant::now() < deadline,
+                "ecatd did not log {text:?}:\n{}",
+                self.log()
+            );
+            // Poll interval of the log check; the loop ends on the condition or the deadline.
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
     /// Sends SIGTERM and waits for the exit; returns whether it exited with success.
     pub fn stop(&mut self) -> bool {
         self.terminate(DEADLINE)

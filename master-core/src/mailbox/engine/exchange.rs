@@ -541,7 +541,7 @@ impl Exchange {
     /// Reads SM1 while it holds messages, with nobody waiting for an answer. Returns
     /// whether anything was there: a slave that just sent something (an EoE frame, say)
     /// often has more on the way, so the owner reads again at once instead of at the next
-    /// poll.
+    /// poll. The reads go as one chain the bus thread runs (`drain`).
     pub async fn poll_idle(&mut self) -> Result<bool> {
         self.deadline = Instant::now() + self.shared.engine.timeout;
         if self.eoe_rx.expire(Instant::now(), None) {

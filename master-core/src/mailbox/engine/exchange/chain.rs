@@ -8,6 +8,10 @@
 //! Reads of SM1 in a chain follow each other (the next is sent only once the one before
 //! came back with a message), so at most one is in flight: a lost one ends the chain and is
 //! recovered before SM1 is read again (spec-notes §mbx.repeat).
+//!
+//! Only the slave's owner task runs chains (EoE and its idle reads), never a request a
+//! caller may drop: a chain runs to its end on the bus thread whoever still waits for it,
+//! and the owner goes away only when the slave's mailbox is let go.
 
 use crate::bus::{BusError, Chained, DatagramData, DatagramRequest, DatagramResult};
 use crate::mailbox::error::{MailboxError, Result};
