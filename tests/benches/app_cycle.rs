@@ -443,19 +443,7 @@ fn run_program(
         };
     }
     if realtime {
-        use std::os::unix::process::CommandExt;
-        // SAFETY: only a system call between fork and exec.
-        unsafe {
-            command.pre_exec(|| {
-                let param = libc::sched_param {
-                    sched_priority: PROGRAM_PRIORITY,
-                };
-                if libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) != 0 {
-                    return Err(std::io::Error::last_os_error());
-                }
-                Ok(())
-            })
-        };
+        ecat_tests::realtime::fifo(&mut command, PROGRAM_PRIORITY);
     }
     let output = command.output().expect("the program runs");
     let stdout = String::from_utf8_lossy(&output.stdout);

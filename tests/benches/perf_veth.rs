@@ -1132,19 +1132,7 @@ fn phase_storm(table: &Table) {
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped());
     // As a control program is deployed: real-time, below the bus thread (as app_cycle.rs).
-    {
-        use std::os::unix::process::CommandExt;
-        // SAFETY: only a system call between fork and exec, on plain data.
-        unsafe {
-            program.pre_exec(|| {
-                let param = libc::sched_param { sched_priority: 40 };
-                if libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) != 0 {
-                    return Err(std::io::Error::last_os_error());
-                }
-                Ok(())
-            });
-        }
-    }
+    ecat_tests::realtime::fifo(&mut program, 40);
     let program = program.spawn().expect("app_program runs");
     let (gateway, rest_reads, grpc_reads) = std::thread::scope(|scope| {
         let rest = scope.spawn(|| {

@@ -14,6 +14,7 @@ pub mod tshark;
 
 pub mod pysoem_session;
 pub mod python;
+pub mod realtime;
 pub mod rig;
 pub mod sim_process;
 pub mod veth_master;

@@ -487,19 +487,7 @@ fn the_rust_client_owns_a_1khz_cycle_for_a_minute_and_every_commit_reaches_a_fra
     );
     let seconds = if server_support::on_veth() { 60 } else { 10 };
     let mut command = program(Client::Rust, &socket, "soak", Some(seconds));
-    {
-        use std::os::unix::process::CommandExt;
-        // SAFETY: only a system call between fork and exec.
-        unsafe {
-            command.pre_exec(|| {
-                let param = libc::sched_param { sched_priority: 40 };
-                if libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) != 0 {
-                    return Err(std::io::Error::last_os_error());
-                }
-                Ok(())
-            })
-        };
-    }
+    ecat_tests::realtime::fifo(&mut command, 40);
     let output = command.stdout(Stdio::piped()).output().expect("runs");
     assert!(
         output.status.success(),
