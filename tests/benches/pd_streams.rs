@@ -25,7 +25,7 @@
 //! the windows differ by the streams and the scrapes alone. Each toggle changes two
 //! entries: the output, and the DI8's input wired to it.
 //!
-//! Prints the jitter table (window s, cycles, missed, p50/p90/p99/p99.9 bucket bounds in µs)
+//! Prints the jitter table (window s, cycles, missed, lost, p50/p90/p99/p99.9 bucket bounds in µs)
 //! of both windows, the events and changed values each stream received, the toggles and
 //! scrapes, and the goal: "cycle jitter p99 with 10 streams + scrapes ≤ quiet window's
 //! bucket", met or not met. Timing is judged, never asserted; what is asserted is the

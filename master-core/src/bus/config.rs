@@ -62,6 +62,14 @@ pub struct BusConfig {
     /// [`ThreadPriority::Realtime`] to keep cycles on time while other threads load every
     /// core.
     pub priority: ThreadPriority,
+    /// How long before each cycle is due the bus thread wakes, to spin until it is due. A
+    /// sleeping thread is woken late by the kernel: tens of µs on a virtual machine or a
+    /// core leaving an idle state, more with the other cores busy. Waking this much early
+    /// spends that latency before the cycle is due instead of after, at the price of up to
+    /// this much CPU per period. At most half the period is spun. Meant for a real-time bus
+    /// thread ([`ThreadPriority::Realtime`]): an ordinary one can be preempted while it
+    /// spins. Default: zero, no spinning.
+    pub cycle_spin: Duration,
 }
 
 impl Default for BusConfig {
@@ -75,6 +83,7 @@ impl Default for BusConfig {
             max_frame_len: MAX_FRAME_LEN,
             frames_in_flight: 4,
             priority: ThreadPriority::Inherit,
+            cycle_spin: Duration::ZERO,
         }
     }
 }

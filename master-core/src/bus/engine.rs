@@ -56,6 +56,9 @@ struct Cyclic {
     task: Box<dyn CyclicTask>,
     period: Duration,
     next_due: Instant,
+    /// How long before `next_due` the thread wakes to spin ([`BusConfig::cycle_spin`], at
+    /// most half the period).
+    spin: Duration,
 }
 
 /// Everything the bus thread owns.
@@ -380,10 +383,15 @@ impl<L: Link> Engine<L> {
         if self.records[id].active {
             self.release_record(id);
         }
-        self.cyclic = change.map(|task| Cyclic {
-            period: task.period().max(MIN_PERIOD),
-            task,
-            next_due: Instant::now(),
+        let spin = self.config.cycle_spin;
+        self.cyclic = change.map(|task| {
+            let period = task.period().max(MIN_PERIOD);
+            Cyclic {
+                period,
+                task,
+                next_due: Instant::now(),
+                spin: spin.min(period / 2),
+            }
         });
     }
 
@@ -393,9 +401,20 @@ impl<L: Link> Engine<L> {
         let Some(cyclic) = &mut self.cyclic else {
             return;
         };
-        let now = Instant::now();
-        if now < cyclic.next_due || self.records[id].active {
+        if self.records[id].active {
             return;
+        }
+        let mut now = Instant::now();
+        if now < cyclic.next_due {
+            // Woken `cycle_spin` early (`next_wake`): spin the rest, so that the kernel's
+            // wake-up latency is spent before the cycle is due, not after.
+            if cyclic.next_due - now > cyclic.spin {
+                return;
+            }
+            while now < cyclic.next_due {
+                std::hint::spin_loop();
+                now = Instant::now();
+            }
         }
         let stats = &self.shared.stats;
         let late_by = now - cyclic.next_due;
@@ -437,7 +456,7 @@ impl<L: Link> Engine<L> {
             .cyclic
             .as_ref()
             .filter(|_| !self.records[self.cyclic_record()].active)
-            .map(|c| c.next_due);
+            .map(|c| c.next_due.checked_sub(c.spin).unwrap_or(c.next_due));
         deadlines.chain(cycle).min()
     }
 
@@ -757,6 +776,7 @@ mod tests {
     use super::*;
     use crate::bus::cyclic::{CyclicFrame, CyclicReply};
     use crate::link::MemoryLink;
+    use crate::wire::command::Command;
 
     struct Idle(Duration);
 
@@ -768,16 +788,80 @@ mod tests {
         fn complete(&mut self, _reply: &CyclicReply<'_>) {}
     }
 
+    /// A cyclic task of one BRD, so that each cycle sends a frame.
+    struct OneRead(Duration);
+
+    impl CyclicTask for OneRead {
+        fn period(&self) -> Duration {
+            self.0
+        }
+        fn build(&mut self, frame: &mut CyclicFrame<'_>) {
+            let brd = DatagramAddress::broadcast(0x0130);
+            frame.push_zeroed(Command::Brd, brd, 2).unwrap();
+        }
+        fn complete(&mut self, _reply: &CyclicReply<'_>) {}
+    }
+
     fn engine() -> Engine<MemoryLink> {
-        let (link, _far) = MemoryLink::pair(4);
-        let config = BusConfig::default();
+        engine_with(BusConfig::default()).0
+    }
+
+    /// An engine on `config`, and the far end of its link.
+    fn engine_with(config: BusConfig) -> (Engine<MemoryLink>, MemoryLink) {
+        let (link, far) = MemoryLink::pair(4);
         let shared = Arc::new(Shared {
             queue: Submissions::new(config.queue_capacity),
             stats: BusStats::default(),
             config,
             ring: None,
         });
-        Engine::new(link, shared)
+        (Engine::new(link, shared), far)
+    }
+
+    #[test]
+    fn a_cycle_spin_wakes_the_thread_early_and_the_cycle_goes_when_due_never_before() {
+        let spin = Duration::from_micros(200);
+        let config = BusConfig {
+            cycle_spin: spin,
+            ..BusConfig::default()
+        };
+        let (mut engine, mut far) = engine_with(config);
+        engine.change_cyclic(Some(Box::new(OneRead(Duration::from_millis(1)))));
+        let id = engine.cyclic_record();
+        let set_due = |engine: &mut Engine<MemoryLink>, after: Duration| {
+            let due = Instant::now() + after;
+            engine.cyclic.as_mut().unwrap().next_due = due;
+            due
+        };
+        // The wake-up is asked for `spin` before the cycle.
+        let due = set_due(&mut engine, Duration::from_millis(50));
+        assert_eq!(engine.next_wake(), Some(due - spin));
+        // Woken before that (a submission, a frame): nothing is sent, nothing spun.
+        engine.run_cycle_if_due();
+        assert!(!engine.records[id].active);
+        assert!(Instant::now() < due);
+        // Inside the spin: the thread spins until the cycle is due, then sends it.
+        let due = set_due(&mut engine, spin / 2);
+        engine.run_cycle_if_due();
+        assert!(engine.records[id].active, "the cycle went");
+        assert!(Instant::now() >= due, "not before it was due");
+        let mut rx = [0u8; 64];
+        assert!(far.recv(&mut rx, Wait::NoWait).unwrap().is_some());
+        // A spin of more than half the period is cut to half.
+        let (mut engine, _far) = engine_with(BusConfig {
+            cycle_spin: Duration::from_millis(2),
+            ..BusConfig::default()
+        });
+        engine.change_cyclic(Some(Box::new(OneRead(Duration::from_millis(1)))));
+        assert_eq!(
+            engine.cyclic.as_ref().unwrap().spin,
+            Duration::from_micros(500)
+        );
+        // Without a spin, the wake-up is the cycle's due time itself.
+        let mut plain = self::engine();
+        plain.change_cyclic(Some(Box::new(OneRead(Duration::from_millis(1)))));
+        let due = set_due(&mut plain, Duration::from_millis(50));
+        assert_eq!(plain.next_wake(), Some(due));
     }
 
     #[test]

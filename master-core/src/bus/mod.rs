@@ -83,7 +83,9 @@
 //! waits for the cyclic frame ([`BusStatsSnapshot::acyclic_held`]). The bus thread sets its
 //! timer slack to the minimum, so that its timed wake-ups are not batched late, and asks
 //! for `SCHED_FIFO` when configured to ([`BusConfig::priority`]); CPU pinning is left to
-//! the caller (for example `taskset` on the process).
+//! the caller (for example `taskset` on the process). With [`BusConfig::cycle_spin`] it
+//! wakes that long before each cycle and spins until the cycle is due, so that the
+//! kernel's wake-up latency is spent before the cycle instead of after.
 //!
 //! # Memory
 //!

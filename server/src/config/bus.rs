@@ -112,6 +112,10 @@ pub struct BusSettings {
     /// CPU the bus thread is pinned to; absent: any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cpu: Option<usize>,
+    /// How long before each cycle the bus thread wakes to spin until it is due, at most
+    /// half the cycle (default `"0s"`: none; `BusConfig::cycle_spin`).
+    #[serde(with = "duration")]
+    pub cycle_spin: Duration,
     /// How long a frame may be away before it is sent again (default `"10ms"`).
     #[serde(with = "duration")]
     pub frame_timeout: Duration,
@@ -141,6 +145,7 @@ impl Default for BusSettings {
             cycle: MasterConfig::default().cycle_period,
             rt_priority: None,
             cpu: None,
+            cycle_spin: bus.cycle_spin,
             frame_timeout: bus.response_timeout,
             retries: bus.retries,
             target_state: TargetState::Op,
@@ -165,6 +170,13 @@ impl BusSettings {
         if self.rt_priority.is_some_and(|p| !(1..=99).contains(&p)) {
             return Err("[bus] rt_priority must be 1 to 99".into());
         }
+        if self.cycle_spin > self.cycle / 2 {
+            return Err(format!(
+                "[bus] cycle_spin = {:?} is more than half the cycle ({:?})",
+                duration::show(self.cycle_spin),
+                duration::show(self.cycle)
+            ));
+        }
         if self.frame_timeout.is_zero() {
             return Err("[bus] frame_timeout must be more than 0".into());
         }
@@ -182,6 +194,7 @@ impl BusSettings {
             priority: self
                 .rt_priority
                 .map_or(ThreadPriority::Inherit, ThreadPriority::Realtime),
+            cycle_spin: self.cycle_spin,
             ..BusConfig::default()
         }
     }
@@ -193,5 +206,34 @@ impl BusSettings {
             target_state: self.target_state.al_state(),
             ..MasterConfig::default()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bus(text: &str) -> BusSettings {
+        toml::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn the_cycle_spin_reaches_the_bus_and_is_at_most_half_the_cycle() {
+        assert_eq!(
+            BusSettings::default().bus_config().cycle_spin,
+            Duration::ZERO
+        );
+        let spun = bus("cycle_spin = \"50us\"");
+        spun.check().unwrap();
+        assert_eq!(spun.bus_config().cycle_spin, Duration::from_micros(50));
+        let half = bus("cycle = \"250us\"\ncycle_spin = \"125us\"");
+        half.check().unwrap();
+        let over = bus("cycle = \"250us\"\ncycle_spin = \"126us\"");
+        let err = over.check().unwrap_err();
+        assert!(
+            err.contains("cycle_spin") && err.contains("half the cycle"),
+            "{err}"
+        );
+        assert!(toml::from_str::<BusSettings>("cycle_spin = 50").is_err());
     }
 }

@@ -1,6 +1,8 @@
 //! ecatd's cycle jitter as its `/metrics` reports it: snapshots of the
-//! `ecat_process_data_cycle_jitter_seconds` histogram and of
-//! `ecat_process_data_cycles_missed_total`, and the quantiles of a window between two
+//! `ecat_process_data_cycle_jitter_seconds` histogram, of
+//! `ecat_process_data_cycles_missed_total` and of `ecat_process_data_cycles_lost_total`
+//! (a cycle whose frame was not back within the period: the slaves', or here the
+//! simulator's, lateness, not the master's), and the quantiles of a window between two
 //! snapshots, printed as the benches' jitter table. The figures are the histogram's bucket
 //! bounds (5, 10, 25, 50, 100, 250 µs...): a window's p99 is the bound of the bucket it
 //! falls in, not an interpolation.
@@ -17,6 +19,8 @@ pub struct CycleMetrics {
     pub buckets: Vec<(f64, u64)>,
     /// Cycle periods in which no cycle ran.
     pub missed: u64,
+    /// Cycles whose frame did not come back in time.
+    pub lost: u64,
     /// When the page was read.
     pub at: Instant,
 }
@@ -49,14 +53,16 @@ pub fn cycle_metrics(agent: &ureq::Agent, http: &str) -> CycleMetrics {
             Some((le, value(rest)? as u64))
         })
         .collect();
-    let missed = text
-        .lines()
-        .find_map(|l| l.strip_prefix("ecat_process_data_cycles_missed_total"))
-        .and_then(value)
-        .unwrap_or(0.0) as u64;
+    let counter = |name: &str| {
+        text.lines()
+            .find_map(|l| l.strip_prefix(name))
+            .and_then(value)
+            .unwrap_or(0.0) as u64
+    };
     CycleMetrics {
         buckets,
-        missed,
+        missed: counter("ecat_process_data_cycles_missed_total"),
+        lost: counter("ecat_process_data_cycles_lost_total"),
         at: Instant::now(),
     }
 }
@@ -89,8 +95,8 @@ pub fn jitter_between(
 /// The jitter table's header (its rows: [`print_window`]).
 pub fn print_header() {
     println!(
-        "{:<28} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
-        "", "window s", "cycles", "missed", "p50 ≤", "p90 ≤", "p99 ≤", "p99.9 ≤"
+        "{:<28} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
+        "", "window s", "cycles", "missed", "lost", "p50 ≤", "p90 ≤", "p99 ≤", "p99.9 ≤"
     );
 }
 
@@ -100,8 +106,9 @@ pub fn print_window(name: &str, before: &CycleMetrics, after: &CycleMetrics) -> 
     let (cycles, q) = jitter_between(&before.buckets, &after.buckets, &JITTER_QUANTILES);
     let window = after.at.duration_since(before.at).as_secs_f64();
     let missed = after.missed.saturating_sub(before.missed);
+    let lost = after.lost.saturating_sub(before.lost);
     println!(
-        "{name:<28} {window:>8.1} {cycles:>8} {missed:>8} {:>8} {:>8} {:>8} {:>8}",
+        "{name:<28} {window:>8.1} {cycles:>8} {missed:>8} {lost:>8} {:>8} {:>8} {:>8} {:>8}",
         q[0], q[1], q[2], q[3]
     );
     q
