@@ -15,9 +15,14 @@ use super::exchange::FIRST_PAUSE;
 pub(crate) const KEPT: usize = 8;
 /// Learned times shorter than this plan nothing: the eager reads cover them.
 pub(crate) const PLAN_FROM: Duration = FIRST_PAUSE;
-/// How long before the learned time the planned read is asked for, besides how late the
-/// pauses lately ended: the frame's way out comes before the read reaches the slave.
+/// How long before the learned time the planned read is asked for at most, besides how
+/// late the pauses lately ended: the frame's way out comes before the read reaches the
+/// slave. The lead is the write's recent round trip within [`MIN_LEAD`]..=`LEAD`.
 pub(crate) const LEAD: Duration = Duration::from_micros(30);
+/// The least lead. A lead shorter than a read's round trip lets the learned time creep up:
+/// a read that finds the answer at once measures the answer no earlier than the read came
+/// back, which is later than the answer was ready, and that time plans the next read.
+pub(crate) const MIN_LEAD: Duration = Duration::from_micros(10);
 /// The most a pause's lateness adds to the lead: a stall of the machine must not move the
 /// planned reads far ahead of the answer.
 const MAX_LATE: Duration = Duration::from_micros(200);
@@ -31,6 +36,9 @@ pub(crate) struct AnswerTimes {
     /// How late the planned pauses ended lately (a moving average): the wake-ups of the
     /// timer's thread and of the caller, which on an idle machine take tens of µs.
     late: Duration,
+    /// The writes' round trips lately (a moving average; `None` before the first): one
+    /// empty read costs this much, so the planned read goes about that early.
+    trip: Option<Duration>,
 }
 
 impl AnswerTimes {
@@ -41,20 +49,28 @@ impl AnswerTimes {
         self.len = (self.len + 1).min(KEPT);
     }
 
+    /// Notes the round trip of a write (its frame out and back, and its caller woken).
+    pub fn wrote_in(&mut self, trip: Duration) {
+        let trip = trip.min(LEAD * 4);
+        self.trip = Some(self.trip.map_or(trip, |t| (t * 3 + trip) / 4));
+    }
+
     /// Notes how late a planned pause ended.
     pub fn woke_late(&mut self, late: Duration) {
         self.late = (self.late * 3 + late.min(MAX_LATE)) / 4;
     }
 
     /// How long after the write the first planned read should go, if the slave is known
-    /// to take long enough for one: the least recent answer time less [`LEAD`] and less
+    /// to take long enough for one: the least recent answer time less the lead (the
+    /// writes' round trip, [`MIN_LEAD`] to [`LEAD`]; `LEAD` before any is known) and less
     /// how late the pauses lately ended. Nothing before two answers are known.
     pub fn planned(&self) -> Option<Duration> {
         if self.len < 2 {
             return None;
         }
         let least = self.times[..self.len].iter().min().copied()?;
-        (least >= PLAN_FROM).then(|| least.saturating_sub(LEAD + self.late))
+        let lead = self.trip.map_or(LEAD, |t| t.clamp(MIN_LEAD, LEAD));
+        (least >= PLAN_FROM).then(|| least.saturating_sub(lead + self.late))
     }
 }
 
@@ -109,6 +125,36 @@ mod tests {
             times.woke_late(Duration::from_secs(1));
         }
         assert!(times.planned().unwrap() >= us(300) - LEAD - MAX_LATE);
+    }
+
+    #[test]
+    fn the_lead_is_the_writes_round_trip_within_its_bounds() {
+        let mut times = AnswerTimes::default();
+        times.record(us(200));
+        times.record(us(210));
+        assert_eq!(
+            times.planned(),
+            Some(us(200) - LEAD),
+            "no round trip known yet"
+        );
+        for _ in 0..20 {
+            times.wrote_in(us(14));
+        }
+        let planned = times.planned().unwrap();
+        assert!(
+            planned >= us(200) - us(15) && planned <= us(200) - us(14),
+            "{planned:?}"
+        );
+        // A fast link leads by MIN_LEAD still; a slow one by LEAD at most.
+        for _ in 0..20 {
+            times.wrote_in(us(2));
+        }
+        assert!(times.planned().unwrap() <= us(200) - MIN_LEAD);
+        assert!(times.planned().unwrap() >= us(200) - MIN_LEAD - us(1));
+        for _ in 0..20 {
+            times.wrote_in(us(500));
+        }
+        assert_eq!(times.planned(), Some(us(200) - LEAD));
     }
 
     #[test]

@@ -392,6 +392,7 @@ impl Exchange {
                 && response.wkc == 1
             {
                 inc(&self.shared.stats.writes);
+                self.answer_times.wrote_in(sent.elapsed());
                 self.ahead = Some((read, want));
                 self.written_at = Some(sent);
                 return Ok(());
