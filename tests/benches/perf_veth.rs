@@ -1184,6 +1184,9 @@ fn wait_eoe_device(device: std::net::Ipv4Addr) {
             Instant::now() < until,
             "the EoE device {device} never answered through ecatd"
         );
+        // The poll interval (the loop ends on an answer or the deadline): before ecatd has
+        // made the interface, a connection fails at once.
+        std::thread::sleep(Duration::from_millis(50));
     }
 }
 
@@ -1194,6 +1197,7 @@ fn storm_inside() -> (Vec<f64>, Vec<f64>) {
     let topology = Topology::default_segment();
     let (eoe_position, eoe_device) = storm_eoe_device(&topology);
     let [a, b, c, _] = eoe_device.octets();
+    let bus = deployed_bus();
     let coe: Vec<u16> = topology
         .slaves
         .iter()
@@ -1209,9 +1213,8 @@ fn storm_inside() -> (Vec<f64>, Vec<f64>) {
     let config = TempFile::new(
         "storm",
         &format!(
-            "{}[app]\nwatchdog = 1000\n[eoe]\nname_scheme = \"position\"\n\
-             [[eoe.slave]]\nslave = \"{eoe_position}\"\nhost_address = \"{a}.{b}.{c}.1/24\"\n",
-            deployed_bus()
+            "{bus}[app]\nwatchdog = 1000\n[eoe]\nname_scheme = \"position\"\n\
+             [[eoe.slave]]\nslave = \"{eoe_position}\"\nhost_address = \"{a}.{b}.{c}.1/24\"\n"
         ),
     );
     let ecatd = Ecatd::start_with(
@@ -1270,7 +1273,7 @@ fn storm_inside() -> (Vec<f64>, Vec<f64>) {
         "everything at once for {seconds} s, ecatd as deployed ({}), \
          default segment: {CLIENTS} gateway clients {:.0}/s, REST {:.0}/s, gRPC {:.0}/s, \
          EoE downloads {:.1} Mbit/s, an application-interface owner every cycle",
-        deployed_bus().trim().replace('\n', " "),
+        bus.trim().replace('\n', " "),
         gateway.per_second,
         rest_reads as f64 / seconds as f64,
         grpc_reads as f64 / seconds as f64,
