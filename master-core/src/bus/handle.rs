@@ -39,6 +39,20 @@ impl Drop for Inner {
     }
 }
 
+/// One datagram on its own (not part of a group), and its caller's end.
+fn queued(request: DatagramRequest, once: bool, again: u16) -> (Queued, Pending) {
+    let (pending, completer) = completion::pair();
+    let queued = Queued {
+        request,
+        completer,
+        group_left: 1,
+        once,
+        again,
+        then: None,
+    };
+    (queued, pending)
+}
+
 impl BusHandle {
     pub(crate) fn new(shared: Arc<Shared>) -> BusHandle {
         BusHandle {
@@ -90,25 +104,62 @@ impl BusHandle {
         self.submit_single(request, true, again)
     }
 
+    /// Queues `first` as [`Self::submit`] does and `poll` as [`Self::submit_once_polling`]
+    /// does, in one submission: the bus thread takes both at once, so they travel in the same
+    /// frame, `first` ahead, whenever it has room for both, and a sleeping bus thread is woken
+    /// once. They are not a group: each is retried, polled and completed on its own.
+    ///
+    /// The mailbox layer writes SM0 and reads SM1 this way. Submitted one after the other,
+    /// the first submission woke the bus thread, which on a warm CPU could send the write
+    /// alone before the read was queued: a frame and a wake-up more for an answer the slave
+    /// had ready in the write's own pass.
+    pub fn submit_then_poll(
+        &self,
+        first: DatagramRequest,
+        poll: DatagramRequest,
+        again: u16,
+    ) -> (Pending, Pending) {
+        if let Err(err) = self.check(&first) {
+            return (
+                Pending::ready(Err(err)),
+                self.submit_once_polling(poll, again),
+            );
+        }
+        if let Err(err) = self.check(&poll) {
+            return (self.submit(first), Pending::ready(Err(err)));
+        }
+        let (first, first_pending) = queued(first, false, 0);
+        let (poll, poll_pending) = queued(poll, true, again);
+        self.push([first, poll]);
+        (first_pending, poll_pending)
+    }
+
     fn submit_single(&self, request: DatagramRequest, once: bool, again: u16) -> Pending {
         if let Err(err) = self.check(&request) {
             return Pending::ready(Err(err));
         }
-        let (pending, completer) = completion::pair();
-        let queued = Queued {
-            request,
-            completer,
-            group_left: 1,
-            once,
-            again,
-            then: None,
-        };
-        if let Err((err, refused)) = self.shared().queue.push(std::iter::once(queued)) {
-            for entry in refused {
-                entry.completer.complete(Err(err.clone()));
+        let (queued, pending) = queued(request, once, again);
+        self.push([queued]);
+        pending
+    }
+
+    /// Queues independent datagrams in one submission; all are refused together if the
+    /// queue has no room for them (or the bus stopped).
+    fn push<const N: usize>(&self, batch: [Queued; N]) {
+        match self.shared().queue.push(batch.into_iter()) {
+            Ok(woke) => self.count_wakeup(woke),
+            Err((err, refused)) => {
+                for entry in refused {
+                    entry.completer.complete(Err(err.clone()));
+                }
             }
         }
-        pending
+    }
+
+    fn count_wakeup(&self, woke: bool) {
+        if woke {
+            self.shared().stats.wakeups.inc();
+        }
     }
 
     /// Queues datagrams that must travel in the same frame, in this order (the cyclic
@@ -147,7 +198,13 @@ impl BusHandle {
                     then: None,
                 });
         let refused = match checked {
-            Ok(()) => self.shared().queue.push(batch).err(),
+            Ok(()) => match self.shared().queue.push(batch) {
+                Ok(woke) => {
+                    self.count_wakeup(woke);
+                    None
+                }
+                Err(refused) => Some(refused),
+            },
             Err(err) => Some((err, batch.collect())),
         };
         if let Some((err, refused)) = refused {
@@ -170,6 +227,31 @@ impl BusHandle {
     /// `chain`'s module documentation). Every step is checked as [`Self::submit_group`]
     /// checks a group; if one is refused, every `Pending` completes with the error.
     pub fn submit_chain(&self, steps: Vec<Vec<Chained>>) -> Vec<Vec<Pending>> {
+        self.chain_beside(steps, None)
+    }
+
+    /// [`Self::submit_chain`], and `poll` queued as [`Self::submit_once_polling`] does in the
+    /// same submission as the chain's first step: it travels in that step's frame when
+    /// there is room, on its own otherwise, and is completed on its own either way.
+    ///
+    /// The mailbox layer writes EoE fragments this way with the read of SM1 that picks up
+    /// the other direction's fragments: a frame fewer per chain than a read submitted
+    /// after it, which the bus thread could send on its own.
+    pub fn submit_chain_then_poll(
+        &self,
+        steps: Vec<Vec<Chained>>,
+        poll: DatagramRequest,
+        again: u16,
+    ) -> (Vec<Vec<Pending>>, Pending) {
+        if let Err(err) = self.check(&poll) {
+            return (self.submit_chain(steps), Pending::ready(Err(err)));
+        }
+        let (poll, pending) = queued(poll, true, again);
+        (self.chain_beside(steps, Some(poll)), pending)
+    }
+
+    /// Queues a chain, and `beside` (a lone datagram) in the same submission.
+    fn chain_beside(&self, steps: Vec<Vec<Chained>>, beside: Option<Queued>) -> Vec<Vec<Pending>> {
         let checked = steps.iter().try_for_each(|step| {
             if step.is_empty() {
                 return Err(BusError::InvalidRequest("an empty step of a chain"));
@@ -200,23 +282,30 @@ impl BusHandle {
             queued.push_back(entries);
         }
         if let Err(err) = checked {
-            for entry in queued.into_iter().flatten() {
+            for entry in queued.into_iter().flatten().chain(beside) {
                 entry.completer.complete(Err(err.clone()));
             }
             return pendings;
         }
         let Some(mut first) = queued.pop_front() else {
+            if let Some(beside) = beside {
+                self.push([beside]);
+            }
             return pendings;
         };
         if let Some(head) = first.first_mut() {
             head.then = Chain::new(queued);
         }
-        if let Err((err, refused)) = self.shared().queue.push(first.into_iter()) {
-            for mut entry in refused {
-                if let Some(rest) = entry.then.take() {
-                    (*rest).fail(&err);
+        first.extend(beside);
+        match self.shared().queue.push(first.into_iter()) {
+            Ok(woke) => self.count_wakeup(woke),
+            Err((err, refused)) => {
+                for mut entry in refused {
+                    if let Some(rest) = entry.then.take() {
+                        (*rest).fail(&err);
+                    }
+                    entry.completer.complete(Err(err.clone()));
                 }
-                entry.completer.complete(Err(err.clone()));
             }
         }
         pendings

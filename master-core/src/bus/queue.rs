@@ -94,12 +94,13 @@ impl Submissions {
         self.queued.load(Ordering::Acquire)
     }
 
-    /// Queues all of `batch` or none of it (a group must not be split by a full queue).
-    /// On refusal the batch is handed back with the reason.
+    /// Queues all of `batch` or none of it (a group must not be split by a full queue),
+    /// and says whether it woke the parked bus thread. On refusal the batch is handed back
+    /// with the reason.
     pub fn push(
         &self,
         batch: impl ExactSizeIterator<Item = Queued>,
-    ) -> Result<(), (BusError, Vec<Queued>)> {
+    ) -> Result<bool, (BusError, Vec<Queued>)> {
         let mut state = self.lock();
         if state.closed {
             return Err((BusError::Shutdown, batch.collect()));
@@ -113,7 +114,7 @@ impl Submissions {
         if state.parked {
             self.wake.notify_one();
         }
-        Ok(())
+        Ok(state.parked)
     }
 
     /// Moves every queued datagram to the end of `staging` (bus thread). `staging` should

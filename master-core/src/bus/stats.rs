@@ -1,7 +1,7 @@
 //! Counters of everything the bus does, lock-free, readable at any time.
 //!
-//! The bus thread is the only writer (one relaxed atomic add per event); any thread may take
-//! a [`BusStatsSnapshot`]. Counters taken one after the other are not one consistent cut,
+//! The bus thread is the only writer (one relaxed atomic add per event), but for `wakeups`,
+//! which the submitting threads count; any thread may take a [`BusStatsSnapshot`]. Counters taken one after the other are not one consistent cut,
 //! but each is exact and never goes down.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -32,6 +32,8 @@ pub(crate) struct BusStats {
     pub cycle_start_delay: Histogram,
     /// Acyclic frames held back because a cycle was due before they could be back.
     pub acyclic_held: Counter,
+    /// Submissions that woke the sleeping bus thread.
+    pub wakeups: Counter,
     /// The bus thread runs under `SCHED_FIFO`.
     pub realtime: AtomicBool,
     /// The bus thread's time slice as the kernel reports it, in ns.
@@ -103,6 +105,11 @@ pub struct BusStatsSnapshot {
     /// Times the bus held acyclic frames back because the next cycle was due sooner than
     /// one of them takes (its recent round trip): they went after the cyclic frame.
     pub acyclic_held: u64,
+    /// Submissions that found the bus thread asleep and woke it: a system call on the
+    /// submitting thread and a wake-up on the bus thread's CPU each (why a mailbox write
+    /// and its first read go in one submission:
+    /// [`BusHandle::submit_then_poll`](super::BusHandle::submit_then_poll)).
+    pub wakeups: u64,
     /// Whether the bus thread got the real-time scheduling it was configured to ask for
     /// ([`ThreadPriority::Realtime`](super::ThreadPriority::Realtime)).
     pub realtime: bool,
@@ -148,6 +155,7 @@ impl BusStats {
             round_trip: self.round_trip.snapshot(),
             cycle_start_delay: self.cycle_start_delay.snapshot(),
             acyclic_held: self.acyclic_held.get(),
+            wakeups: self.wakeups.get(),
             realtime: self.realtime.load(Ordering::Relaxed),
             time_slice_ns: self.time_slice_ns.load(Ordering::Relaxed),
         }

@@ -16,8 +16,9 @@ use super::ask::Ask;
 /// What became of a request, as far as the audit line says.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) enum Outcome {
-    /// The slave (or the master's dictionary) answered with this message (type, data).
-    Answered(MailboxType, Vec<u8>),
+    /// The slave (or the master's dictionary) answered; with the error its answer carries,
+    /// if it is one (read at once: the answer's bytes are not kept, not copied per request).
+    Answered(Option<String>),
     /// Delivered; the protocol gives no answer.
     Sent,
     /// The gateway answered itself (or dropped it).
@@ -25,11 +26,16 @@ pub(crate) enum Outcome {
 }
 
 impl Outcome {
+    /// The outcome of an answer of type `ty` with `data`.
+    pub(crate) fn answered(ty: MailboxType, data: &[u8]) -> Outcome {
+        Outcome::Answered(error_of(ty, data))
+    }
+
     /// `done`, or the error the answer carries.
     fn describe(&self) -> String {
         match self {
             Outcome::Sent => "sent".into(),
-            Outcome::Answered(_, _) | Outcome::Failed(_) => {
+            Outcome::Answered(_) | Outcome::Failed(_) => {
                 self.error().unwrap_or_else(|| "done".into())
             }
         }
@@ -40,7 +46,7 @@ impl Outcome {
         match self {
             Outcome::Sent => None,
             Outcome::Failed(fault) => Some(format!("failed: {}", fault.reason().name())),
-            Outcome::Answered(ty, data) => error_of(*ty, data),
+            Outcome::Answered(error) => error.clone(),
         }
     }
 }

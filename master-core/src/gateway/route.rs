@@ -34,13 +34,13 @@ pub(crate) fn target(master: &Master, address: u16) -> Result<Target, Fault> {
         BROADCAST_ADDRESS => return Ok(Target::Broadcast),
         _ => {}
     }
-    if let Ok(info) = master.slave(SlaveAddress::Station(address)) {
-        return Ok(Target::Slave(info.station));
+    if let Ok(station) = master.station(SlaveAddress::Station(address)) {
+        return Ok(Target::Slave(station));
     }
     if address >= POSITION_BASE
-        && let Ok(info) = master.slave(SlaveAddress::Position(address - POSITION_BASE))
+        && let Ok(station) = master.station(SlaveAddress::Position(address - POSITION_BASE))
     {
-        return Ok(Target::Slave(info.station));
+        return Ok(Target::Slave(station));
     }
     Err(Fault::UnknownAddress)
 }

@@ -289,7 +289,7 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Box<Request>, _ticket: T
 /// The outcome of a request answered with `replies`.
 fn answered_with(replies: &[RawReply]) -> Outcome {
     match replies.first() {
-        Some(first) => Outcome::Answered(first.mailbox_type(), first.data().to_vec()),
+        Some(first) => Outcome::answered(first.mailbox_type(), first.data()),
         None => Outcome::Sent,
     }
 }
@@ -304,7 +304,7 @@ async fn to_master(shared: &Shared, request: &Request) -> Outcome {
         .await;
     shared.answered(request);
     let outcome = match replies.first() {
-        Some((ty, data)) => Outcome::Answered(*ty, data.clone()),
+        Some((ty, data)) => Outcome::answered(*ty, data),
         None => Outcome::Sent,
     };
     for (ty, data) in replies {

@@ -58,6 +58,18 @@ impl Context {
 
     /// The record of the slave at `address`.
     pub fn resolve(&self, address: SlaveAddress) -> Result<SlaveRecord, MasterError> {
+        self.resolve_with(address, SlaveRecord::clone)
+    }
+
+    /// What `read` takes from the record of the slave at `address`, under the lock: a
+    /// request that needs a station address or a few fields does not copy the whole record
+    /// (its SII image and PDO layout are dozens of allocations, per request on the
+    /// gateway's path).
+    pub fn resolve_with<R>(
+        &self,
+        address: SlaveAddress,
+        read: impl FnOnce(&SlaveRecord) -> R,
+    ) -> Result<R, MasterError> {
         let slaves = self.lock();
         address::resolve(
             address,
@@ -66,8 +78,13 @@ impl Context {
                 (s, i.position, i.station, i.alias)
             }),
         )
-        .cloned()
+        .map(read)
         .ok_or(MasterError::UnknownSlave(address))
+    }
+
+    /// The station address of the slave at `address`.
+    pub fn station(&self, address: SlaveAddress) -> Result<u16, MasterError> {
+        self.resolve_with(address, |r| r.info.station)
     }
 
     /// Changes the record at `position` (if there is one).

@@ -194,7 +194,13 @@ impl Master {
 
     /// The slave at `address`.
     pub fn slave(&self, address: SlaveAddress) -> Result<SlaveInfo, MasterError> {
-        self.ctx.resolve(address).map(|r| r.info)
+        self.ctx.resolve_with(address, |r| r.info.clone())
+    }
+
+    /// The station address of the slave at `address` (cheaper than [`Master::slave`]: it
+    /// copies nothing of the slave's record).
+    pub fn station(&self, address: SlaveAddress) -> Result<u16, MasterError> {
+        self.ctx.station(address)
     }
 
     /// The mailbox of the slave at `address`, with every protocol client on it (CoE, SoE,
@@ -203,19 +209,19 @@ impl Master {
     /// slave that did not answer the last look, with [`MasterError::Absent`] (its mailbox
     /// was let go when it was lost, and its last state says nothing of now).
     pub fn mailbox(&self, address: SlaveAddress) -> Result<SlaveMailbox, MasterError> {
-        let info = self.ctx.resolve(address)?.info;
-        if !info.present {
-            return Err(MasterError::Absent {
-                position: info.position,
-                station: info.station,
-            });
+        let (present, position, station, al_state) = self.ctx.resolve_with(address, |r| {
+            let i = &r.info;
+            (i.present, i.position, i.station, i.al_state)
+        })?;
+        if !present {
+            return Err(MasterError::Absent { position, station });
         }
         self.ctx
             .mailboxes
-            .slave(info.station)
+            .slave(station)
             .map_err(|_| MasterError::NoMailbox {
-                position: info.position,
-                state: info.al_state,
+                position,
+                state: al_state,
             })
     }
 

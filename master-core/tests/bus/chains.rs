@@ -189,3 +189,67 @@ fn a_step_that_cannot_be_sent_fails_the_whole_chain_and_nothing_leaves() {
     let (_, _, report) = bus.stop();
     assert_eq!(report.frames, 0);
 }
+
+/// Every frame's commands, in order.
+fn commands(seen: &Seen) -> Vec<Vec<u8>> {
+    seen.lock()
+        .unwrap()
+        .iter()
+        .map(|frame| frame.iter().map(|(command, _)| *command).collect())
+        .collect()
+}
+
+#[test]
+fn a_poll_submitted_with_a_chain_rides_in_its_first_frame_behind_the_first_write() {
+    let (fpwr, fprd) = (0x05, 0x04);
+    let (script, seen) = Steps::new(None, None);
+    let bus = start(1, script, config());
+    let rounds = 10;
+    for round in 0..rounds {
+        let first = round * 3;
+        let steps = vec![
+            vec![write(first)],
+            vec![write(first + 1)],
+            vec![write(first + 2)],
+        ];
+        let poll = DatagramRequest::fprd(FakeSegment::station(0), AT, 1);
+        let (pendings, poll) = bus.handle.submit_chain_then_poll(steps, poll, 0);
+        let poll = finish(poll).unwrap();
+        assert_eq!(
+            (poll.wkc, poll.data.as_slice()),
+            (1, &[first][..]),
+            "the poll read what the first write had just written"
+        );
+        for pending in pendings.into_iter().flatten() {
+            assert_eq!(finish(pending).unwrap().wkc, 1);
+        }
+    }
+    let expected: Vec<Vec<u8>> = (0..rounds)
+        .flat_map(|_| [vec![fpwr, fprd], vec![fpwr], vec![fpwr]])
+        .collect();
+    assert_eq!(commands(&seen), expected, "no frame of the poll's own");
+    let (stats, _, report) = bus.stop();
+    assert_eq!(report.frames, 3 * u64::from(rounds));
+    // One submission per chain and its poll: the sleeping bus thread is woken once for both.
+    assert!(
+        stats.wakeups <= u64::from(rounds),
+        "{} wake-ups",
+        stats.wakeups
+    );
+}
+
+#[test]
+fn a_poll_with_a_refused_chain_fails_with_it_and_nothing_is_sent() {
+    let (script, seen) = Steps::new(None, None);
+    let bus = start(1, script, config());
+    let steps = vec![vec![write(1)], vec![]];
+    let poll = DatagramRequest::fprd(FakeSegment::station(0), AT, 1);
+    let (pendings, poll) = bus.handle.submit_chain_then_poll(steps, poll, 0);
+    assert!(matches!(finish(poll), Err(BusError::InvalidRequest(_))));
+    for pending in pendings.into_iter().flatten() {
+        assert!(finish(pending).is_err());
+    }
+    let (stats, _, _) = bus.stop();
+    assert_eq!(stats.datagrams_sent, 0);
+    assert!(seen.lock().unwrap().is_empty());
+}

@@ -5,7 +5,7 @@
 use crate::bus_support;
 
 use bus_support::bus::{config, finish, start};
-use bus_support::responder::{Script, answer};
+use bus_support::responder::{Answer, Script, answer};
 use bus_support::segment::FakeSegment;
 use master_core::bus::{BusError, DatagramRequest};
 use master_core::link::{FaultConfig, FaultInjector, Link, MemoryLink};
@@ -95,4 +95,46 @@ fn a_lost_frame_ends_the_poll_with_a_timeout_and_is_not_sent_again() {
     let (stats, link, _) = bus.stop();
     assert_eq!((stats.retries, stats.datagrams_polled_again), (0, 0));
     assert_eq!(link.counts().tx_dropped, 1, "one try only");
+}
+
+/// The mailbox layer's write of SM0 and first read of SM1: one submission, so the bus thread
+/// never sends the write alone because it woke between two submissions.
+#[test]
+fn a_write_and_its_poll_travel_in_one_frame_write_first_and_complete_on_their_own() {
+    let bus = start(1, Answer, config());
+    let rounds: u64 = 50;
+    for round in 0..rounds {
+        let data: Vec<u8> = (0..4u8).map(|i| round as u8 ^ i).collect();
+        let write = DatagramRequest::fpwr(FakeSegment::station(0), 0x0180, data.clone());
+        let (written, read) = bus.handle.submit_then_poll(write, poll(), 3);
+        assert_eq!(finish(written).unwrap().wkc, 1);
+        let read = finish(read).unwrap();
+        // The read saw the write of its own pass: it went behind it in the same frame.
+        assert_eq!((read.wkc, read.data.as_slice()), (1, data.as_slice()));
+    }
+    let (stats, _, report) = bus.stop();
+    assert_eq!(report.frames, rounds, "one frame per write and its read");
+    // Each submission finds the bus thread asleep at most once; two submissions per round
+    // wake it twice whenever it has not run yet between them.
+    assert!(
+        stats.wakeups <= rounds,
+        "{} wake-ups of the bus thread for {rounds} writes and their reads",
+        stats.wakeups
+    );
+    assert_eq!(stats.datagrams_sent, 2 * rounds);
+}
+
+#[test]
+fn a_write_the_bus_cannot_send_fails_alone_and_its_poll_still_goes() {
+    let bus = start(1, Answer, config());
+    let too_long = DatagramRequest::fpwr(FakeSegment::station(0), 0x0180, vec![0u8; 4000]);
+    let (written, read) = bus.handle.submit_then_poll(too_long, poll(), 0);
+    assert!(finish(written).is_err());
+    assert_eq!(
+        finish(read).unwrap().data.as_slice(),
+        pattern().as_slice(),
+        "the poll read the segment's own bytes: no write went before it"
+    );
+    let (stats, _, report) = bus.stop();
+    assert_eq!((report.frames, stats.datagrams_sent), (1, 1));
 }

@@ -380,13 +380,14 @@ impl Exchange {
             self.check_owned()?;
             self.recover().await?;
             let sent = Instant::now();
-            let write = self
-                .bus
-                .fpwr(station, start, DatagramData::from_slice(&self.tx));
-            // The first read of the answer goes right behind the write, usually in the same
-            // frame: a slave that answers at once (as the simulator does) is read one
-            // round trip earlier, and one that does not just returns an empty read.
-            let read = self.submit_read(0);
+            // The first read of the answer goes right behind the write, in the same frame
+            // when it has room: a slave that answers at once (as the simulator does) is read
+            // one round trip earlier, and one that does not just returns an empty read.
+            let (write, read) = self.bus.submit_then_poll(
+                DatagramRequest::fpwr(station, start, DatagramData::from_slice(&self.tx)),
+                self.read_request(),
+                0,
+            );
             let written = write.await;
             if let Ok(response) = &written
                 && response.wkc == 1
@@ -565,9 +566,13 @@ impl Exchange {
     /// Sends one read of the whole SM1, never to be resent by the bus after a lost frame;
     /// while it finds SM1 empty the bus reads again, `again` more times at most.
     fn submit_read(&self, again: u16) -> Pending {
+        self.bus.submit_once_polling(self.read_request(), again)
+    }
+
+    /// A read of the whole SM1.
+    fn read_request(&self) -> DatagramRequest {
         let area = self.shared.config.read;
-        let request = DatagramRequest::fprd(self.station(), area.start, usize::from(area.len));
-        self.bus.submit_once_polling(request, again)
+        DatagramRequest::fprd(self.station(), area.start, usize::from(area.len))
     }
 
     /// Reads SM1 (up to `1 + again` times while it is empty) and routes what it held.

@@ -77,34 +77,18 @@ where
         cancelled: Arc::new(AtomicBool::new(false)),
     };
     let cancelled = Arc::clone(&terms.cancelled);
+    let what = What {
+        protocol,
+        subject,
+        asked: now,
+    };
     let request = run(
         Arc::clone(shared),
         Arc::clone(slave.mailbox()),
         place,
         terms,
-        move |exchange: &mut Exchange| {
-            Box::pin(async move {
-                // A request whose deadline passed while it waited for its turn is not
-                // started: its answer could only arrive after the caller gave up.
-                let result = if exchange.expired() {
-                    Err(MailboxError::NotSent {
-                        station: exchange.station(),
-                        waited_ms: u64::try_from(now.elapsed().as_millis()).unwrap_or(u64::MAX),
-                    })
-                } else {
-                    // With progress deadlines the first exchange gets a whole window.
-                    exchange.progressed();
-                    work(&mut *exchange).await
-                };
-                if let Err(err) = &result
-                    && *err != MailboxError::Cancelled
-                {
-                    exchange.count_failed();
-                    exchange.report_failure(protocol, &subject, err);
-                }
-                result
-            })
-        },
+        what,
+        work,
     );
     Request {
         work: Some(Box::pin(request)),
@@ -123,6 +107,14 @@ struct Terms {
     progress: Option<(Duration, Instant)>,
     /// Set when the caller went away.
     cancelled: Arc<AtomicBool>,
+}
+
+/// What a request is, for its failure's log line and its refusal.
+struct What {
+    protocol: Option<MailboxType>,
+    subject: Subject,
+    /// When the caller asked.
+    asked: Instant,
 }
 
 /// A place in the slave's queue, given back however the wait for the turn ends.
@@ -158,6 +150,7 @@ async fn run<T, F>(
     mailbox: Mailbox,
     place: Place,
     terms: Terms,
+    what: What,
     work: F,
 ) -> Result<T>
 where
@@ -177,7 +170,25 @@ where
         return Err(MailboxError::Cancelled);
     }
     turn.begin(terms.deadline, terms.progress, Some(terms.cancelled));
-    let result = work(&mut turn).await;
+    let exchange: &mut Exchange = &mut turn;
+    // A request whose deadline passed while it waited for its turn is not started: its
+    // answer could only arrive after the caller gave up.
+    let result = if exchange.expired() {
+        Err(MailboxError::NotSent {
+            station: exchange.station(),
+            waited_ms: u64::try_from(what.asked.elapsed().as_millis()).unwrap_or(u64::MAX),
+        })
+    } else {
+        // With progress deadlines the first exchange gets a whole window.
+        exchange.progressed();
+        work(&mut *exchange).await
+    };
+    if let Err(err) = &result
+        && *err != MailboxError::Cancelled
+    {
+        exchange.count_failed();
+        exchange.report_failure(what.protocol, &what.subject, err);
+    }
     if turn.cancelled() {
         turn.count_cancelled();
     }

@@ -11,7 +11,7 @@ impl Master {
     /// The SII image of the slave at `address` as the scan (or the watch) read it; see
     /// [`Master::read_sii`] for a fresh read.
     pub fn sii_image(&self, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
-        self.ctx.resolve(address).map(|r| r.sii)
+        self.ctx.resolve_with(address, |r| r.sii.clone())
     }
 
     /// Reads `len` bytes at register `ado` of the slave at `address`.

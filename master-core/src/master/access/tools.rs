@@ -22,7 +22,7 @@ pub(crate) async fn read_register(
     ado: u16,
     len: usize,
 ) -> Result<Vec<u8>, MasterError> {
-    let station = ctx.resolve(address)?.info.station;
+    let station = ctx.station(address)?;
     Ok(fprd(&ctx.bus, station, ado, len, "register read")
         .await?
         .to_vec())
@@ -35,7 +35,7 @@ pub(crate) async fn write_register(
     ado: u16,
     data: Vec<u8>,
 ) -> Result<(), MasterError> {
-    let station = ctx.resolve(address)?.info.station;
+    let station = ctx.station(address)?;
     fpwr(
         &ctx.bus,
         station,
@@ -54,7 +54,7 @@ pub(crate) async fn read_write_register(
     ado: u16,
     data: Vec<u8>,
 ) -> Result<Vec<u8>, MasterError> {
-    let station = ctx.resolve(address)?.info.station;
+    let station = ctx.station(address)?;
     Ok(fprw(
         &ctx.bus,
         station,
@@ -68,7 +68,7 @@ pub(crate) async fn read_write_register(
 
 /// Reads the whole SII image of the slave at `address` from the slave.
 pub(crate) async fn read_sii(ctx: &Context, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
-    let station = ctx.resolve(address)?.info.station;
+    let station = ctx.station(address)?;
     let eeprom = eeprom(ctx, station);
     eeprom.take().await?;
     eeprom.read_image(ctx.config.max_sii_words).await
@@ -82,7 +82,7 @@ pub(crate) async fn write_sii(
     start: u16,
     words: &[u16],
 ) -> Result<(), MasterError> {
-    let station = ctx.resolve(address)?.info.station;
+    let station = ctx.station(address)?;
     let eeprom = eeprom(ctx, station);
     eeprom.take().await?;
     for (i, &value) in words.iter().enumerate() {

@@ -21,7 +21,7 @@ impl Master {
         &self,
         address: SlaveAddress,
     ) -> Result<ProcessDataLayout, MasterError> {
-        self.ctx.resolve(address).map(|r| r.layout)
+        self.ctx.resolve_with(address, |r| r.layout.clone())
     }
 
     /// Configures the PDO assignment of the slave `address` names (by position, station
@@ -65,7 +65,7 @@ impl Master {
         offset: usize,
         data: &[u8],
     ) -> Result<(), MasterError> {
-        let pd = self.ctx.resolve(address)?.info.process_data;
+        let pd = self.ctx.resolve_with(address, |r| r.info.process_data)?;
         let end = offset.checked_add(data.len());
         if end.is_none_or(|end| end > usize::from(pd.outputs)) {
             return Err(MasterError::InvalidArgument(
@@ -84,7 +84,7 @@ impl Master {
 
     /// The outputs of the slave at `address` as the master sends them.
     pub fn read_outputs(&self, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
-        let pd = self.ctx.resolve(address)?.info.process_data;
+        let pd = self.ctx.resolve_with(address, |r| r.info.process_data)?;
         self.ctx
             .image
             .read(pd.outputs_offset as usize, usize::from(pd.outputs), true)
@@ -95,7 +95,7 @@ impl Master {
 
     /// The inputs of the slave at `address` as the last cycle brought them.
     pub fn read_inputs(&self, address: SlaveAddress) -> Result<Vec<u8>, MasterError> {
-        let pd = self.ctx.resolve(address)?.info.process_data;
+        let pd = self.ctx.resolve_with(address, |r| r.info.process_data)?;
         self.ctx
             .image
             .read(pd.inputs_offset as usize, usize::from(pd.inputs), false)
@@ -150,7 +150,7 @@ impl Master {
     /// The mapped entries of the slave at `address` (gaps left out), outputs first, in
     /// image order, with their place in the image.
     pub fn entries(&self, address: SlaveAddress) -> Result<Vec<PdEntry>, MasterError> {
-        self.ctx.resolve(address).map(|r| pd_entry::entries_of(&r))
+        self.ctx.resolve_with(address, pd_entry::entries_of)
     }
 
     /// The entry mapping `index:subindex` in the slave at `address`.

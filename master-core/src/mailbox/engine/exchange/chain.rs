@@ -56,10 +56,14 @@ impl Exchange {
             let write = DatagramRequest::fpwr(station, start, DatagramData::from_slice(&self.tx));
             steps.push(vec![Chained::new(write)]);
         }
-        let mut writes: Vec<_> = self.bus.submit_chain(steps).into_iter().flatten().collect();
-        // Submitted right behind the first write: what the slave sends meanwhile (the
-        // other direction's frames) is read without a turn of its own.
-        self.ahead = Some((self.submit_read(0), Some(Want::Reply(mailbox_type))));
+        // The read goes with the first write, in its frame when there is room: what the
+        // slave sends meanwhile (the other direction's frames) is read without a turn or a
+        // frame of its own.
+        let (writes, read) = self
+            .bus
+            .submit_chain_then_poll(steps, self.read_request(), 0);
+        let mut writes: Vec<_> = writes.into_iter().flatten().collect();
+        self.ahead = Some((read, Some(Want::Reply(mailbox_type))));
         let Some(last) = writes.pop() else {
             return (0, Ok(()));
         };
@@ -80,8 +84,7 @@ impl Exchange {
     /// for an answer, and routes what came. Returns how many messages came.
     pub(super) async fn drain(&mut self, count: usize) -> Result<usize> {
         self.recover().await?;
-        let area = self.shared.config.read;
-        let read = DatagramRequest::fprd(self.station(), area.start, usize::from(area.len));
+        let read = self.read_request();
         let steps = (0..count)
             .map(|_| vec![Chained::once(read.clone())])
             .collect();
