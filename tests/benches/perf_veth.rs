@@ -22,7 +22,8 @@
 //!    Python (plain sockets, `http.client`, grpcio with stubs generated from `proto/` at run
 //!    time) and from Rust (std UDP, ureq, tonic), each followed by its floor: the same
 //!    client against a call ecatd answers without a slave (a gateway request to a station
-//!    no slave has, REST `/healthz`, gRPC `GetLogFilter`); 64 gateway clients as threads,
+//!    no slave has, REST `/healthz`, gRPC `GetLogFilter`), and the Rust gateway row's frames
+//!    beyond the cycle's per read (as in phase 3); 64 gateway clients as threads,
 //!    16 and 64 as tasks of one thread, each with ecatd's CPU per read (schedstat) and the
 //!    datagrams the kernel dropped; the jitter of ecatd's cycle (its `/metrics` histogram,
 //!    counted over a quiet window and over the rows); its VmRSS idle, after the rows and
@@ -855,6 +856,8 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
     );
     let request = upload_request();
     let mut gw = GatewayClient::new(gateway);
+    let frames = || frames_beyond_cycles(&agent, &ecatd.http);
+    let before = frames();
     table.print_as(
         Key::Read(Client::GatewayRust),
         "ecatd gateway (UDP), Rust",
@@ -864,6 +867,10 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
                 SIM_VENDOR_ID
             );
         }),
+    );
+    println!(
+        "  frames per read: {:.2}",
+        (frames() - before) / count as f64
     );
     table.print_as(
         Key::Floor(Client::GatewayRust),
@@ -1030,6 +1037,13 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
     drop(ecatd);
 }
 
+/// The frames ecatd's bus has sent beyond its cycle's (acyclic frames, first tries and
+/// retries), from its `/metrics`.
+fn frames_beyond_cycles(agent: &ureq::Agent, http: &str) -> f64 {
+    metric_sum(agent, http, "ecat_bus_frames_sent_total")
+        - metric_sum(agent, http, "ecat_bus_cycles_total")
+}
+
 /// ecatd with every slave answering late, under ordinary scheduling and as deployed (the
 /// bus thread at `SCHED_FIFO` 50, as `deploy/ecatd.toml.example` under the systemd unit).
 fn phase_delay(table: &Table, count: usize) {
@@ -1046,10 +1060,7 @@ fn phase_delay(table: &Table, count: usize) {
             let (ecatd, _config) = start_ecatd_rt(&file, rt);
             let mut gw = GatewayClient::new(ecatd.gateway_addr());
             let request = upload_request();
-            let frames = |agent: &ureq::Agent| {
-                metric_sum(agent, &ecatd.http, "ecat_bus_frames_sent_total")
-                    - metric_sum(agent, &ecatd.http, "ecat_bus_cycles_total")
-            };
+            let frames = |agent: &ureq::Agent| frames_beyond_cycles(agent, &ecatd.http);
             let before = frames(&agent);
             let r = sequential(count, || {
                 assert_eq!(
