@@ -6,7 +6,7 @@ use crate::master_support;
 
 use std::time::Duration;
 
-use master_core::master::{MasterConfig, MasterEvent, SlaveAddress};
+use master_core::master::{MasterConfig, MasterError, MasterEvent, SlaveAddress};
 use master_core::wire::register::AlState;
 use master_core::wire::sii::SiiImage;
 use master_core::wire::sii::checksum::checksum_ok;
@@ -152,6 +152,19 @@ fn an_alias_keeps_the_sii_valid_addresses_the_slave_and_survives_a_power_cycle()
     }
     let by_alias = rig.master().slave(SlaveAddress::Alias(alias)).unwrap();
     assert_eq!(by_alias.position, position);
+    // `station` resolves every form of address as `slave` does.
+    let station = 1001 + position;
+    for address in [
+        SlaveAddress::Alias(alias),
+        SlaveAddress::Position(position),
+        SlaveAddress::Station(station),
+    ] {
+        assert_eq!(rig.master().station(address), Ok(station), "{address:?}");
+    }
+    assert_eq!(
+        rig.master().station(SlaveAddress::Alias(0x0778)),
+        Err(MasterError::UnknownSlave(SlaveAddress::Alias(0x0778)))
+    );
     let station = block_on(
         rig.master()
             .read_register(SlaveAddress::Alias(alias), 0x0010, 2),
