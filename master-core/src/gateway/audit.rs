@@ -155,3 +155,36 @@ pub(crate) fn failure(client: SocketAddr, address: u16, ask: &Ask, outcome: &Out
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gateway::answer::mailbox_error;
+    use crate::wire::coe::{AbortCode, sdo_abort};
+    use crate::wire::mailbox::MailboxErrorCode;
+
+    #[test]
+    fn an_answer_keeps_the_error_it_carries_and_nothing_else() {
+        // An SDO abort (spec-notes §coe.abort), as a slave answers an unknown object.
+        let abort = sdo_abort(0x1018, 1, AbortCode::ObjectDoesNotExist);
+        let outcome = Outcome::answered(MailboxType::Coe, &abort);
+        assert_eq!(outcome.describe(), "SDO abort 0x06020000");
+        assert_eq!(outcome.error().as_deref(), Some("SDO abort 0x06020000"));
+        // An expedited upload response (command 0x43, four bytes of data): no error.
+        let upload = [0x00, 0x30, 0x43, 0x18, 0x10, 0x01, 0x01, 0x00, 0x00, 0xE0];
+        let done = Outcome::answered(MailboxType::Coe, &upload);
+        assert_eq!((done.describe(), done.error()), ("done".into(), None));
+        // A mailbox error reply (spec-notes §mbx.error) names its code.
+        let (ty, reply) = mailbox_error(MailboxErrorCode::UnsupportedProtocol);
+        assert_eq!(
+            Outcome::answered(ty, &reply).describe(),
+            format!(
+                "mailbox error {}",
+                MailboxErrorCode::UnsupportedProtocol.name()
+            )
+        );
+        // A message the gateway cannot read is no error of the slave's.
+        assert_eq!(Outcome::answered(MailboxType::Coe, &[0x00]).error(), None);
+        assert_eq!(Outcome::Sent.describe(), "sent");
+    }
+}
