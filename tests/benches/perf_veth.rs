@@ -87,7 +87,7 @@ use ecat_tests::python::{python, run_script, script};
 use ecat_tests::rig::{MASTER_IFACE, Rig, SIM_IFACE};
 use ecat_tests::sim_process::SimProcess;
 use ecat_tests::veth_master::{self, VethMaster};
-use latency::{Row, row, sequential};
+use latency::{Row, row, sequential, sequential_probed};
 use master_core::bus::BusConfig;
 use master_core::master::{Master, MasterConfig, SlaveAddress};
 use master_core::wire::coe::{CoeRepr, SdoFrame, SdoPayload, SdoRequest, SdoResponse};
@@ -856,22 +856,22 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
     );
     let request = upload_request();
     let mut gw = GatewayClient::new(gateway);
-    let frames = || frames_beyond_cycles(&agent, &ecatd.http);
-    let before = frames();
-    table.print_as(
-        Key::Read(Client::GatewayRust),
-        "ecatd gateway (UDP), Rust",
-        &sequential(count, || {
+    let (r, before, after) = sequential_probed(
+        count,
+        || frames_beyond_cycles(&agent, &ecatd.http),
+        || {
             assert_eq!(
                 gateway_upload(&mut gw, station(POSITION), &request),
                 SIM_VENDOR_ID
             );
-        }),
+        },
     );
-    println!(
-        "  frames per read: {:.2}",
-        (frames() - before) / count as f64
+    table.print_as(
+        Key::Read(Client::GatewayRust),
+        "ecatd gateway (UDP), Rust",
+        &r,
     );
+    println!("  frames per read: {:.2}", (after - before) / count as f64);
     table.print_as(
         Key::Floor(Client::GatewayRust),
         "  the same, no slave (an unknown station: the transport)",
@@ -1060,15 +1060,17 @@ fn phase_delay(table: &Table, count: usize) {
             let (ecatd, _config) = start_ecatd_rt(&file, rt);
             let mut gw = GatewayClient::new(ecatd.gateway_addr());
             let request = upload_request();
-            let frames = |agent: &ureq::Agent| frames_beyond_cycles(agent, &ecatd.http);
-            let before = frames(&agent);
-            let r = sequential(count, || {
-                assert_eq!(
-                    gateway_upload(&mut gw, station(POSITION), &request),
-                    SIM_VENDOR_ID
-                );
-            });
-            let per_read = (frames(&agent) - before) / count as f64;
+            let (r, before, after) = sequential_probed(
+                count,
+                || frames_beyond_cycles(&agent, &ecatd.http),
+                || {
+                    assert_eq!(
+                        gateway_upload(&mut gw, station(POSITION), &request),
+                        SIM_VENDOR_ID
+                    );
+                },
+            );
+            let per_read = (after - before) / count as f64;
             table.print(&format!("delay {delay} µs, {how}"), &r);
             let over = r.p50 - f64::from(delay);
             println!("  p50 − delay: {over:.0} µs, frames per read {per_read:.2}");

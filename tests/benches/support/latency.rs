@@ -31,10 +31,22 @@ pub fn print(name: &str, width: usize, r: &Row) {
 }
 
 /// Runs `op` `count` times after a warm-up of a tenth, timing each.
-pub fn sequential(count: usize, mut op: impl FnMut()) -> Row {
+pub fn sequential(count: usize, op: impl FnMut()) -> Row {
+    sequential_probed(count, || (), op).0
+}
+
+/// [`sequential`], with `probe` taken after the warm-up and after the last timed call
+/// (outside the timing): a counter read by `probe` differs between the two by what the
+/// `count` timed calls did, and nothing of the warm-up's.
+pub fn sequential_probed<P>(
+    count: usize,
+    mut probe: impl FnMut() -> P,
+    mut op: impl FnMut(),
+) -> (Row, P, P) {
     for _ in 0..count / 10 {
         op();
     }
+    let before = probe();
     let mut samples = Vec::with_capacity(count);
     let start = Instant::now();
     for _ in 0..count {
@@ -42,5 +54,6 @@ pub fn sequential(count: usize, mut op: impl FnMut()) -> Row {
         op();
         samples.push(t.elapsed());
     }
-    row(samples, start.elapsed())
+    let elapsed = start.elapsed();
+    (row(samples, elapsed), before, probe())
 }
