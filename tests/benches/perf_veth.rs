@@ -856,22 +856,13 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
     );
     let request = upload_request();
     let mut gw = GatewayClient::new(gateway);
-    let (r, before, after) = sequential_probed(
-        count,
-        || frames_beyond_cycles(&agent, &ecatd.http),
-        || {
-            assert_eq!(
-                gateway_upload(&mut gw, station(POSITION), &request),
-                SIM_VENDOR_ID
-            );
-        },
-    );
+    let (r, per_read) = counted_uploads(count, &mut gw, &request, &agent, &ecatd.http);
     table.print_as(
         Key::Read(Client::GatewayRust),
         "ecatd gateway (UDP), Rust",
         &r,
     );
-    println!("  frames per read: {:.2}", (after - before) / count as f64);
+    println!("  frames per read: {per_read:.2}");
     table.print_as(
         Key::Floor(Client::GatewayRust),
         "  the same, no slave (an unknown station: the transport)",
@@ -1044,6 +1035,28 @@ fn frames_beyond_cycles(agent: &ureq::Agent, http: &str) -> f64 {
         - metric_sum(agent, http, "ecat_bus_cycles_total")
 }
 
+/// `count` timed gateway uploads of `request` from the slave at [`POSITION`], each checked,
+/// and the frames beyond the cycle's per timed read (the warm-up's not counted).
+fn counted_uploads(
+    count: usize,
+    gw: &mut GatewayClient,
+    request: &[u8],
+    agent: &ureq::Agent,
+    http: &str,
+) -> (Row, f64) {
+    let (r, before, after) = sequential_probed(
+        count,
+        || frames_beyond_cycles(agent, http),
+        || {
+            assert_eq!(
+                gateway_upload(gw, station(POSITION), request),
+                SIM_VENDOR_ID
+            )
+        },
+    );
+    (r, (after - before) / count as f64)
+}
+
 /// ecatd with every slave answering late, under ordinary scheduling and as deployed (the
 /// bus thread at `SCHED_FIFO` 50, as `deploy/ecatd.toml.example` under the systemd unit).
 fn phase_delay(table: &Table, count: usize) {
@@ -1060,17 +1073,7 @@ fn phase_delay(table: &Table, count: usize) {
             let (ecatd, _config) = start_ecatd_rt(&file, rt);
             let mut gw = GatewayClient::new(ecatd.gateway_addr());
             let request = upload_request();
-            let (r, before, after) = sequential_probed(
-                count,
-                || frames_beyond_cycles(&agent, &ecatd.http),
-                || {
-                    assert_eq!(
-                        gateway_upload(&mut gw, station(POSITION), &request),
-                        SIM_VENDOR_ID
-                    );
-                },
-            );
-            let per_read = (after - before) / count as f64;
+            let (r, per_read) = counted_uploads(count, &mut gw, &request, &agent, &ecatd.http);
             table.print(&format!("delay {delay} µs, {how}"), &r);
             let over = r.p50 - f64::from(delay);
             println!("  p50 − delay: {over:.0} µs, frames per read {per_read:.2}");

@@ -1,8 +1,9 @@
 //! Counters of everything the bus does, lock-free, readable at any time.
 //!
-//! The bus thread is the only writer (one relaxed atomic add per event), but for `wakeups`,
-//! which the submitting threads count; any thread may take a [`BusStatsSnapshot`]. Counters taken one after the other are not one consistent cut,
-//! but each is exact and never goes down.
+//! The bus thread is the only writer (one relaxed atomic add per event), but for
+//! `wakeups`, which the submitting threads count; any thread may take a
+//! [`BusStatsSnapshot`]. Counters taken one after the other are not one consistent cut, but
+//! each is exact and never goes down.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
