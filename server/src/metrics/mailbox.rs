@@ -8,7 +8,7 @@ use crate::service::Core;
 
 type Field = fn(&MailboxStats) -> u64;
 
-const COUNTERS: [(&str, &str, Field); 13] = [
+const COUNTERS: [(&str, &str, Field); 14] = [
     (
         "ecat_mailbox_requests_total",
         "Mailbox requests (CoE, SoE, FoE, VoE, EoE calls).",
@@ -28,6 +28,11 @@ const COUNTERS: [(&str, &str, Field); 13] = [
         "ecat_mailbox_writes_total",
         "Messages written to the slave's receive mailbox.",
         |s| s.writes,
+    ),
+    (
+        "ecat_mailbox_write_full_total",
+        "Writes the slave did not take: its receive mailbox was still full (written again).",
+        |s| s.write_full,
     ),
     (
         "ecat_mailbox_reads_total",

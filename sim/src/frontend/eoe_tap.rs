@@ -5,7 +5,11 @@
 //! Two threads beside the frame loop, which they meet only through the slave's
 //! [`HostPort`] (bounded queues, drops counted):
 //! - the reader takes each frame the kernel sends out of the TAP and queues it for the
-//!   master (the slave posts it in EoE fragments when the master reads its mailbox);
+//!   master (the slave posts it in EoE fragments when the master reads its mailbox); while
+//!   that queue is full it waits, as a network card with a full transmit ring stops its
+//!   queue, so the frames stay in the kernel and the device's TCP slows down instead of
+//!   losing them (a frame dropped here cost a retransmission each: 9 % of them at 1 KiB
+//!   mailboxes, docs/performance.md "EoE");
 //! - the writer writes each frame the master sent through EoE into the TAP, and applies
 //!   what Set IP parameter gave the slave: its MAC and IPv4 address (with the mask, when
 //!   the request had one) become the TAP's, so the address the master sets is the one the
@@ -91,8 +95,13 @@ fn read_frames(tap: &OwnedFd, port: &HostPort, stop: &AtomicBool) {
         if let Ok(len) = usize::try_from(n)
             && len > 0
         {
-            // A full queue drops the frame and counts it (`HostPort::drops`).
-            port.send_to_master(buf[..len].to_vec());
+            let mut frame = buf[..len].to_vec();
+            while let Err(back) = port.send_to_master_waiting(frame, TICK) {
+                if stop.load(Ordering::Relaxed) {
+                    return;
+                }
+                frame = back;
+            }
         }
     }
 }

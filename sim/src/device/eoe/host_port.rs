@@ -6,10 +6,12 @@
 //! Set IP parameter the slave accepts, goes to [`HostPort::next_event`]; frames given to
 //! [`HostPort::send_to_master`] go to the master through the slave's mailbox. Both ways are
 //! bounded queues; what does not fit is dropped and counted, so a stalled side never makes
-//! the other grow.
+//! the other grow. A host side that can hold its frames itself (a TAP's reader: the kernel
+//! queues them) waits for room instead, with [`HostPort::send_to_master_waiting`], as a
+//! network card whose transmit ring is full stops its queue rather than drop.
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 use std::time::Duration;
 
@@ -67,6 +69,14 @@ impl HostPort {
         self.0.to_master.push(frame)
     }
 
+    /// Queues a frame for the master, waiting up to `timeout` while the queue is full; the
+    /// frame comes back if it is still full then (nothing is dropped or counted). The
+    /// device's stack then meets backpressure, as from a network card with a full transmit
+    /// ring, where dropping would cost it a retransmission for every frame lost.
+    pub fn send_to_master_waiting(&self, frame: Vec<u8>, timeout: Duration) -> Result<(), Vec<u8>> {
+        self.0.to_master.push_waiting(frame, timeout)
+    }
+
     /// Waits up to `timeout` for what the master sent.
     pub fn next_event(&self, timeout: Duration) -> Option<HostEvent> {
         self.0.to_host.pop_wait(timeout)
@@ -96,6 +106,10 @@ impl HostPort {
 struct Queue<T> {
     items: Mutex<VecDeque<T>>,
     ready: Condvar,
+    /// Signalled when a full queue has room again and a pusher waits for it.
+    room: Condvar,
+    /// Pushers waiting for room (changed under the lock).
+    waiting: AtomicUsize,
     dropped: AtomicU64,
 }
 
@@ -104,6 +118,8 @@ impl<T> Default for Queue<T> {
         Queue {
             items: Mutex::new(VecDeque::with_capacity(QUEUE_CAPACITY)),
             ready: Condvar::new(),
+            room: Condvar::new(),
+            waiting: AtomicUsize::new(0),
             dropped: AtomicU64::new(0),
         }
     }
@@ -126,8 +142,37 @@ impl<T> Queue<T> {
         true
     }
 
+    /// Waits for room up to `timeout`; the item comes back if there is none.
+    fn push_waiting(&self, item: T, timeout: Duration) -> Result<(), T> {
+        let mut items = self.lock();
+        if items.len() >= QUEUE_CAPACITY {
+            self.waiting.fetch_add(1, Ordering::Relaxed);
+            items = self
+                .room
+                .wait_timeout_while(items, timeout, |items| items.len() >= QUEUE_CAPACITY)
+                .unwrap_or_else(PoisonError::into_inner)
+                .0;
+            self.waiting.fetch_sub(1, Ordering::Relaxed);
+        }
+        if items.len() >= QUEUE_CAPACITY {
+            return Err(item);
+        }
+        items.push_back(item);
+        drop(items);
+        self.ready.notify_one();
+        Ok(())
+    }
+
     fn pop(&self) -> Option<T> {
-        self.lock().pop_front()
+        let mut items = self.lock();
+        let item = items.pop_front();
+        let waiting = self.waiting.load(Ordering::Relaxed) > 0;
+        drop(items);
+        // The frame loop pops: no system call unless a pusher waits.
+        if waiting {
+            self.room.notify_one();
+        }
+        item
     }
 
     fn pop_wait(&self, timeout: Duration) -> Option<T> {
@@ -164,6 +209,51 @@ mod tests {
             port.next_event(Duration::ZERO),
             Some(HostEvent::Frame(vec![0]))
         );
+    }
+
+    #[test]
+    fn a_waiting_sender_gets_in_once_a_frame_is_taken_and_nothing_is_dropped() {
+        let port = HostPort::default();
+        for i in 0..QUEUE_CAPACITY {
+            assert!(port.send_to_master(vec![i as u8]));
+        }
+        assert_eq!(
+            port.send_to_master_waiting(vec![0xee], Duration::from_millis(1)),
+            Err(vec![0xee]),
+            "still full: the frame comes back"
+        );
+        let sender = port.clone();
+        let (done, result) = std::sync::mpsc::channel();
+        let thread = std::thread::spawn(move || {
+            let _ = done.send(sender.send_to_master_waiting(vec![0xff], Duration::from_secs(120)));
+        });
+        // Bounded: the sender waits within a few scheduler ticks.
+        for _ in 0..1_000_000 {
+            if port.0.to_master.waiting.load(Ordering::Relaxed) == 1 {
+                break;
+            }
+            std::thread::yield_now();
+        }
+        assert_eq!(
+            port.0.to_master.waiting.load(Ordering::Relaxed),
+            1,
+            "the sender waits"
+        );
+        assert_eq!(port.take_for_master(), Some(vec![0]));
+        // Woken by the take, long before its own timeout would let it look again.
+        assert_eq!(result.recv_timeout(Duration::from_secs(60)), Ok(Ok(())));
+        thread.join().unwrap();
+        let mut taken = Vec::new();
+        while let Some(frame) = port.take_for_master() {
+            taken.push(frame);
+        }
+        assert_eq!(
+            taken.len(),
+            QUEUE_CAPACITY,
+            "63 left and the one that waited"
+        );
+        assert_eq!(taken.last(), Some(&vec![0xff]), "and it went in last");
+        assert_eq!(port.drops(), PortDrops::default(), "nothing dropped");
     }
 
     #[test]
