@@ -567,13 +567,19 @@ impl<L: Link> Engine<L> {
                         self.staging.push_back(entry);
                         continue;
                     }
-                    let then = entry.then.take();
-                    complete(entry, &datagram, stats);
                     // The next step of a chain goes in the next frame out; after a datagram
-                    // that did not count, the rest is skipped (dropped).
-                    if let Some(rest) = then.filter(|_| datagram.wkc > 0) {
+                    // that did not count, the rest is skipped (dropped). Either happens
+                    // before the caller hears of this one: by then a chain's feed has been
+                    // taken or closed.
+                    let next = entry
+                        .then
+                        .take()
+                        .filter(|_| datagram.wkc > 0)
+                        .map(|rest| rest.next_step());
+                    complete(entry, &datagram, stats);
+                    if let Some(step) = next.filter(|step| !step.is_empty()) {
                         stats.datagrams_chained.inc();
-                        self.staging.extend(rest.next_step());
+                        self.staging.extend(step);
                     }
                 }
             }

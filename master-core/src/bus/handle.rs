@@ -6,7 +6,7 @@ use std::sync::Arc;
 use crate::wire::datagram::OVERHEAD;
 
 use super::Shared;
-use super::chain::{Chain, Chained};
+use super::chain::{Chain, ChainFeed, Chained};
 use super::completion::{self, Pending};
 use super::config::BusConfig;
 use super::cyclic::CyclicTask;
@@ -40,6 +40,14 @@ impl Drop for Inner {
 }
 
 /// One datagram on its own (not part of a group), and its caller's end.
+/// A chain's `Pending`s by step, its queue entries by step, and whether every step passed
+/// the checks.
+type ChainEntries = (
+    Vec<Vec<Pending>>,
+    std::collections::VecDeque<Vec<Queued>>,
+    Result<(), BusError>,
+);
+
 fn queued(request: DatagramRequest, once: bool, again: u16) -> (Queued, Pending) {
     let (pending, completer) = completion::pair();
     let queued = Queued {
@@ -227,7 +235,7 @@ impl BusHandle {
     /// `chain`'s module documentation). Every step is checked as [`Self::submit_group`]
     /// checks a group; if one is refused, every `Pending` completes with the error.
     pub fn submit_chain(&self, steps: Vec<Vec<Chained>>) -> Vec<Vec<Pending>> {
-        self.chain_beside(steps, None)
+        self.chain_beside(steps, None, None)
     }
 
     /// [`Self::submit_chain`], and `poll` queued as [`Self::submit_once_polling`] does in the
@@ -247,11 +255,58 @@ impl BusHandle {
             return (self.submit_chain(steps), Pending::ready(Err(err)));
         }
         let (poll, pending) = queued(poll, true, again);
-        (self.chain_beside(steps, Some(poll)), pending)
+        (self.chain_beside(steps, Some(poll), None), pending)
     }
 
-    /// Queues a chain, and `beside` (a lone datagram) in the same submission.
-    fn chain_beside(&self, steps: Vec<Vec<Chained>>, beside: Option<Queued>) -> Vec<Vec<Pending>> {
+    /// [`Self::submit_chain_then_poll`] for a chain that more steps may join while it runs
+    /// ([`Self::feed_chain`] with the feed returned): the chain ends when its steps run out
+    /// with none fed, or at the first step that does not count, as any chain.
+    pub fn submit_chain_fed(
+        &self,
+        steps: Vec<Vec<Chained>>,
+        poll: DatagramRequest,
+    ) -> (Vec<Vec<Pending>>, Pending, ChainFeed) {
+        let feed = ChainFeed::default();
+        if let Err(err) = self.check(&poll) {
+            return (self.submit_chain(steps), Pending::ready(Err(err)), feed);
+        }
+        let (poll, pending) = queued(poll, true, 0);
+        let pendings = self.chain_beside(steps, Some(poll), Some(feed.clone()));
+        (pendings, pending, feed)
+    }
+
+    /// Adds `steps` behind a chain submitted with [`Self::submit_chain_fed`], checked as
+    /// [`Self::submit_chain`] checks them: the first is sent in the next frame out once the
+    /// chain's last step before it counted, without a wake-up of the bus thread. `None` if
+    /// the chain has ended by now (nothing is sent: submit them as a chain of their own);
+    /// refused steps complete with the error.
+    pub fn feed_chain(
+        &self,
+        feed: &ChainFeed,
+        steps: Vec<Vec<Chained>>,
+    ) -> Option<Vec<Vec<Pending>>> {
+        let (pendings, queued, checked) = self.chain_entries(steps);
+        if let Err(err) = checked {
+            for entry in queued.into_iter().flatten() {
+                entry.completer.complete(Err(err.clone()));
+            }
+            return Some(pendings);
+        }
+        match feed.extend(queued) {
+            Ok(()) => Some(pendings),
+            Err(back) => {
+                // Never sent: their completions are dropped unused along with them.
+                for entry in back.into_iter().flatten() {
+                    entry.completer.complete(Err(BusError::Skipped));
+                }
+                None
+            }
+        }
+    }
+
+    /// The entries of a chain's steps, their `Pending`s, and whether every step passes the
+    /// checks.
+    fn chain_entries(&self, steps: Vec<Vec<Chained>>) -> ChainEntries {
         let checked = steps.iter().try_for_each(|step| {
             if step.is_empty() {
                 return Err(BusError::InvalidRequest("an empty step of a chain"));
@@ -281,20 +336,37 @@ impl BusHandle {
             pendings.push(step_pendings);
             queued.push_back(entries);
         }
+        (pendings, queued, checked)
+    }
+
+    /// Queues a chain (fed by `feed`, if any), and `beside` (a lone datagram) in the same
+    /// submission.
+    fn chain_beside(
+        &self,
+        steps: Vec<Vec<Chained>>,
+        beside: Option<Queued>,
+        feed: Option<ChainFeed>,
+    ) -> Vec<Vec<Pending>> {
+        let (pendings, mut queued, checked) = self.chain_entries(steps);
         if let Err(err) = checked {
-            for entry in queued.into_iter().flatten().chain(beside) {
+            // Nothing runs: a feed closes at once, so nothing joins it.
+            let fed = feed.map(|feed| feed.close()).unwrap_or_default();
+            for entry in queued.into_iter().chain(fed).flatten().chain(beside) {
                 entry.completer.complete(Err(err.clone()));
             }
             return pendings;
         }
         let Some(mut first) = queued.pop_front() else {
+            if let Some(feed) = feed {
+                drop(Chain::new(queued, Some(feed)));
+            }
             if let Some(beside) = beside {
                 self.push([beside]);
             }
             return pendings;
         };
         if let Some(head) = first.first_mut() {
-            head.then = Chain::new(queued);
+            head.then = Chain::new(queued, feed);
         }
         first.extend(beside);
         match self.shared().queue.push(first.into_iter()) {

@@ -120,7 +120,7 @@ mod request;
 mod sched;
 mod stats;
 
-pub use chain::Chained;
+pub use chain::{ChainFeed, Chained};
 pub use completion::{DatagramResult, Pending};
 pub use config::{BusConfig, WaitMode};
 pub use cyclic::{CyclicFrame, CyclicReply, CyclicTask, DEFAULT_PERIOD, MIN_PERIOD};

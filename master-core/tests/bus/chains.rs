@@ -13,6 +13,8 @@ use bus_support::segment::FakeSegment;
 use master_core::bus::{BusError, Chained, DatagramRequest};
 use master_core::link::Link;
 use master_core::wire::frame::EthercatFrame;
+use std::sync::mpsc;
+use std::time::Duration;
 
 const AT: u16 = 0x0F00;
 
@@ -252,4 +254,102 @@ fn a_poll_with_a_refused_chain_fails_with_it_and_nothing_is_sent() {
     let (stats, _, _) = bus.stop();
     assert_eq!(stats.datagrams_sent, 0);
     assert!(seen.lock().unwrap().is_empty());
+}
+
+/// [`Steps`] that holds its answer to the first frame until the test opens the gate, so
+/// steps can be fed to a chain while it is known to run.
+struct Gated {
+    steps: Steps,
+    gate: Option<mpsc::Receiver<()>>,
+}
+
+impl Script for Gated {
+    fn on_frame(&mut self, frame: &mut [u8], segment: &mut FakeSegment, link: &mut dyn Link) {
+        if let Some(gate) = self.gate.take() {
+            // Bounded: a test that never opens the gate fails on its own assertions.
+            let _ = gate.recv_timeout(Duration::from_secs(30));
+        }
+        self.steps.on_frame(frame, segment, link);
+    }
+}
+
+fn gated(empty: Option<usize>) -> (Gated, Seen, mpsc::Sender<()>) {
+    let (steps, seen) = Steps::new(empty, None);
+    let (open, gate) = mpsc::channel();
+    let script = Gated {
+        steps,
+        gate: Some(gate),
+    };
+    (script, seen, open)
+}
+
+#[test]
+fn steps_fed_while_a_chain_runs_follow_its_own_and_a_feed_after_its_end_is_refused() {
+    let (fpwr, fprd) = (0x05, 0x04);
+    let (script, seen, open) = gated(None);
+    let bus = start(1, script, config());
+    let poll = DatagramRequest::fprd(FakeSegment::station(0), AT, 1);
+    let (own, poll, feed) = bus
+        .handle
+        .submit_chain_fed(vec![vec![write(1)], vec![write(2)]], poll);
+    // The first frame is held: the chain is under way.
+    let fed = bus
+        .handle
+        .feed_chain(&feed, vec![vec![write(3)], vec![write(4)]])
+        .expect("the chain is still running");
+    open.send(()).unwrap();
+    assert_eq!(finish(poll).unwrap().data.as_slice(), [1]);
+    for pending in own.into_iter().chain(fed).flatten() {
+        assert_eq!(finish(pending).unwrap().wkc, 1);
+    }
+    assert!(
+        feed.is_closed(),
+        "the last write came back with nothing fed"
+    );
+    assert!(
+        bus.handle.feed_chain(&feed, vec![vec![write(5)]]).is_none(),
+        "a feed after the end is refused"
+    );
+    assert_eq!(
+        commands(&seen),
+        [vec![fpwr, fprd], vec![fpwr], vec![fpwr], vec![fpwr]],
+        "one write per frame, in order, and nothing of the refused step"
+    );
+    assert_eq!(writes(&seen), [vec![1], vec![2], vec![3], vec![4]]);
+    let (stats, _, report) = bus.stop();
+    assert_eq!(report.frames, 4);
+    assert_eq!(
+        stats.datagrams_chained, 3,
+        "the bus staged three steps itself"
+    );
+    assert_eq!(report.segment.slaves[0].mem[usize::from(AT)], 4);
+}
+
+#[test]
+fn steps_fed_to_a_chain_that_stops_are_skipped_unsent() {
+    // The second frame comes back counted by no slave: SM0 still full, say.
+    let (script, seen, open) = gated(Some(1));
+    let bus = start(1, script, config());
+    let poll = DatagramRequest::fprd(FakeSegment::station(0), AT, 1);
+    let (own, _poll, feed) = bus
+        .handle
+        .submit_chain_fed(vec![vec![write(1)], vec![write(2)]], poll);
+    let fed = bus
+        .handle
+        .feed_chain(&feed, vec![vec![write(3)]])
+        .expect("the chain is still running");
+    open.send(()).unwrap();
+    let own: Vec<_> = own
+        .into_iter()
+        .flatten()
+        .map(|p| finish(p).unwrap().wkc)
+        .collect();
+    assert_eq!(own, [1, 0]);
+    for pending in fed.into_iter().flatten() {
+        assert_eq!(finish(pending).unwrap_err(), BusError::Skipped);
+    }
+    assert!(feed.is_closed());
+    assert_eq!(writes(&seen), [vec![1], vec![2]], "the fed step never left");
+    let (stats, _, _) = bus.stop();
+    assert_eq!(stats.datagrams_chained, 1);
 }

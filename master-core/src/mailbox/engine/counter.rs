@@ -28,6 +28,20 @@ impl Counters {
         self.tx
     }
 
+    /// The counter of the last request written (0 before the first).
+    pub fn last_tx(&self) -> u8 {
+        self.tx
+    }
+
+    /// Takes back the counters given out after `last`, the counter of the last request the
+    /// slave may have taken: requests composed after it were never written, and the next
+    /// gets `last`'s successor. Otherwise seven counters given to writes that never went in
+    /// would bring the next one round to the slave's last, and it would discard it as a
+    /// repetition.
+    pub fn rewind_to(&mut self, last: u8) {
+        self.tx = last % 8;
+    }
+
     /// Whether a message with the slave's counter `counter` is new.
     ///
     /// A slave numbers every message it posts 1..7 (0 = it does not count, and nothing can
@@ -77,6 +91,22 @@ mod tests {
         assert!(
             !c.accept_rx(5),
             "the last counted message is still remembered"
+        );
+    }
+
+    #[test]
+    fn counters_given_to_writes_that_never_went_in_are_taken_back() {
+        let mut c = Counters::default();
+        let last_written = c.next_tx();
+        // Seven composed and never written would come round to the slave's last.
+        let skipped: Vec<u8> = (0..7).map(|_| c.next_tx()).collect();
+        assert_eq!(skipped.last(), Some(&last_written));
+        c.rewind_to(last_written);
+        assert_eq!(c.last_tx(), last_written);
+        assert_eq!(
+            c.next_tx(),
+            last_written % 7 + 1,
+            "the successor of the last written"
         );
     }
 }

@@ -57,6 +57,7 @@ use super::slave::SlaveShared;
 use super::stats::inc;
 
 mod chain;
+pub(crate) use chain::WriteBatch;
 
 /// Answers read while a request waited for room in SM0, kept for it.
 const STASH_LEN: usize = 8;
@@ -180,6 +181,16 @@ impl Exchange {
         counter
     }
 
+    /// Takes back the counters given to messages composed after `last` and never written
+    /// ([`Counters::rewind_to`]).
+    fn rewind_counter(&mut self, last: u8) {
+        self.counters.rewind_to(last);
+        self.shared.last_tx.store(
+            self.counters.last_tx(),
+            std::sync::atomic::Ordering::Relaxed,
+        );
+    }
+
     /// The slave's station address.
     pub fn station(&self) -> u16 {
         self.shared.config.station
@@ -188,6 +199,13 @@ impl Exchange {
     /// The engine's settings.
     pub fn config(&self) -> &MailboxConfig {
         &self.shared.engine
+    }
+
+    /// Requests waiting for their turn at this mailbox.
+    pub fn queued_requests(&self) -> usize {
+        self.shared
+            .waiting
+            .load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// SM0 length: what a message to the slave may occupy, header included.

@@ -129,6 +129,7 @@ impl Place {
             return Err(MailboxError::QueueFull(shared.config.station));
         }
         let place = Place(Arc::clone(shared));
+        shared.request_waits();
         if shared.stopped() {
             return Err(MailboxError::Shutdown);
         }

@@ -162,6 +162,7 @@ impl MailboxEngine {
             config,
             engine,
             waiting: AtomicUsize::new(0),
+            run: std::sync::Mutex::new(None),
             runtime: self.inner.runtime.clone(),
             engine_stop: self.inner.stop.subscribe(),
             side_queue: side.queue,

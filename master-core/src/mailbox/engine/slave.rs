@@ -21,6 +21,10 @@ pub(crate) struct SlaveShared {
     /// Requests waiting for their turn at the mailbox (not the one under way); at most
     /// [`MailboxConfig::queue_len`].
     pub waiting: AtomicUsize,
+    /// The feed of the owner's last run of writes (EoE fragments): a request that comes
+    /// takes back the batch that joined it and has not started, so it waits for the batch
+    /// under way only ([`SlaveShared::request_waits`]).
+    pub run: std::sync::Mutex<Option<crate::bus::ChainFeed>>,
     /// The engine's runtime: where a request whose caller went away finishes its work.
     pub runtime: tokio::runtime::Handle,
     /// The engine stopped: requests that get their turn afterwards are not started.
@@ -53,6 +57,19 @@ impl SlaveShared {
     pub fn notify_mail(&self) {
         self.answer.notify_one();
         self.mail.notify_one();
+    }
+
+    /// A request now waits for its turn: the batch of writes that joined the owner's run
+    /// and has not started is taken back (its fragments are written again in a later
+    /// turn), so the request waits for the batch under way only.
+    pub fn request_waits(&self) {
+        let run = self
+            .run
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(feed) = run.as_ref() {
+            feed.take_back();
+        }
     }
 
     /// The slave was removed or the engine stopped: requests are not started any more.

@@ -1,14 +1,16 @@
-//! Sending Ethernet frames over EoE: up to [`CHAIN`] fragments per turn of the owner task,
-//! written by the bus thread one after the other as the slave takes them
-//! ([`Exchange::send_chain`]), so a request that arrives meanwhile waits at most that many
-//! frame round trips (EoE uses the mailbox only when nothing else waits).
+//! Sending Ethernet frames over EoE: the fragments are written by the bus thread one after
+//! the other as the slave takes them, in a run the owner task hands batches of up to
+//! [`CHAIN`] ([`Exchange::start_chain`], [`Exchange::join_chain`]; spec-notes §mbx.chain).
+//! While one batch is written the next joins the run, unless a request waits for the
+//! mailbox: a request that arrives meanwhile waits at most two batches' frame round trips
+//! (EoE uses the mailbox only when nothing else waits).
 
 use std::collections::VecDeque;
 use std::time::Instant;
 
 use tokio::sync::{mpsc, oneshot};
 
-use crate::mailbox::engine::exchange::Exchange;
+use crate::mailbox::engine::exchange::{Exchange, WriteBatch};
 use crate::mailbox::engine::hook::Background;
 use crate::mailbox::engine::job::BoxFuture;
 use crate::mailbox::engine::stats::{add, inc};
@@ -17,11 +19,41 @@ use crate::wire::eoe::{EoeRepr, Fragmenter};
 use crate::wire::mailbox::MailboxType;
 use crate::wire::{Emit, WireError};
 
-/// The most fragments one turn writes. Each costs a frame round trip; a turn of one
-/// fragment adds two thread hand-offs per fragment (the owner woken after each write to
-/// send the next), which on a busy two-core machine cost as much as the round trip itself.
-/// Four halve that and keep a request's wait behind EoE to four round trips.
+/// The most fragments of one batch. Each costs a frame round trip; a batch of one fragment
+/// would wake the owner after each write, which on a busy two-core machine costs as much as
+/// the round trip itself. While a batch of four is written the owner has four round trips
+/// to hand the run the next; a request waits behind two batches at most.
 pub(crate) const CHAIN: usize = 4;
+
+/// The most fragments one turn writes in batches that join each other: a turn ends now and
+/// then even while nobody waits, so the owner task sees a stop between two.
+pub(crate) const TURN: usize = 64;
+
+/// Message `k` of `plan` (a fragment of a frame in `sending`) into `buf`.
+fn emit(
+    sending: &VecDeque<Sending>,
+    plan: &[(usize, usize)],
+    size: usize,
+    k: usize,
+    buf: &mut [u8],
+) -> core::result::Result<usize, WireError> {
+    let missing = |declared| WireError::BadLength {
+        what: "EoE fragment",
+        declared,
+        available: plan.len(),
+    };
+    let &(f, i) = plan.get(k).ok_or_else(|| missing(k))?;
+    let s = sending.get(f).ok_or_else(|| missing(f))?;
+    let fragment = Fragmenter::new(&s.send.frame, size, s.number)?
+        .with_port(s.send.port)
+        .nth(i)
+        .ok_or(WireError::BadLength {
+            what: "EoE fragment",
+            declared: i,
+            available: s.fragments,
+        })?;
+    EoeRepr::Fragment(fragment).emit_into(buf)
+}
 
 /// A frame queued for sending, and who to tell when it is out.
 pub(crate) struct EoeSend {
@@ -108,57 +140,118 @@ impl EoeTx {
         }
     }
 
-    /// Writes the next fragments of the frames taken (and of frames still queued, while
-    /// the turn has room).
-    pub async fn step(&mut self, exchange: &mut Exchange) {
-        let deadline = Instant::now() + exchange.config().timeout;
-        exchange.begin(deadline, None, None);
-        let size = exchange.write_size();
-        self.cut(size);
-        while !self.full && self.left() < CHAIN {
+    /// Takes frames from the queue while fewer than `want` fragments are left to write in
+    /// the frames taken (and SM0 was not found full).
+    fn take_queued(&mut self, want: usize, size: usize) {
+        while !self.full && self.left() < want {
             let Ok(send) = self.queue.try_recv() else {
                 break;
             };
             self.start(send);
             self.cut(size);
         }
-        // (frame in `sending`, fragment) in the order they go out.
-        let plan: Vec<(usize, usize)> = self
-            .sending
+    }
+
+    /// The next `n` fragments after the first `skip` left to write, as (frame in
+    /// `sending`, fragment), in the order they go out.
+    fn plan(&self, skip: usize, n: usize) -> Vec<(usize, usize)> {
+        self.sending
             .iter()
             .enumerate()
             .flat_map(|(f, s)| (s.next..s.fragments).map(move |i| (f, i)))
-            .take(if self.full { 1 } else { CHAIN })
-            .collect();
+            .skip(skip)
+            .take(n)
+            .collect()
+    }
+
+    /// Writes the next fragments of the frames taken (and of frames still queued): a
+    /// batch of up to [`CHAIN`], and while it is written the next batch joins it
+    /// ([`Exchange::join_chain`]) unless a request waits for the mailbox, up to [`TURN`]
+    /// fragments in the turn. The bus thread then goes from one batch to the next without
+    /// waiting for this task, which it wakes once per batch; a request that comes waits
+    /// for the batch under way and the one that joined it.
+    pub async fn step(&mut self, exchange: &mut Exchange) {
+        let deadline = Instant::now() + exchange.config().timeout;
+        exchange.begin(deadline, None, None);
+        let size = exchange.write_size();
+        self.cut(size);
+        self.take_queued(CHAIN, size);
+        if self.full {
+            // The last turn found SM0 full: one fragment, waiting for room.
+            let plan = self.plan(0, 1);
+            if !plan.is_empty() {
+                let sent = exchange
+                    .send(MailboxType::Eoe, |buf| {
+                        emit(&self.sending, &plan, size, 0, buf)
+                    })
+                    .await;
+                self.full = false;
+                self.count(exchange, usize::from(sent.is_ok()), sent);
+            }
+            exchange.end().await;
+            return;
+        }
+        let plan = self.plan(0, CHAIN);
         if plan.is_empty() {
             exchange.end().await;
             return;
         }
-        let sending = &self.sending;
-        let emit = |k: usize, buf: &mut [u8]| {
-            let (f, i) = plan[k];
-            let s = &sending[f];
-            let fragment = Fragmenter::new(&s.send.frame, size, s.number)?
-                .with_port(s.send.port)
-                .nth(i)
-                .ok_or(WireError::BadLength {
-                    what: "EoE fragment",
-                    declared: i,
-                    available: s.fragments,
-                })?;
-            EoeRepr::Fragment(fragment).emit_into(buf)
+        let started = exchange
+            .start_chain(MailboxType::Eoe, plan.len(), |k, buf| {
+                emit(&self.sending, &plan, size, k, buf)
+            })
+            .await;
+        let (run, mut batch) = match started {
+            Ok(started) => started,
+            Err(err) => {
+                self.count(exchange, 0, Err(err));
+                exchange.end().await;
+                return;
+            }
         };
-        let (written, result) = if self.full {
-            let sent = exchange.send(MailboxType::Eoe, |buf| emit(0, buf)).await;
-            (usize::from(sent.is_ok()), sent)
-        } else {
-            exchange
-                .send_chain(MailboxType::Eoe, plan.len(), emit)
-                .await
-        };
+        // Fragments in the batches handed to the bus and not yet counted.
+        let mut planned = batch.len();
+        let mut written_in_turn = 0;
+        let mut joining = true;
+        loop {
+            let mut next = None;
+            if joining && written_in_turn + planned < TURN && exchange.queued_requests() == 0 {
+                self.take_queued(planned + CHAIN, size);
+                let plan = self.plan(planned, CHAIN);
+                if !plan.is_empty() {
+                    next = exchange.join_chain(&run, plan.len(), |k, buf| {
+                        emit(&self.sending, &plan, size, k, buf)
+                    });
+                }
+            }
+            let expected = batch.len();
+            planned += next.as_ref().map_or(0, WriteBatch::len);
+            let (written, full, result) = exchange.finish_batch(batch).await;
+            planned -= expected;
+            written_in_turn += written;
+            let stopped = written < expected || result.is_err();
+            // A batch stopped by a full SM0 at its first write: wait for room next turn.
+            self.full = full && written == 0 && result.is_ok();
+            self.count(exchange, written, result);
+            // The batch that joined a stopped run was not written: the next turn plans
+            // its fragments again.
+            match next {
+                Some(joined) if !stopped => {
+                    if exchange.read_beside(&run).await.is_err() {
+                        // Finish the batch under way, join no more.
+                        joining = false;
+                    }
+                    batch = joined;
+                }
+                _ => break,
+            }
+        }
         exchange.end().await;
-        // A chain stopped by a full SM0 at its first write: wait for room next turn.
-        self.full = written == 0 && result.is_ok();
+    }
+
+    /// Counts `written` fragments as gone in, in order; a failed write fails the frame it
+    /// belongs to.
+    fn count(&mut self, exchange: &Exchange, written: usize, result: Result<()>) {
         for _ in 0..written {
             self.advance(exchange);
         }
