@@ -6,8 +6,8 @@
 //! Turns: the owner asks for a turn per step of the side traffic (EoE fragments in batches
 //! of four, `eoe::tx::CHAIN`, that go on while no request waits, up to `eoe::tx::TURN`) and
 //! asks again at once while it has more, so turns alternate with a stream of requests: a
-//! request waits at most the two batches under way, and a full EoE queue at most the
-//! requests queued before it. Reads are
+//! request waits for the batch under way (it takes back one that joined and has not
+//! started), and a full EoE queue at most the requests queued before it. Reads are
 //! driven by demand: an idle read that found something is followed by another at once, so a
 //! slave streaming frames is served as fast as the bus allows; only an empty read falls
 //! back to the idle poll interval.

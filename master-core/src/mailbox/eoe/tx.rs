@@ -2,8 +2,9 @@
 //! the other as the slave takes them, in a run the owner task hands batches of up to
 //! [`CHAIN`] ([`Exchange::start_chain`], [`Exchange::join_chain`]; spec-notes §mbx.chain).
 //! While one batch is written the next joins the run, unless a request waits for the
-//! mailbox: a request that arrives meanwhile waits at most two batches' frame round trips
-//! (EoE uses the mailbox only when nothing else waits).
+//! mailbox; a request that arrives meanwhile takes back the batch that joined and has not
+//! started, so it waits for the batch under way (EoE uses the mailbox only when nothing
+//! else waits).
 
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -22,7 +23,8 @@ use crate::wire::{Emit, WireError};
 /// The most fragments of one batch. Each costs a frame round trip; a batch of one fragment
 /// would wake the owner after each write, which on a busy two-core machine costs as much as
 /// the round trip itself. While a batch of four is written the owner has four round trips
-/// to hand the run the next; a request waits behind two batches at most.
+/// to hand the run the next; a request waits behind the batch under way (two if the bus
+/// thread had just taken the next).
 pub(crate) const CHAIN: usize = 4;
 
 /// The most fragments one turn writes in batches that join each other: a turn ends now and
@@ -168,8 +170,9 @@ impl EoeTx {
     /// batch of up to [`CHAIN`], and while it is written the next batch joins it
     /// ([`Exchange::join_chain`]) unless a request waits for the mailbox, up to [`TURN`]
     /// fragments in the turn. The bus thread then goes from one batch to the next without
-    /// waiting for this task, which it wakes once per batch; a request that comes waits
-    /// for the batch under way and the one that joined it.
+    /// waiting for this task, which it wakes once per batch; a request that comes takes
+    /// back a batch that joined and has not started
+    /// ([`SlaveShared::request_waits`](crate::mailbox::engine::slave::SlaveShared::request_waits)).
     pub async fn step(&mut self, exchange: &mut Exchange) {
         let deadline = Instant::now() + exchange.config().timeout;
         exchange.begin(deadline, None, None);
