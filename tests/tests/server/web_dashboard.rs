@@ -275,17 +275,17 @@ fn the_dashboard_shows_the_segment_and_drives_the_mailboxes() {
     );
     assert_eq!(status, 403);
 
-    // The console: no error, except the refusals before the token was given.
+    // The console: no error, except the refusals before the token was given, and requests
+    // Chromium itself dropped because a network interface came or went on the host (the
+    // tests beside this one make them; the page was opened again, `open_and_wait`).
     let console = r["console"].as_array().cloned().unwrap_or_default();
     let errors: Vec<_> = console
         .iter()
         .filter(|e| e["level"] == "SEVERE")
         .filter(|e| {
-            !(e["phase"] == "token"
-                && e["message"]
-                    .as_str()
-                    .unwrap_or("")
-                    .contains("status of 401"))
+            let message = e["message"].as_str().unwrap_or("");
+            let refused = e["phase"] == "token" && message.contains("status of 401");
+            !(refused || message.contains("net::ERR_NETWORK_CHANGED"))
         })
         .collect();
     assert!(errors.is_empty(), "console errors: {errors:#?}");
