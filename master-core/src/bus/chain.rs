@@ -87,6 +87,12 @@ impl Chain {
 
     /// Completes every datagram of the rest, and of its feed, with `err`.
     pub fn fail(mut self, err: &BusError) {
+        self.complete_rest(err);
+    }
+
+    /// Closes the feed and completes what is left, its own steps and the fed ones, with
+    /// `err`.
+    fn complete_rest(&mut self, err: &BusError) {
         let fed = self
             .feed
             .take()
@@ -100,14 +106,7 @@ impl Chain {
 
 impl Drop for Chain {
     fn drop(&mut self) {
-        let fed = self
-            .feed
-            .take()
-            .map(|feed| feed.close())
-            .unwrap_or_default();
-        for entry in self.steps.drain(..).chain(fed).flatten() {
-            entry.completer.complete(Err(BusError::Skipped));
-        }
+        self.complete_rest(&BusError::Skipped);
     }
 }
 
