@@ -39,7 +39,6 @@ impl Drop for Inner {
     }
 }
 
-/// One datagram on its own (not part of a group), and its caller's end.
 /// A chain's `Pending`s by step, its queue entries by step, and whether every step passed
 /// the checks.
 type ChainEntries = (
@@ -48,6 +47,7 @@ type ChainEntries = (
     Result<(), BusError>,
 );
 
+/// One datagram on its own (not part of a group), and its caller's end.
 fn queued(request: DatagramRequest, once: bool, again: u16) -> (Queued, Pending) {
     let (pending, completer) = completion::pair();
     let queued = Queued {
