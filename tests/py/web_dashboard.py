@@ -68,6 +68,11 @@ def wait(what, check, timeout=DEADLINE_S, record=True):
         time.sleep(0.1)
 
 
+def on_events_view(d):
+    """Whether the events view is shown (its hash and its table)."""
+    return js(d, "return location.hash") == "#/events" and bool(d.find_elements(By.ID, "events"))
+
+
 def open_and_wait(d, fragment, what, check):
     """Opens `fragment` and waits for `check`. Chromium drops the requests in flight when it
     sees a network interface come or go (`net::ERR_NETWORK_CHANGED`), and the tests that run
@@ -82,7 +87,7 @@ def open_and_wait(d, fragment, what, check):
     if any("ERR_NETWORK_CHANGED" in e.get("message", "") for e in entries):
         OUT["network_changed"] = OUT.get("network_changed", 0) + 1
         go(d, "#/events")
-        wait("another view", lambda: js(d, "return location.hash") == "#/events" and d.find_elements(By.ID, "events"))
+        wait("another view", lambda: on_events_view(d))
         go(d, fragment)
     return wait(what, check)
 
@@ -206,7 +211,7 @@ def main():
             if js(d, "return document.activeElement.dataset.view") == "events":
                 ActionChains(d).send_keys(Keys.ENTER).perform()
                 break
-        OUT["keyboard_view"] = wait("the events view", lambda: js(d, "return location.hash") == "#/events" and d.find_elements(By.ID, "events") and "#/events")
+        OUT["keyboard_view"] = wait("the events view", lambda: on_events_view(d) and "#/events")
         OUT["emergency_raised"] = raise_emergency(0, ARGS["emergency_code"], 0x11, "0102030405")
         wait("the emergency in the log", lambda: d.find_elements(By.CSS_SELECTOR, "#events tr.event-emergency"))
         Select(d.find_element(By.ID, "event-kind")).select_by_value("emergency")
