@@ -137,3 +137,40 @@ async fn a_slave_that_answers_after_1_ms_is_answered_without_a_read_per_round_tr
         "{per_upload} datagrams per upload, once known"
     );
 }
+
+#[tokio::test]
+async fn round_trips_longer_than_30_us_do_not_make_the_planned_read_late_every_time() {
+    // Every reply held 40 µs (a loaded machine's round trips are as long): a planned read
+    // that finds the answer records the moment it came back, so with a lead shorter than
+    // its round trip each one planned the next later still, and every planned read found
+    // the answer at once, late: exactly three datagrams per upload (the write, the read
+    // behind it, the planned read) and 250-530 µs per upload where 180-265 suffice. With
+    // the lead the writes' round trip, the plan stays about when the answer is due, and
+    // some planned reads go early enough to be followed by eager ones.
+    let rig = Rig::start_with(
+        &topology(100),
+        FaultConfig {
+            delay: Some(Duration::from_micros(40)),
+            ..FaultConfig::default()
+        },
+        1,
+        bus_config(),
+        no_idle_poll(),
+        |_, _| {},
+    );
+    let drive = rig.slave(DRIVE);
+    for _ in 0..20 {
+        assert_eq!(drive.sdo_upload(0x1018, 1).await.unwrap(), vendor_id());
+    }
+    const UPLOADS: u64 = 200;
+    let before = rig.bus.stats();
+    for _ in 0..UPLOADS {
+        assert_eq!(drive.sdo_upload(0x1018, 1).await.unwrap(), vendor_id());
+    }
+    let per_upload =
+        (rig.bus.stats().datagrams_sent - before.datagrams_sent) as f64 / UPLOADS as f64;
+    assert!(
+        per_upload > 3.1,
+        "{per_upload:.2} datagrams per upload: the planned read went late every time"
+    );
+}
