@@ -216,6 +216,25 @@ fn events_since(ecatd: &Ecatd, kind: &str) -> Vec<Value> {
         .collect()
 }
 
+/// Waits until ecatd has logged `kind` at least `count` times (the log reader gets a line
+/// a little after ecatd acted on it) and returns those lines; panics past the patience.
+fn events_until(ecatd: &Ecatd, kind: &str, count: usize) -> Vec<Value> {
+    let deadline = Instant::now() + PATIENCE;
+    loop {
+        let seen = events_since(ecatd, kind);
+        if seen.len() >= count {
+            return seen;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "{kind:?} logged {} times, not {count}: {seen:?}",
+            seen.len()
+        );
+        // The poll interval of the log check, not a synchronisation by time.
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 #[test]
 fn every_client_enables_the_drive_and_reads_its_position_back() {
     let socket = socket_path("drive");
@@ -298,24 +317,25 @@ fn killing_the_owner_puts_the_safe_outputs_on_the_wire_and_says_so() {
         PATIENT,
         "[[app.safe_output]]\nslave = \"pos:1\"\nindex = 0x7000\nsubindex = 2\nvalue = 1\n",
     );
-    for client in CLIENTS {
+    const RELEASED: &str = "application no longer owns the outputs; safe outputs";
+    for (n, client) in CLIENTS.into_iter().enumerate() {
         let owner = Running::start(client, &socket, "hold", None);
         assert_eq!(owner.next()["claimed"], true, "{client:?}");
         ecatd.wait_sim_outputs(1, &[0x01], PATIENCE);
         owner.signal(libc::SIGKILL);
         ecatd.wait_sim_outputs(1, &[0x02], PATIENCE);
-        ecatd.log_until("application no longer owns the outputs; safe outputs");
+        events_until(&ecatd, RELEASED, 2 * n + 1);
         // A new owner may claim at once.
         let next = Running::start(client, &socket, "hold", None);
         assert_eq!(next.next()["claimed"], true, "{client:?}");
         ecatd.wait_sim_outputs(1, &[0x01], PATIENCE);
         drop(next);
         ecatd.wait_sim_outputs(1, &[0x02], PATIENCE);
+        // The outputs go safe before the line is logged: wait for it, or the count below
+        // races the log reader (it did, once: 5 lines of 6).
+        events_until(&ecatd, RELEASED, 2 * n + 2);
     }
-    let released = events_since(
-        &ecatd,
-        "application no longer owns the outputs; safe outputs",
-    );
+    let released = events_since(&ecatd, RELEASED);
     assert_eq!(
         released.len(),
         6,
