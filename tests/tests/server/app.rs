@@ -216,23 +216,12 @@ fn events_since(ecatd: &Ecatd, kind: &str) -> Vec<Value> {
         .collect()
 }
 
-/// Waits until ecatd has logged `kind` at least `count` times (the log reader gets a line
-/// a little after ecatd acted on it) and returns those lines; panics past the patience.
+/// Waits until ecatd has logged `kind` at least `count` times and returns those lines.
 fn events_until(ecatd: &Ecatd, kind: &str, count: usize) -> Vec<Value> {
-    let deadline = Instant::now() + PATIENCE;
-    loop {
+    ecatd.wait_on_log(&format!("{kind:?} {count} times"), |_| {
         let seen = events_since(ecatd, kind);
-        if seen.len() >= count {
-            return seen;
-        }
-        assert!(
-            Instant::now() < deadline,
-            "{kind:?} logged {} times, not {count}: {seen:?}",
-            seen.len()
-        );
-        // The poll interval of the log check, not a synchronisation by time.
-        std::thread::sleep(Duration::from_millis(20));
-    }
+        (seen.len() >= count).then_some(seen)
+    })
 }
 
 #[test]

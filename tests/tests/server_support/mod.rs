@@ -438,25 +438,19 @@ impl Ecatd {
         self.log.lock().unwrap().join("\n")
     }
 
-    /// The JSON log lines ecatd wrote up to and including the first whose message is
-    /// `message`, once the log reader has seen it (panics at the deadline). Lines are kept
-    /// in the order ecatd wrote them, so what is not among them was not logged before it.
-    pub fn log_until(&self, message: &str) -> Vec<serde_json::Value> {
+    /// Waits until `found` returns something for ecatd's log lines so far (the log reader
+    /// gets a line a little after ecatd wrote it); panics naming `what` at the deadline.
+    pub fn wait_on_log<T>(&self, what: &str, found: impl Fn(&[String]) -> Option<T>) -> T {
         let deadline = Instant::now() + DEADLINE;
         loop {
-            let lines: Vec<serde_json::Value> = self
-                .log
-                .lock()
-                .unwrap()
-                .iter()
-                .filter_map(|line| serde_json::from_str(line).ok())
-                .collect();
-            if let Some(at) = lines.iter().position(|v| v["fields"]["message"] == message) {
-                return lines[..=at].to_vec();
+            // A copy, so that `found` may read the log again without the lock held.
+            let lines = self.log.lock().unwrap().clone();
+            if let Some(value) = found(&lines) {
+                return value;
             }
             assert!(
                 Instant::now() < deadline,
-                "ecatd did not log {message:?}:\n{}",
+                "ecatd did not log {what}:\n{}",
                 self.log()
             );
             // Poll interval of the log check; the loop ends on the condition or the deadline.
@@ -464,20 +458,29 @@ impl Ecatd {
         }
     }
 
+    /// The JSON log lines ecatd wrote up to and including the first whose message is
+    /// `message`, once the log reader has seen it (panics at the deadline). Lines are kept
+    /// in the order ecatd wrote them, so what is not among them was not logged before it.
+    pub fn log_until(&self, message: &str) -> Vec<serde_json::Value> {
+        self.wait_on_log(&format!("{message:?}"), |log| {
+            let lines: Vec<serde_json::Value> = log
+                .iter()
+                .filter_map(|line| serde_json::from_str(line).ok())
+                .collect();
+            let at = lines
+                .iter()
+                .position(|v| v["fields"]["message"] == message)?;
+            Some(lines[..=at].to_vec())
+        })
+    }
+
     /// Waits until ecatd's log holds `text` (panics at the deadline): a line written
     /// after the call it follows has answered (an audit line) reaches the log reader a
     /// little later.
     pub fn wait_log(&self, text: &str) {
-        let deadline = Instant::now() + DEADLINE;
-        while !self.log().contains(text) {
-            assert!(
-                Instant::now() < deadline,
-                "ecatd did not log {text:?}:\n{}",
-                self.log()
-            );
-            // Poll interval of the log check; the loop ends on the condition or the deadline.
-            std::thread::sleep(Duration::from_millis(20));
-        }
+        self.wait_on_log(&format!("{text:?}"), |log| {
+            log.join("\n").contains(text).then_some(())
+        });
     }
 
     /// Sends SIGTERM and waits for the exit; returns whether it exited with success.
