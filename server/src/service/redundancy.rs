@@ -142,6 +142,7 @@ mod tests {
             breaks: 0,
             heals: 0,
             single_returns: 0,
+            incomplete: 0,
         }
     }
 

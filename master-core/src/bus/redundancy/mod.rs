@@ -18,6 +18,13 @@
 //! a heal likewise, without a rescan. A copy that does not come back (the cable at a
 //! master port cut) is waited for at most the link's grace, once: from then on the link
 //! expects one copy only, until the other shows up again.
+//!
+//! A frame is handed up only if it is whole: when a copy is missing and the one that came
+//! back was processed by fewer slaves than the ring reached last, the missing copy may hold
+//! what the others did (a mailbox read that emptied SM1, a write the slave took), so the
+//! frame is not handed up at all and the bus sees it lost, as on a line, and resends it or
+//! recovers. Only once nothing came back on the missing copy's way for [`GONE_AFTER`] (the
+//! last slave lost power, say) is a short copy taken as the whole frame.
 
 use std::io;
 use std::time::{Duration, Instant};
@@ -44,6 +51,14 @@ pub const RING_OVERHEAD: usize = copies::PROBE_LEN;
 /// copies of one frame arrive apart on a real ring (the ring's own round trip), far
 /// shorter than a cycle the bus could lose.
 pub const DEFAULT_GRACE: Duration = Duration::from_micros(500);
+
+/// How long no copy may have come back on one way before a frame whose copy on that way
+/// is missing is handed up without it: the slaves that way are then taken to be gone. Far
+/// longer than a busy machine holds up one copy (a copy late past the grace comes back
+/// all the same, and then the frame handed up without it would have lost what those
+/// slaves did); short enough that a slave losing power at the end of the ring costs a
+/// handful of cycles at 1 kHz, once.
+pub const GONE_AFTER: Duration = Duration::from_millis(10);
 
 /// A frame the bus sent, while its copies are out.
 struct Slot {
@@ -113,6 +128,10 @@ pub struct RingLink<P: Link, B: Link> {
     observed: u64,
     /// Whether each copy (primary, backup) came back last time.
     expect: [bool; 2],
+    /// When a copy of each kind (primary, backup) last came back, late ones included.
+    last_back: [Option<Instant>; 2],
+    /// See [`GONE_AFTER`].
+    gone_after: Duration,
 }
 
 impl<P: Link, B: Link> std::fmt::Debug for RingLink<P, B> {
@@ -140,6 +159,8 @@ impl<P: Link, B: Link> RingLink<P, B> {
             sent: 0,
             observed: 0,
             expect: [true; 2],
+            last_back: [None; 2],
+            gone_after: GONE_AFTER,
         }
     }
 
@@ -196,7 +217,11 @@ impl<P: Link, B: Link> RingLink<P, B> {
                 };
                 any_ok = true;
                 match self.accept(port, len) {
-                    Accepted::Complete(slot) => return Ok(Some(self.deliver(slot, out))),
+                    Accepted::Complete(slot) => {
+                        if let Some(len) = self.deliver(slot, out) {
+                            return Ok(Some(len));
+                        }
+                    }
                     Accepted::Kept | Accepted::Late => {}
                     Accepted::Foreign => {
                         let n = len.min(out.len());
@@ -231,6 +256,7 @@ impl<P: Link, B: Link> RingLink<P, B> {
             return Accepted::Foreign;
         };
         let which = side as usize;
+        self.last_back[which] = Some(Instant::now());
         // It came back: expect it again. Back on the other port, the ring is closed, so
         // its twin is on its way too (on a heal after a master port's cable was out).
         self.expect[which] = true;
@@ -268,8 +294,9 @@ impl<P: Link, B: Link> RingLink<P, B> {
         (None, next)
     }
 
-    /// Merges the copies in `index`'s slot into `out` and learns from them.
-    fn deliver(&mut self, index: usize, out: &mut [u8]) -> usize {
+    /// Merges the copies in `index`'s slot into `out` and learns from them; `None` when
+    /// the frame is not whole and must look lost to the bus (see the module documentation).
+    fn deliver(&mut self, index: usize, out: &mut [u8]) -> Option<usize> {
         let slot = &mut self.slots[index];
         let ports = [slot.back[0].map(|b| b.1), slot.back[1].map(|b| b.1)];
         // Both back on the backup port: the cable was cut between the two sends. The
@@ -289,23 +316,27 @@ impl<P: Link, B: Link> RingLink<P, B> {
             copy(1).filter(|_| !cut_between),
             out,
         );
-        let missing = (0..2).filter(|&c| slot.back[c].is_none() && slot.sent[c]);
-        let mut single = false;
-        for c in missing {
-            // Not back within the grace: do not wait for it next time.
-            self.expect[c] = false;
-            single = true;
-        }
+        let sent = slot.sent;
+        let missing = [0, 1].map(|c| slot.back[c].is_none() && sent[c]);
         slot.active = false;
         slot.back = [None; 2];
         slot.first_back = None;
         let number = slot.number;
-        if single {
+        if missing.contains(&true) {
             self.watch.count_single_return();
         }
         let Some((len, reach)) = merged else {
-            return 0;
+            return Some(0);
         };
+        // The missing copy's way is still there: wait for its copies as before.
+        if self.short(sent, missing, reach) {
+            self.watch.count_incomplete();
+            return None;
+        }
+        for c in (0..2).filter(|&c| missing[c]) {
+            // Not back within the grace: do not wait for it next time.
+            self.expect[c] = false;
+        }
         // A frame sent before the last one learned from shows an older ring.
         if number > self.observed
             && let Some(seen) = observe(ports, reach)
@@ -313,7 +344,30 @@ impl<P: Link, B: Link> RingLink<P, B> {
             self.observed = number;
             self.watch.observe(seen);
         }
-        len
+        Some(len)
+    }
+
+    /// Whether a frame whose copies `sent` (primary, backup) are `missing`, and whose
+    /// copies back were counted `reach`, lacks what slaves still there did: the ring last
+    /// reached more slaves than these copies, and a missing copy's way is not gone. (A copy
+    /// never sent was processed by nobody: the frame shows that as it is.)
+    fn short(&self, sent: [bool; 2], missing: [bool; 2], reach: Reach) -> bool {
+        let (_, primary_side, backup_side, _) = self.watch.plan();
+        let known = primary_side.saturating_add(backup_side);
+        let counted = reach
+            .primary
+            .unwrap_or(0)
+            .saturating_add(reach.backup.unwrap_or(0));
+        // A copy that came back damaged (not counted) is as good as missing.
+        let lost = [
+            sent[0] && (missing[0] || reach.primary.is_none()),
+            sent[1] && (missing[1] || reach.backup.is_none()),
+        ];
+        let now = Instant::now();
+        let alive = |c: usize| {
+            self.last_back[c].is_some_and(|at| now.saturating_duration_since(at) < self.gone_after)
+        };
+        counted < known && (0..2).any(|c| lost[c] && alive(c))
     }
 
     /// Waits until a port may have a frame, or `until`.
@@ -391,7 +445,10 @@ impl<P: Link, B: Link> Link for RingLink<P, B> {
             let now = Instant::now();
             let (overdue, next_grace) = self.overdue(now);
             if let Some(slot) = overdue {
-                return Ok(Some(self.deliver(slot, buf)));
+                if let Some(len) = self.deliver(slot, buf) {
+                    return Ok(Some(len));
+                }
+                continue;
             }
             let Wait::Until(deadline) = wait else {
                 return Ok(None);

@@ -71,6 +71,9 @@ pub struct RingStatus {
     /// Frames that came back on one port only (a copy lost, not waited for longer than
     /// the ring link's grace).
     pub single_returns: u64,
+    /// Frames not handed up because a copy was missing while the slaves on its way were
+    /// still there: the bus saw them lost (spec-notes §redundancy).
+    pub incomplete: u64,
 }
 
 /// One clock of the distributed-clock plan: a slave with DC, by position and station.
@@ -92,6 +95,7 @@ pub(crate) struct RingShared {
     breaks: AtomicU64,
     heals: AtomicU64,
     single_returns: AtomicU64,
+    incomplete: AtomicU64,
     /// Bumped at every change of state or break position, so a watcher can tell a change
     /// from a copy of the last snapshot.
     generation: AtomicU64,
@@ -132,6 +136,7 @@ impl RingWatch {
             breaks: s.breaks.load(Ordering::Relaxed),
             heals: s.heals.load(Ordering::Relaxed),
             single_returns: s.single_returns.load(Ordering::Relaxed),
+            incomplete: s.incomplete.load(Ordering::Relaxed),
         }
     }
 
@@ -213,6 +218,10 @@ impl RingWatch {
 
     pub(crate) fn count_single_return(&self) {
         self.shared.single_returns.fetch_add(1, Ordering::Relaxed);
+    }
+
+    pub(crate) fn count_incomplete(&self) {
+        self.shared.incomplete.fetch_add(1, Ordering::Relaxed);
     }
 
     /// The state the bus thread builds its next copies for.

@@ -18,6 +18,9 @@ struct Wiring {
     slaves: usize,
     cut: Option<usize>,
     queues: [VecDeque<Vec<u8>>; 2],
+    /// While set, what would come back on the backup port is held here instead (a copy
+    /// late, or a way with no link).
+    hold_backup: Option<VecDeque<Vec<u8>>>,
 }
 
 #[derive(Debug, Clone)]
@@ -70,7 +73,10 @@ impl Link for Port {
                 Side::Backup
             }
         };
-        w.queues[back as usize].push_back(frame);
+        match (&mut w.hold_backup, back) {
+            (Some(held), Side::Backup) => held.push_back(frame),
+            _ => w.queues[back as usize].push_back(frame),
+        }
         Ok(())
     }
 
@@ -88,6 +94,7 @@ fn ring(slaves: usize) -> (RingLink<Port, Port>, Arc<Mutex<Wiring>>) {
         slaves,
         cut: None,
         queues: [VecDeque::new(), VecDeque::new()],
+        hold_backup: None,
     }));
     let port = |side| Port {
         side,
@@ -168,6 +175,71 @@ fn a_lost_copy_is_waited_for_once_then_not_expected() {
     assert_eq!(link.watch().status().single_returns, 1);
     assert!(!link.expect[0], "the primary copy is not expected any more");
     assert_eq!(round_trip(&mut link, 3), Some((0b111, 3)));
+}
+
+#[test]
+fn a_copy_late_past_the_grace_makes_its_frame_lost_not_short() {
+    let (mut link, wiring) = ring(5);
+    round_trip(&mut link, 1).unwrap();
+    wiring.lock().unwrap().cut = Some(2);
+    assert_eq!(round_trip(&mut link, 2), Some((0b1_1111, 5)));
+    // The backup copy, processed by slaves 2 to 4, comes back after the grace (none here).
+    wiring.lock().unwrap().hold_backup = Some(VecDeque::new());
+    assert_eq!(
+        round_trip(&mut link, 3),
+        None,
+        "a frame without what slaves 2 to 4 did (0b00011, 2) looks lost to the bus"
+    );
+    let status = link.watch().status();
+    assert_eq!((status.single_returns, status.incomplete), (1, 1));
+    assert_eq!(
+        status.break_after,
+        Some(2),
+        "nothing learned from a short frame"
+    );
+    // The late copy comes: too late for its frame, but its way is expected again.
+    let late = {
+        let mut w = wiring.lock().unwrap();
+        let late = w.hold_backup.take().unwrap();
+        w.queues[Side::Backup as usize].extend(late);
+        w.queues[Side::Backup as usize].len()
+    };
+    assert_eq!(late, 1);
+    assert_eq!(round_trip(&mut link, 4), Some((0b1_1111, 5)));
+    assert_eq!(link.watch().status().incomplete, 1);
+}
+
+#[test]
+fn a_way_with_nothing_back_for_gone_after_is_given_up() {
+    let (mut link, wiring) = ring(5);
+    link.gone_after = Duration::from_millis(5);
+    // Before the last backup copy comes back.
+    let start = Instant::now();
+    round_trip(&mut link, 1).unwrap();
+    // The last slave loses power: its neighbour loops back, the backup port gets nothing.
+    {
+        let mut w = wiring.lock().unwrap();
+        w.cut = Some(4);
+        w.hold_backup = Some(VecDeque::new());
+    }
+    let mut lost = 0u32;
+    let mut index = 2u8;
+    let back = loop {
+        assert!(start.elapsed() < Duration::from_secs(5), "never given up");
+        index = index.wrapping_add(1).max(2);
+        match round_trip(&mut link, index) {
+            Some(back) => break back,
+            None => lost += 1,
+        }
+    };
+    assert!(start.elapsed() >= link.gone_after);
+    assert!(lost >= 1, "the first frame without the backup copy is lost");
+    assert_eq!(back, (0b0_1111, 4));
+    let status = link.watch().status();
+    assert_eq!((status.break_after, status.unreachable), (Some(4), 1));
+    assert_eq!(status.incomplete, u64::from(lost));
+    // From then on the short copy is the frame, at once.
+    assert_eq!(round_trip(&mut link, 1), Some((0b0_1111, 4)));
 }
 
 /// A port that hands out the frames it was given, whatever they hold.

@@ -24,9 +24,8 @@ pub(crate) const PLAN_FROM: Duration = FIRST_PAUSE;
 /// later than it was asked for. Were the lead shorter, each such read would plan the next
 /// one later by the difference, with nothing to stop it: a lead capped at 30 µs let
 /// slaves answering after 100 µs and 1 ms be read 136-309 µs past their answers on a
-/// loaded machine, where round trips took longer (`perf_veth`, 2026-12-06; the tests
-/// `the_plan_does_not_creep_later_when_round_trips_outlast_the_old_cap` below and
-/// `poll_strategy::round_trips_longer_than_30_us_do_not_make_the_planned_read_late_every_time`).
+/// loaded machine, where round trips took longer (`perf_veth`, 2026-12-06; the test
+/// `the_plan_does_not_creep_later_when_round_trips_outlast_the_old_cap` below).
 pub(crate) const LEAD: Duration = Duration::from_micros(30);
 /// The least lead, on a link whose round trips are shorter (see [`LEAD`]).
 pub(crate) const MIN_LEAD: Duration = Duration::from_micros(10);
