@@ -25,7 +25,8 @@
 //!    no slave has, REST `/healthz`, gRPC `GetLogFilter`), and the Rust gateway row's frames
 //!    beyond the cycle's per read (as in phase 3); 64 gateway clients as threads,
 //!    16 and 64 as tasks of one thread, each with ecatd's CPU per read (schedstat) and the
-//!    datagrams the kernel dropped; the jitter of ecatd's cycle (its `/metrics` histogram,
+//!    datagrams the kernel dropped, and the same 64 tasks against a bare UDP echo thread in
+//!    the bench (the most any gateway could serve here: goal 2's ceiling); the jitter of ecatd's cycle (its `/metrics` histogram,
 //!    counted over a quiet window and over the rows); its VmRSS idle, after the rows and
 //!    after `PERF_VETH_SOAK` gateway requests (idle CPUs only);
 //! 3. ecatd with every slave answering 100 µs, then 1 ms late (`response_delay_us`), under
@@ -61,6 +62,9 @@
 
 #[path = "support/thread_cpu.rs"]
 mod thread_cpu;
+
+#[path = "support/udp_echo.rs"]
+mod udp_echo;
 
 #[path = "support/latency.rs"]
 #[allow(dead_code)]
@@ -284,6 +288,8 @@ enum Key {
     Floor(Client),
     ClientsThreads,
     ClientsTasks,
+    /// The same clients against a UDP echo: the transport's ceiling.
+    EchoCeiling,
 }
 
 impl Table {
@@ -357,6 +363,15 @@ impl Table {
                 let share = row.per_second / direct.per_second * 100.0;
                 lines.push((
                     format!("{CLIENTS} gateway clients ({how}): ≥ {CLIENTS_GOAL} % of direct"),
+                    format!("{share:.0} %"),
+                    share >= CLIENTS_GOAL,
+                ));
+            }
+            // Not a goal: whether the one above can be met on this machine at all.
+            if let Some(echo) = self.kept(Key::EchoCeiling) {
+                let share = echo.per_second / direct.per_second * 100.0;
+                lines.push((
+                    format!("  (ceiling) the same clients, a bare UDP echo: ≥ {CLIENTS_GOAL} %"),
                     format!("{share:.0} %"),
                     share >= CLIENTS_GOAL,
                 ));
@@ -511,6 +526,45 @@ fn gateway_clients_async(
     positions: &[u16],
     until: Until,
 ) -> Row {
+    udp_clients_async(gateway, clients, positions, until, |_, reply| {
+        assert_eq!(vendor_of(reply), SIM_VENDOR_ID)
+    })
+}
+
+/// The aggregate of `CLIENTS` client tasks against a UDP echo ([`udp_echo`]), the same
+/// datagrams as the gateway's clients send: the most any gateway on this machine could
+/// serve, with no EtherCAT behind it (goal 2's ceiling). Also the echo thread's CPU per
+/// request (µs): what receiving and answering a datagram costs a server.
+fn echo_clients_async(each: usize) -> (Row, f64) {
+    // Echo threads of earlier modes wait on their sockets still: only the change counts.
+    let echo_ns = || -> u64 {
+        thread_cpu::threads("self")
+            .iter()
+            .filter(|(name, _)| name == udp_echo::THREAD)
+            .map(|(_, ns)| ns)
+            .sum()
+    };
+    let echo = udp_echo::start();
+    let before = echo_ns();
+    let positions: Vec<u16> = (0..SLAVES as u16).collect();
+    let until = Until::Reads(each);
+    let row = udp_clients_async(echo, CLIENTS, &positions, until, |sent, reply| {
+        assert_eq!(reply, sent)
+    });
+    let per_request = (echo_ns() - before) as f64 / (CLIENTS * each) as f64 / 1000.0;
+    (row, per_request)
+}
+
+/// `clients` tasks of one current-thread runtime, each with its own socket and host, each
+/// sending an upload request for one of `positions` to `server` and checking the reply with
+/// `check(sent, reply)` until `until`.
+fn udp_clients_async(
+    server: std::net::SocketAddr,
+    clients: usize,
+    positions: &[u16],
+    until: Until,
+    check: fn(&[u8], &[u8]),
+) -> Row {
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -538,12 +592,12 @@ fn gateway_clients_async(
                 while until.goes_on(i) {
                     let bytes = datagram(at, MailboxType::Coe, (i % 7 + 1) as u8, &request);
                     let t = Instant::now();
-                    socket.send_to(&bytes, gateway).await.expect("send");
+                    socket.send_to(&bytes, server).await.expect("send");
                     let len = tokio::time::timeout(Duration::from_secs(5), socket.recv(&mut reply))
                         .await
                         .expect("a reply in time")
                         .expect("recv");
-                    assert_eq!(vendor_of(&reply[..len]), SIM_VENDOR_ID);
+                    check(&bytes, &reply[..len]);
                     samples.push(t.elapsed());
                     i += 1;
                 }
@@ -965,6 +1019,13 @@ fn phase_ecatd(table: &Table, count: usize, each: usize, soak: usize, clients: b
             let ecatd_cpu = cpu.print(clients * each);
             judge_cpu(table, clients, "tasks", ecatd_cpu);
         }
+        let (echo, echo_cpu) = echo_clients_async(each);
+        table.print_as(
+            Key::EchoCeiling,
+            &format!("  {CLIENTS} tasks against a bare UDP echo (the ceiling)"),
+            &echo,
+        );
+        println!("  CPU per request, µs: the echo's thread {echo_cpu:.1}");
         let drops = dropped_datagrams(&agent, &ecatd.http) - drops_before;
         table.judge(
             "gateway datagrams the kernel dropped under the clients: 0".into(),

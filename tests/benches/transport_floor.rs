@@ -14,13 +14,16 @@
 //!
 //! Beside each row, the CPU one request costs each side: the scheduler's run time
 //! (`/proc/self/task/*/schedstat`, exact, not sampled) of the client's thread and of the
-//! server's threads (named `floor-server` and `floor-echo`), system calls and the loopback
+//! server's threads (named `floor-server` and `udp-echo`), system calls and the loopback
 //! stack run in their context included, divided by the requests made (warm-up included).
 //! Under `taskset -c 0` both ends share one CPU, so no wake-up crosses CPUs: the
 //! difference to an unpinned run is what the cross-CPU wake-ups cost.
 
 #[path = "support/thread_cpu.rs"]
 mod thread_cpu;
+
+#[path = "support/udp_echo.rs"]
+mod udp_echo;
 
 #[path = "support/latency.rs"]
 #[allow(dead_code)]
@@ -40,7 +43,7 @@ const WIDTH: usize = 58;
 
 /// The name of the servers' runtime threads; the UDP echo's thread is `ECHO_THREAD`.
 const SERVER_THREAD: &str = "floor-server";
-const ECHO_THREAD: &str = "floor-echo";
+const ECHO_THREAD: &str = udp_echo::THREAD;
 
 /// CPU time (ns) run so far by this process's threads: (the clients' side, the servers').
 /// The servers' threads are the ones named `SERVER_THREAD` or `ECHO_THREAD`; every other
@@ -110,31 +113,13 @@ fn servers() -> (std::net::SocketAddr, std::net::SocketAddr) {
     addrs
 }
 
-/// A thread echoing every datagram back to its sender.
-fn udp_echo() -> std::net::SocketAddr {
-    let socket = UdpSocket::bind("127.0.0.1:0").expect("bind");
-    let addr = socket.local_addr().expect("addr");
-    std::thread::Builder::new()
-        .name(ECHO_THREAD.to_owned())
-        .spawn(move || {
-            let mut buf = [0u8; 1500];
-            while let Ok((len, from)) = socket.recv_from(&mut buf) {
-                if socket.send_to(&buf[..len], from).is_err() {
-                    break;
-                }
-            }
-        })
-        .expect("echo thread");
-    addr
-}
-
 fn main() {
     let count: usize = std::env::var("TRANSPORT_FLOOR_COUNT")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(5000);
     let (grpc, http) = servers();
-    let echo = udp_echo();
+    let echo = udp_echo::start();
     println!("one request at a time on loopback, nothing behind the server, {count} per row");
     println!("CPU: µs of CPU per request on each side (the scheduler's run time of its threads)");
     println!();
