@@ -5,7 +5,8 @@
 //! every slave stays in OP, outputs reach the output terminal and inputs come back from the
 //! input terminal on whichever side they are, the cycle's working counter is short in at
 //! most the one cycle that met the cut, the break is located within two cycles, and a heal
-//! is seen within two cycles, without a rescan.
+//! is seen within two cycles, without a rescan. The last slave losing power leaves the
+//! backup port with nothing: it is given up once nothing has come back that way for a while.
 
 use crate::master_support;
 
@@ -164,6 +165,38 @@ fn a_slave_without_power_is_unreachable_and_the_rest_run_on() {
         if p != 3 {
             assert_eq!(*state, AlState::Op, "slave {p}");
         }
+    }
+}
+
+#[test]
+fn the_last_slave_without_power_is_given_up_once_nothing_comes_back_its_way() {
+    // The backup port then gets nothing back at all. A frame back on the primary port
+    // alone is held back while a copy from the backup side may still come (the frames that
+    // look lost); once nothing has come that way for the ring link's `GONE_AFTER`, the
+    // short copy is the frame and the last slave is reported unreachable.
+    let rig = started();
+    let n = rig.topology.slaves.len();
+    rig.segment().kill(n - 1).unwrap();
+    assert!(
+        wait_until(|| ring_status(&rig).unreachable == 1),
+        "{:?}",
+        ring_status(&rig)
+    );
+    let status = ring_status(&rig);
+    assert_eq!(status.state, RingState::Broken);
+    assert_eq!(status.break_after, Some(n as u16 - 1));
+    assert_eq!(status.backup_side, 0);
+    assert!(status.incomplete > 0, "{status:?}");
+    output_reaches_the_terminal_and_comes_back(&rig, 6);
+    let held = ring_status(&rig).incomplete;
+    cycles(&rig, 20);
+    assert_eq!(
+        ring_status(&rig).incomplete,
+        held,
+        "nothing held back any more"
+    );
+    for (p, state) in states(&rig).iter().enumerate().take(n - 1) {
+        assert_eq!(*state, AlState::Op, "slave {p}");
     }
 }
 
