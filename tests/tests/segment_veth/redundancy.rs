@@ -283,13 +283,13 @@ fn mailbox_transfers_across_cuts_complete_on_a_veth_ring() {
         .enable_time()
         .build()
         .unwrap();
+    // A transfer that fails shows the ring's counts: frames not handed up whole
+    // (`incomplete`) are what keeps a lost copy from losing a message.
+    let failed = |what: &str, err| -> Vec<u8> { panic!("{what}: {err:?}; {:?}", watch.status()) };
     let done = std::thread::scope(|scope| {
         let transfers = scope.spawn(|| {
             let mut done = 0u32;
             while !stop.load(Ordering::Relaxed) && done < 100_000 {
-                // A transfer that fails shows the ring's counts: frames not handed up
-                // whole (`incomplete`) are what keeps a lost copy from losing a message.
-                let failed = |what: &str, err| panic!("{what}: {err:?}; {:?}", watch.status());
                 let read = runtime
                     .block_on(drive.foe_read("firmware.bin", FoeOptions::default()))
                     .unwrap_or_else(|err| failed("FoE read across a cut", err));

@@ -256,7 +256,8 @@ impl<P: Link, B: Link> RingLink<P, B> {
             return Accepted::Foreign;
         };
         let which = side as usize;
-        self.last_back[which] = Some(Instant::now());
+        let now = Instant::now();
+        self.last_back[which] = Some(now);
         // It came back: expect it again. Back on the other port, the ring is closed, so
         // its twin is on its way too (on a heal after a master port's cable was out).
         self.expect[which] = true;
@@ -268,7 +269,7 @@ impl<P: Link, B: Link> RingLink<P, B> {
         }
         slot.bufs[which][..len].copy_from_slice(frame);
         slot.back[which] = Some((len, port));
-        slot.first_back.get_or_insert_with(Instant::now);
+        slot.first_back.get_or_insert(now);
         let waiting = (0..2).any(|c| slot.back[c].is_none() && slot.sent[c] && self.expect[c]);
         if waiting {
             Accepted::Kept
@@ -329,7 +330,7 @@ impl<P: Link, B: Link> RingLink<P, B> {
             return Some(0);
         };
         // The missing copy's way is still there: wait for its copies as before.
-        if self.short(sent, missing, reach) {
+        if self.short(sent, reach) {
             self.watch.count_incomplete();
             return None;
         }
@@ -347,22 +348,24 @@ impl<P: Link, B: Link> RingLink<P, B> {
         Some(len)
     }
 
-    /// Whether a frame whose copies `sent` (primary, backup) are `missing`, and whose
-    /// copies back were counted `reach`, lacks what slaves still there did: the ring last
-    /// reached more slaves than these copies, and a missing copy's way is not gone. (A copy
-    /// never sent was processed by nobody: the frame shows that as it is.)
-    fn short(&self, sent: [bool; 2], missing: [bool; 2], reach: Reach) -> bool {
+    /// Whether a frame whose copies `sent` (primary, backup) were counted `reach` lacks
+    /// what slaves still there did: a copy sent is not counted (missing, or back damaged),
+    /// the ring last reached more slaves than the copies counted, and that copy's way is not
+    /// gone. (A copy never sent was processed by nobody: the frame shows that as it is.)
+    fn short(&self, sent: [bool; 2], reach: Reach) -> bool {
+        let lost = [
+            sent[0] && reach.primary.is_none(),
+            sent[1] && reach.backup.is_none(),
+        ];
+        if lost == [false; 2] {
+            return false;
+        }
         let (_, primary_side, backup_side, _) = self.watch.plan();
         let known = primary_side.saturating_add(backup_side);
         let counted = reach
             .primary
             .unwrap_or(0)
             .saturating_add(reach.backup.unwrap_or(0));
-        // A copy that came back damaged (not counted) is as good as missing.
-        let lost = [
-            sent[0] && (missing[0] || reach.primary.is_none()),
-            sent[1] && (missing[1] || reach.backup.is_none()),
-        ];
         let now = Instant::now();
         let alive = |c: usize| {
             self.last_back[c].is_some_and(|at| now.saturating_duration_since(at) < self.gone_after)

@@ -144,14 +144,25 @@ fn a_closed_ring_answers_through_the_backup_port_and_is_seen_closed() {
     assert_eq!((status.primary_side, status.ring_slaves), (5, 5));
 }
 
+/// A ring of `slaves` seen closed by one frame, then cut after `cut` of them, and a second
+/// frame (index 2) that meets the cut: it already reaches everyone, from both sides.
+fn cut_ring(slaves: usize, cut: usize) -> (RingLink<Port, Port>, Arc<Mutex<Wiring>>) {
+    let (mut link, wiring) = ring(slaves);
+    round_trip(&mut link, 1).unwrap();
+    wiring.lock().unwrap().cut = Some(cut);
+    let everyone = (1u8 << slaves) - 1;
+    assert_eq!(
+        round_trip(&mut link, 2),
+        Some((everyone, slaves as u16)),
+        "cut {cut}"
+    );
+    (link, wiring)
+}
+
 #[test]
 fn every_break_is_located_served_from_both_sides_and_healed() {
     for cut in 0..=5 {
-        let (mut link, wiring) = ring(5);
-        round_trip(&mut link, 1).unwrap();
-        wiring.lock().unwrap().cut = Some(cut);
-        // The first frame after the cut already reaches everyone, from both sides.
-        assert_eq!(round_trip(&mut link, 2), Some((0b1_1111, 5)), "cut {cut}");
+        let (mut link, wiring) = cut_ring(5, cut);
         let status = link.watch().status();
         assert_eq!(status.state, RingState::Broken, "cut {cut}");
         assert_eq!(status.break_after, Some(cut as u16));
@@ -168,10 +179,7 @@ fn every_break_is_located_served_from_both_sides_and_healed() {
 
 #[test]
 fn a_lost_copy_is_waited_for_once_then_not_expected() {
-    let (mut link, wiring) = ring(3);
-    round_trip(&mut link, 1).unwrap();
-    wiring.lock().unwrap().cut = Some(0);
-    assert_eq!(round_trip(&mut link, 2), Some((0b111, 3)));
+    let (mut link, _) = cut_ring(3, 0);
     assert_eq!(link.watch().status().single_returns, 1);
     assert!(!link.expect[0], "the primary copy is not expected any more");
     assert_eq!(round_trip(&mut link, 3), Some((0b111, 3)));
@@ -179,10 +187,7 @@ fn a_lost_copy_is_waited_for_once_then_not_expected() {
 
 #[test]
 fn a_copy_late_past_the_grace_makes_its_frame_lost_not_short() {
-    let (mut link, wiring) = ring(5);
-    round_trip(&mut link, 1).unwrap();
-    wiring.lock().unwrap().cut = Some(2);
-    assert_eq!(round_trip(&mut link, 2), Some((0b1_1111, 5)));
+    let (mut link, wiring) = cut_ring(5, 2);
     // The backup copy, processed by slaves 2 to 4, comes back after the grace (none here).
     wiring.lock().unwrap().hold_backup = Some(VecDeque::new());
     assert_eq!(
