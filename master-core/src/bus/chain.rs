@@ -175,6 +175,7 @@ mod tests {
                     group_left: (n - i) as u16,
                     once: false,
                     again: 0,
+                    first_sent: None,
                     then: None,
                 };
                 (queued, pending)

@@ -228,12 +228,18 @@ mod tests {
     use crate::bus::data::DatagramData;
     use crate::wire::command::DatagramAddress;
 
+    /// One moment for every response, so that two made alike compare equal.
+    static SENT: std::sync::LazyLock<std::time::Instant> =
+        std::sync::LazyLock::new(std::time::Instant::now);
+
     fn response(byte: u8) -> DatagramResponse {
         DatagramResponse {
             data: DatagramData::from([byte]),
             wkc: 1,
             address: DatagramAddress::broadcast(0),
             irq: 0,
+            sent_at: crate::bus::Stamp::from_instant(*SENT),
+            polled_us: 0,
         }
     }
 

@@ -27,6 +27,7 @@ use super::matching::{Match, match_frame};
 use super::queue::{CyclicChange, Queued, Submissions};
 use super::record::{FrameRecord, MAX_DATAGRAMS_PER_FRAME, RecordKind, SentDatagram};
 use super::request::{DatagramResponse, WkcCheck};
+use super::stamp::Stamp;
 use super::stats::BusStats;
 
 /// Indices acyclic frames may hold at once; the rest stay free for the cyclic frame, so
@@ -83,6 +84,8 @@ pub(crate) struct Engine<L: Link> {
 
 impl<L: Link> Engine<L> {
     pub fn new(link: L, shared: Arc<Shared>) -> Engine<L> {
+        // Before any frame is stamped (`DatagramResponse::sent_at`).
+        Stamp::start_clock();
         let config = shared.config;
         let now = Instant::now();
         let mut records: Vec<FrameRecord> = (0..config.frames_in_flight)
@@ -563,6 +566,7 @@ impl<L: Link> Engine<L> {
                         // A poll that found nothing: again in the next frame, without
                         // waking its caller (`BusHandle::submit_once_polling`).
                         entry.again -= 1;
+                        entry.first_sent.get_or_insert(record.sent_at);
                         stats.datagrams_polled_again.inc();
                         self.staging.push_back(entry);
                         continue;
@@ -576,7 +580,7 @@ impl<L: Link> Engine<L> {
                         .take()
                         .filter(|_| datagram.wkc > 0)
                         .map(|rest| rest.next_step());
-                    complete(entry, &datagram, stats);
+                    complete(entry, &datagram, record.sent_at, stats);
                     if let Some(step) = next.filter(|step| !step.is_empty()) {
                         stats.datagrams_chained.inc();
                         self.staging.extend(step);
@@ -621,7 +625,7 @@ impl<L: Link> Engine<L> {
 }
 
 /// Completes one caller's datagram with its reply.
-fn complete(mut entry: Queued, returned: &DatagramRepr<'_>, stats: &BusStats) {
+fn complete(mut entry: Queued, returned: &DatagramRepr<'_>, sent_at: Instant, stats: &BusStats) {
     let request = &mut entry.request;
     // The matcher checked that the lengths agree.
     if request.data.len() == returned.data.len() {
@@ -634,6 +638,11 @@ fn complete(mut entry: Queued, returned: &DatagramRepr<'_>, stats: &BusStats) {
         wkc: returned.wkc,
         address,
         irq: returned.irq,
+        sent_at: Stamp::from_instant(sent_at),
+        polled_us: entry.first_sent.map_or(0, |first| {
+            let polled = sent_at.saturating_duration_since(first).as_micros();
+            u16::try_from(polled).unwrap_or(u16::MAX)
+        }),
     };
     stats.datagrams_completed.inc();
     let result = if request.wkc.accepts(returned.wkc) {

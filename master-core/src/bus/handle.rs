@@ -56,6 +56,7 @@ fn queued(request: DatagramRequest, once: bool, again: u16) -> (Queued, Pending)
         group_left: 1,
         once,
         again,
+        first_sent: None,
         then: None,
     };
     (queued, pending)
@@ -203,6 +204,7 @@ impl BusHandle {
                     group_left: (count - i) as u16,
                     once: false,
                     again: 0,
+                    first_sent: None,
                     then: None,
                 });
         let refused = match checked {
@@ -330,6 +332,7 @@ impl BusHandle {
                     group_left: (count - i) as u16,
                     once: chained.once,
                     again: 0,
+                    first_sent: None,
                     then: None,
                 });
             }

@@ -118,6 +118,7 @@ mod record;
 pub mod redundancy;
 mod request;
 mod sched;
+mod stamp;
 mod stats;
 
 pub use chain::{ChainFeed, Chained};
@@ -132,6 +133,7 @@ pub use histogram::HistogramSnapshot;
 pub use request::{DatagramRequest, DatagramResponse, WkcCheck};
 pub(crate) use sched::set_min_timer_slack;
 pub use sched::{ThreadPriority, calling_thread_realtime};
+pub use stamp::Stamp;
 pub use stats::BusStatsSnapshot;
 
 /// What the handles and the bus thread share.

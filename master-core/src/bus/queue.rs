@@ -31,6 +31,8 @@ pub(crate) struct Queued {
     /// Sent again at once, up to this many more times, while it comes back with working
     /// counter 0 (see [`BusHandle::submit_once_polling`](super::BusHandle::submit_once_polling)).
     pub again: u16,
+    /// When a poll sent again first left (`None` until it is sent again).
+    pub first_sent: Option<Instant>,
     /// The steps of its chain still to go, on the first datagram of a chain's step: staged
     /// once this one came back counted, skipped otherwise (see [`super::chain`]).
     pub then: Option<Box<super::chain::Chain>>,
@@ -222,6 +224,7 @@ mod tests {
             group_left: 1,
             once: false,
             again: 0,
+            first_sent: None,
             then: None,
         }
     }

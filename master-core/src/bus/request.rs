@@ -1,8 +1,11 @@
 //! What a caller asks of the bus, and what it gets back.
 
+use std::time::{Duration, Instant};
+
 use crate::wire::command::{Command, DatagramAddress};
 
 use super::data::DatagramData;
+use super::stamp::Stamp;
 
 /// What working counter a caller expects (spec-notes §commands lists what each command adds).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -163,6 +166,24 @@ pub struct DatagramResponse {
     pub address: DatagramAddress,
     /// The IRQ word: event requests ORed in by the slaves.
     pub irq: u16,
+    /// When the frame that brought this response left the master. A mailbox learns from
+    /// it when a slave's answer was there: the read that found it reached the slave on
+    /// its way out, and the time it came back adds nothing but the way home.
+    pub sent_at: Stamp,
+    /// How long before `sent_at` the datagram first left, in µs (saturating at 65 ms): not 0 only
+    /// for a poll that was sent again while it found nothing
+    /// ([`BusHandle::submit_once_polling`](super::BusHandle::submit_once_polling)). In µs
+    /// rather than a second moment, so that an error carrying a response stays small.
+    pub polled_us: u16,
+}
+
+impl DatagramResponse {
+    /// When the datagram first left the master (see [`DatagramResponse::polled_us`]).
+    pub fn first_sent_at(&self) -> Instant {
+        let sent = self.sent_at.instant();
+        sent.checked_sub(Duration::from_micros(u64::from(self.polled_us)))
+            .unwrap_or(sent)
+    }
 }
 
 #[cfg(test)]

@@ -2,6 +2,9 @@
 //! working counter 0 again by itself, at most `again` more times, and completes it once
 //! (the mailbox layer's eager reads of SM1 while an answer is awaited).
 
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
 use crate::bus_support;
 
 use bus_support::bus::{config, finish, start};
@@ -52,6 +55,58 @@ fn an_empty_poll_is_sent_again_by_the_bus_until_it_counts() {
     assert_eq!(stats.datagrams_sent, 3);
     assert_eq!(stats.datagrams_polled_again, 2);
     assert_eq!(stats.datagrams_completed, 1, "the caller hears once");
+}
+
+/// [`EmptyFor`], noting when each frame reached the segment.
+struct Timed {
+    inner: EmptyFor,
+    arrived: Arc<Mutex<Vec<Instant>>>,
+}
+
+impl Script for Timed {
+    fn on_frame(&mut self, frame: &mut [u8], segment: &mut FakeSegment, link: &mut dyn Link) {
+        self.arrived.lock().unwrap().push(Instant::now());
+        self.inner.on_frame(frame, segment, link);
+    }
+}
+
+#[test]
+fn a_poll_sent_again_tells_when_its_first_try_and_the_one_that_counted_left() {
+    // The mailbox learns a slave's answer time from when the read that found the answer
+    // left, not from when it came back (mailbox/engine/answer_time.rs).
+    let arrived = Arc::new(Mutex::new(Vec::new()));
+    let script = Timed {
+        inner: EmptyFor { empty: 2 },
+        arrived: Arc::clone(&arrived),
+    };
+    let bus = start(1, script, config());
+    let asked = Instant::now();
+    let reply = finish(bus.handle.submit_once_polling(poll(), 5)).unwrap();
+    let back = Instant::now();
+    bus.stop();
+    let arrived = arrived.lock().unwrap().clone();
+    assert_eq!((reply.wkc, arrived.len()), (1, 3));
+    // In whole µs: the first try left within a µs of the time given.
+    let first = reply.first_sent_at();
+    let slack = std::time::Duration::from_micros(1);
+    assert!(
+        asked <= first + slack && first <= arrived[0],
+        "{reply:?} {arrived:?}"
+    );
+    assert!(reply.polled_us > 0);
+    // The third try left after the second came back empty, and before it reached the
+    // segment; the reply came back after.
+    let sent = reply.sent_at.instant();
+    assert!(arrived[1] <= sent, "{reply:?} {arrived:?}");
+    assert!(sent <= arrived[2] && arrived[2] <= back);
+    // Sent once: both are the one frame's.
+    let bus = start(1, EmptyFor { empty: 0 }, config());
+    let once = finish(bus.handle.submit_once_polling(poll(), 5)).unwrap();
+    bus.stop();
+    assert_eq!(
+        (once.polled_us, once.first_sent_at()),
+        (0, once.sent_at.instant())
+    );
 }
 
 #[test]

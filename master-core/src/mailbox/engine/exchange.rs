@@ -27,8 +27,9 @@
 //! up to [`MailboxConfig::poll_interval`] ([`next_pause`]), so that a slow slave costs a
 //! few frames per exchange and is read at most about half its delay late. A slave that
 //! keeps answering late is read when its answer is due instead: the first read after the
-//! write's own waits for the least of its last answer times less a lead
-//! ([`super::answer_time`]), and the eager reads go from there. A "mailbox full"
+//! write's own waits for the least of its last answer times, each timed from the write's
+//! frame to the frame of the read that found the answer ([`super::answer_time`]), and the
+//! eager reads go from there. A "mailbox full"
 //! notice (SM1 status 0x080D bit 3 mapped into the cyclic frame; ETG.1000.4, spec-notes
 //! §esc.sm) ends a pause at once. The pauses run on the engine's own timer thread
 //! ([`super::timer`]): tokio's timer would round each up to 1-2 ms.
@@ -141,8 +142,12 @@ pub(crate) struct Exchange {
     repeat_owed: bool,
     /// The last turn was dropped in the middle of its work (see [`super::turn`]).
     was_interrupted: bool,
-    /// When the message now awaiting its answer was written.
+    /// When the frame of the message now awaiting its answer left.
     written_at: Option<Instant>,
+    /// When the frame of the last read that brought an answer left.
+    found_sent: Option<Instant>,
+    /// When the last read of SM1 first left (`None` while it is out, or if it was lost).
+    read_left: Option<Instant>,
     /// How long this slave took to answer lately.
     answer_times: AnswerTimes,
 }
@@ -168,6 +173,8 @@ impl Exchange {
             repeat_owed: false,
             was_interrupted: false,
             written_at: None,
+            found_sent: None,
+            read_left: None,
             answer_times: AnswerTimes::default(),
         }
     }
@@ -397,7 +404,6 @@ impl Exchange {
         loop {
             self.check_owned()?;
             self.recover().await?;
-            let sent = Instant::now();
             // The first read of the answer goes right behind the write, in the same frame
             // when it has room: a slave that answers at once (as the simulator does) is read
             // one round trip earlier, and one that does not just returns an empty read.
@@ -411,9 +417,8 @@ impl Exchange {
                 && response.wkc == 1
             {
                 inc(&self.shared.stats.writes);
-                self.answer_times.wrote_in(sent.elapsed());
                 self.ahead = Some((read, want));
-                self.written_at = Some(sent);
+                self.written_at = Some(response.sent_at.instant());
                 return Ok(());
             }
             // Never drop a read that may have emptied SM1: route what it brought first.
@@ -484,6 +489,7 @@ impl Exchange {
         let mut pause = Duration::ZERO;
         // Only the first answer after a write is timed, and only it may be planned for.
         let written_at = self.written_at.take();
+        self.found_sent = None;
         let mut planned = written_at
             .zip(self.answer_times.planned())
             .map(|(at, after)| at + after);
@@ -505,12 +511,12 @@ impl Exchange {
             }
             // A slave that has taken long to answer lately is read when its answer is due
             // (the eager reads then go from there), not from the write on.
+            let mut paused_for = None;
             if let Some(at) = planned.take() {
                 let now = Instant::now();
                 if at > now {
                     self.pause(at - now).await;
-                    let late = Instant::now().saturating_duration_since(at);
-                    self.answer_times.woke_late(late);
+                    paused_for = Some(at);
                 }
             }
             // The eager reads go as one poll the bus thread repeats while SM1 is empty, so
@@ -522,7 +528,14 @@ impl Exchange {
             } else {
                 0
             };
-            if self.read_one(Some(want), again).await? == Read::Answer {
+            let read = self.read_one(Some(want), again).await?;
+            // How late the planned read left: the pause's timer, this task and the bus
+            // thread woken, all of which the next plan asks for earlier.
+            if let (Some(at), Some(left)) = (paused_for, self.read_left) {
+                self.answer_times
+                    .left_late(left.saturating_duration_since(at));
+            }
+            if read == Read::Answer {
                 break;
             }
             if self.expired() {
@@ -534,8 +547,9 @@ impl Exchange {
                 self.pause(pause).await;
             }
         }
-        if let Some(at) = written_at {
-            self.answer_times.record(at.elapsed());
+        if let (Some(written), Some(found)) = (written_at, self.found_sent) {
+            self.answer_times
+                .record(found.saturating_duration_since(written));
         }
         let header = Mailbox::new_checked(&self.rx[..])
             .and_then(|m| MailboxHeader::parse(&m))
@@ -596,6 +610,7 @@ impl Exchange {
     /// Reads SM1 (up to `1 + again` times while it is empty) and routes what it held.
     async fn read_one(&mut self, want: Option<Want>, again: u16) -> Result<Read> {
         self.recover().await?;
+        self.read_left = None;
         let read = self.submit_read(again);
         self.finish_read(read.await, want).await
     }
@@ -643,6 +658,7 @@ impl Exchange {
             }
             Err(err) => return Err(err.into()),
         };
+        self.read_left = Some(response.first_sent_at());
         if response.wkc != 1 {
             return Ok(Read::Nothing);
         }
@@ -662,6 +678,7 @@ impl Exchange {
         let shared = &*self.shared;
         match route(header.mailbox_type, data, want) {
             Route::Request => {
+                self.found_sent = Some(response.sent_at.instant());
                 self.rx.clear();
                 self.rx
                     .extend_from_slice(bytes.get(..end).unwrap_or_default());

@@ -85,6 +85,8 @@ mod tests {
                 ado: SM1_STATUS,
             },
             irq: 0,
+            sent_at: crate::bus::Stamp::from_instant(std::time::Instant::now()),
+            polled_us: 0,
         })
     }
 
