@@ -170,8 +170,8 @@ pub struct DatagramResponse {
     /// it when a slave's answer was there: the read that found it reached the slave on
     /// its way out, and the time it came back adds nothing but the way home.
     pub sent_at: Stamp,
-    /// How long before `sent_at` the datagram first left, in µs (saturating at 65 ms): not 0 only
-    /// for a poll that was sent again while it found nothing
+    /// How long before `sent_at` the datagram first left, in µs (saturating at 65 ms): not
+    /// 0 only for a poll that was sent again while it found nothing
     /// ([`BusHandle::submit_once_polling`](super::BusHandle::submit_once_polling)). In µs
     /// rather than a second moment, so that an error carrying a response stays small.
     pub polled_us: u16,
