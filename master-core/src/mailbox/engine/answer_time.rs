@@ -140,6 +140,10 @@ mod tests {
     }
 
     impl Trips {
+        fn new(state: u64, lo: u64, hi: u64) -> Trips {
+            Trips { state, lo, hi }
+        }
+
         fn next(&mut self) -> Duration {
             self.state = self.state.wrapping_mul(6364136223846793005).wrapping_add(1);
             us(self.lo + (self.state >> 33) % (self.hi - self.lo + 1))
@@ -195,6 +199,21 @@ mod tests {
         }
     }
 
+    /// `n` exchanges from nothing learned, each planned read leaving a time from `wakes`
+    /// late (see [`exchange`]).
+    fn run(
+        n: usize,
+        ready: Duration,
+        mut wakes: Trips,
+        mut writes: Trips,
+        mut trips: Trips,
+    ) -> Vec<Exchange> {
+        let mut times = AnswerTimes::default();
+        (0..n)
+            .map(|_| exchange(&mut times, ready, wakes.next(), &mut writes, &mut trips))
+            .collect()
+    }
+
     #[test]
     fn the_plan_does_not_creep_later_when_reads_take_longer_than_writes() {
         // Writes back in 30-60 µs, the reads after them in 40-120 µs (the bus thread asleep
@@ -206,25 +225,13 @@ mod tests {
         // from when they left, within two read round trips, at three reads at most on
         // average.
         for ready in [us(100), us(1_000)] {
-            let mut times = AnswerTimes::default();
-            let mut writes = Trips {
-                state: 5,
-                lo: 30,
-                hi: 60,
-            };
-            let mut trips = Trips {
-                state: 7,
-                lo: 40,
-                hi: 120,
-            };
-            let mut wakes = Trips {
-                state: 11,
-                lo: 20,
-                hi: 60,
-            };
-            let runs: Vec<Exchange> = (0..300)
-                .map(|_| exchange(&mut times, ready, wakes.next(), &mut writes, &mut trips))
-                .collect();
+            let runs = run(
+                300,
+                ready,
+                Trips::new(11, 20, 60),
+                Trips::new(5, 30, 60),
+                Trips::new(7, 40, 120),
+            );
             let tail = &runs[200..];
             let worst = tail.iter().map(|r| r.late).max().unwrap();
             let reads = tail.iter().map(|r| r.reads).sum::<u32>() as f64 / tail.len() as f64;
@@ -240,20 +247,8 @@ mod tests {
     fn with_steady_round_trips_the_planned_read_finds_the_answer_on_its_way_out() {
         // Nothing varies: the plan settles on the first read that finds the answer, and
         // from then on every answer takes the write's frame and one planned read.
-        let mut times = AnswerTimes::default();
-        let mut writes = Trips {
-            state: 1,
-            lo: 70,
-            hi: 70,
-        };
-        let mut trips = Trips {
-            state: 1,
-            lo: 70,
-            hi: 70,
-        };
-        let runs: Vec<Exchange> = (0..50)
-            .map(|_| exchange(&mut times, us(100), Duration::ZERO, &mut writes, &mut trips))
-            .collect();
+        let steady = || Trips::new(1, 70, 70);
+        let runs = run(50, us(100), Trips::new(1, 0, 0), steady(), steady());
         let last = runs.last().unwrap();
         assert_eq!(last.reads, 2);
         assert!(last.late <= us(70), "{:?}", last.late);
