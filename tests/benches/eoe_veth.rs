@@ -12,9 +12,10 @@
 //!   next to the limit the mailbox allows: `1448 × 8 / (n × t_rt)` bit/s, where `n` is the
 //!   number of EoE fragments of a full-size frame (1514 bytes, 1448 bytes of TCP payload) for
 //!   that mailbox, cut by the codec's own fragmenter, and `t_rt` is the mean bus frame round
-//!   trip measured during the run (`ecat_bus_round_trip_seconds`): one fragment needs one
-//!   mailbox exchange, and one exchange at least one frame round trip. The mailbox messages
-//!   ecatd wrote and read per second during the run say how close it came;
+//!   trip measured during that direction's run (`ecat_bus_round_trip_seconds`; the two
+//!   limits are printed `→dev / dev→`): one fragment needs one mailbox exchange, and one
+//!   exchange at least one frame round trip. The mailbox messages ecatd wrote and read per
+//!   second during each run (`→dev / dev→`) say how close it came;
 //! - SDO upload of 0x1018:01 through the REST API (from ecatd's namespace): p50 and p99
 //!   quiet, and while iperf3 saturates the slave's EoE (goal: p99 within 3× of quiet);
 //! - iperf3 TCP while four callers upload SDOs from the same slave without pause (goal:
@@ -23,7 +24,8 @@
 //! - issue 38's goal 5 judged: with 1 KiB mailboxes each direction at 80 % of the limit
 //!   or more, the SDO p99 under EoE load within 3× quiet.
 //!
-//! `EOE_VETH_SECONDS` (default 5) sets each iperf3 run's length. Not part of CI.
+//! `EOE_VETH_SECONDS` (default 5) sets each iperf3 run's length, `EOE_VETH_SIZES` the
+//! mailbox sizes (default `1024,128`). Not part of CI.
 
 #![allow(missing_docs)]
 
@@ -253,7 +255,7 @@ fn main() {
     let mut goals = Vec::new();
     println!();
     println!(
-        "{:<10} {:>5} {:>9} {:>14} {:>14} {:>14} {:>12} {:>14}",
+        "{:<10} {:>5} {:>9} {:>17} {:>14} {:>14} {:>15} {:>14}",
         "mailbox",
         "frags",
         "t_rt µs",
@@ -263,7 +265,18 @@ fn main() {
         "mbx msgs/s",
         "storm Mbit/s"
     );
-    for size in [1024u16, 128] {
+    let sizes: Vec<u16> = match std::env::var("EOE_VETH_SIZES") {
+        Ok(list) => list
+            .split(',')
+            .map(|size| {
+                size.trim()
+                    .parse()
+                    .expect("EOE_VETH_SIZES: mailbox sizes in bytes")
+            })
+            .collect(),
+        Err(_) => vec![1024, 128],
+    };
+    for size in sizes {
         let file = std::env::temp_dir().join(format!(
             "ecatd-eoe-bench-{}-{size}.toml",
             std::process::id()
@@ -305,7 +318,17 @@ fn main() {
         let messages = (after.mailbox_messages - before.mailbox_messages) / elapsed;
         let (fragments, bound) = limit(size, t_rt);
         phase("iperf3 dev→", t0);
+        let before = counters(ns);
+        let started = Instant::now();
         let reverse = iperf(ecatd, true, seconds);
+        let after = counters(ns);
+        let elapsed_back = started.elapsed().as_secs_f64();
+        // Each direction is judged against its own round trip: the device's frames and the
+        // master's acknowledgements load the machine differently from the other way.
+        let t_rt_back = (after.round_trip_sum - before.round_trip_sum)
+            / (after.round_trips - before.round_trips).max(1.0);
+        let (_, bound_back) = limit(size, t_rt_back);
+        let messages_back = (after.mailbox_messages - before.mailbox_messages) / elapsed_back;
         phase("iperf3 →dev with SDO uploads", t0);
 
         // SDO uploads while iperf3 saturates the EoE of the same slave.
@@ -336,18 +359,18 @@ fn main() {
         });
 
         println!(
-            "{:<10} {:>5} {:>9.0} {:>14} {:>14} {:>14} {:>12.0} {:>14}",
+            "{:<10} {:>5} {:>9} {:>17} {:>14} {:>14} {:>15} {:>14}",
             format!("{size} B"),
             fragments,
-            t_rt * 1e6,
-            mbit(bound),
+            format!("{:.0} / {:.0}", t_rt * 1e6, t_rt_back * 1e6),
+            format!("{} / {}", mbit(bound), mbit(bound_back)),
             mbit(forward),
             mbit(reverse),
-            messages,
+            format!("{messages:.0} / {messages_back:.0}"),
             format!("{} ({} SDOs)", mbit(storm.0), storm.1),
         );
         latency_rows.push((size, quiet, loaded, quiet_failed, loaded_failed));
-        goals.push((size, forward / bound, reverse / bound));
+        goals.push((size, forward / bound, reverse / bound_back));
     }
     println!();
     println!(
