@@ -24,7 +24,8 @@
 //!    client against a call ecatd answers without a slave (a gateway request to a station
 //!    no slave has, REST `/healthz`, gRPC `GetLogFilter`), and the Rust gateway row's frames
 //!    beyond the cycle's per read (as in phase 3); 64 gateway clients as threads,
-//!    16 and 64 as tasks of one thread, each with ecatd's CPU per read (schedstat) and the
+//!    16 and 64 as tasks of one thread, each with ecatd's CPU per read (schedstat), how
+//!    often per read each of ecatd's threads slept and was preempted, and the
 //!    datagrams the kernel dropped, and the same 64 tasks against a bare UDP echo thread in
 //!    the bench (the most any gateway could serve here: goal 2's ceiling); the jitter of ecatd's cycle (its `/metrics` histogram,
 //!    counted over a quiet window and over the rows); its VmRSS idle, after the rows and
@@ -79,6 +80,7 @@ mod api_clients;
 #[path = "support/cycle_jitter.rs"]
 mod cycle_jitter;
 
+use std::collections::BTreeMap;
 use std::process::Command;
 use std::sync::Barrier;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -678,6 +680,8 @@ struct CpuMeter {
     ecatd: Option<u32>,
     sim: Option<u32>,
     start: [u64; 3],
+    /// ecatd's threads' sleeps and preemptions so far, by thread name.
+    switches: BTreeMap<String, (u64, u64)>,
 }
 
 impl CpuMeter {
@@ -687,6 +691,8 @@ impl CpuMeter {
             ecatd,
             sim,
             start: [0; 3],
+            switches: ecatd
+                .map_or_else(BTreeMap::new, |pid| thread_cpu::switches(&pid.to_string())),
         };
         meter.start = meter.now();
         meter
@@ -715,7 +721,31 @@ impl CpuMeter {
             per(2),
             per(0) + per(1) + per(2)
         );
+        if let Some(pid) = self.ecatd {
+            self.print_switches(pid, reads);
+        }
         self.ecatd.map(|_| per(0))
+    }
+
+    /// Prints how often per read each of ecatd's busy threads slept (and so was woken) and
+    /// was preempted: goal 2's CPU goes largely to those ("Where the time goes" in
+    /// docs/performance.md).
+    fn print_switches(&self, pid: u32, reads: usize) {
+        let now = thread_cpu::switches(&pid.to_string());
+        let per_read: Vec<String> = now
+            .iter()
+            .filter_map(|(name, &(slept, preempted))| {
+                let (slept0, preempted0) = self.switches.get(name).copied().unwrap_or_default();
+                let per = |n: u64, n0: u64| n.saturating_sub(n0) as f64 / reads as f64;
+                let (slept, preempted) = (per(slept, slept0), per(preempted, preempted0));
+                // Threads that sleep once in a hundred reads or less are not in the path.
+                (slept + preempted >= 0.01).then(|| format!("{name} {slept:.2} / {preempted:.2}"))
+            })
+            .collect();
+        println!(
+            "  ecatd's threads per read, slept / preempted: {}",
+            per_read.join(", ")
+        );
     }
 }
 

@@ -19,6 +19,8 @@
 //! Under `taskset -c 0` both ends share one CPU, so no wake-up crosses CPUs: the
 //! difference to an unpinned run is what the cross-CPU wake-ups cost.
 
+// Only the CPU time is used here, not the context switches.
+#[allow(dead_code)]
 #[path = "support/thread_cpu.rs"]
 mod thread_cpu;
 
