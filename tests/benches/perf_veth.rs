@@ -727,9 +727,9 @@ impl CpuMeter {
         self.ecatd.map(|_| per(0))
     }
 
-    /// Prints how often per read each of ecatd's busy threads slept (and so was woken) and
-    /// was preempted: goal 2's CPU goes largely to those ("Where the time goes" in
-    /// docs/performance.md).
+    /// Prints how often per read each of ecatd's busy threads slept (and so had to be woken)
+    /// and was preempted, beside its CPU per read: what its switches cost goal 2 ("Where the
+    /// time goes" in docs/performance.md).
     fn print_switches(&self, pid: u32, reads: usize) {
         let now = thread_cpu::switches(&pid.to_string());
         let per_read: Vec<String> = now
