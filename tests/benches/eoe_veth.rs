@@ -222,6 +222,33 @@ fn counters(ns: &NetNs) -> Counters {
     }
 }
 
+/// One iperf3 direction: what it reached and what the bus did meanwhile.
+struct Direction {
+    /// The receiver's bit/s.
+    bits: f64,
+    /// The mean bus frame round trip during the run, in seconds.
+    t_rt: f64,
+    /// Mailbox messages written and read per second during the run.
+    messages: f64,
+}
+
+impl Direction {
+    /// Runs `iperf` (returning bit/s) between two readings of ecatd's counters.
+    fn measure(ns: &NetNs, iperf: impl FnOnce() -> f64) -> Direction {
+        let before = counters(ns);
+        let started = Instant::now();
+        let bits = iperf();
+        let after = counters(ns);
+        let elapsed = started.elapsed().as_secs_f64();
+        Direction {
+            bits,
+            t_rt: (after.round_trip_sum - before.round_trip_sum)
+                / (after.round_trips - before.round_trips).max(1.0),
+            messages: (after.mailbox_messages - before.mailbox_messages) / elapsed,
+        }
+    }
+}
+
 /// The limit for a mailbox of `size` bytes at a frame round trip of `t_rt` seconds.
 fn limit(size: u16, t_rt: f64) -> (usize, f64) {
     let frame = [0u8; FULL_FRAME];
@@ -308,27 +335,13 @@ fn main() {
         let quiet = summary(quiet);
         phase("iperf3 →dev", t0);
 
-        let before = counters(ns);
-        let started = Instant::now();
-        let forward = iperf(ecatd, false, seconds);
-        let after = counters(ns);
-        let elapsed = started.elapsed().as_secs_f64();
-        let t_rt = (after.round_trip_sum - before.round_trip_sum)
-            / (after.round_trips - before.round_trips).max(1.0);
-        let messages = (after.mailbox_messages - before.mailbox_messages) / elapsed;
-        let (fragments, bound) = limit(size, t_rt);
+        let there = Direction::measure(ns, || iperf(ecatd, false, seconds));
+        let (fragments, bound) = limit(size, there.t_rt);
         phase("iperf3 dev→", t0);
-        let before = counters(ns);
-        let started = Instant::now();
-        let reverse = iperf(ecatd, true, seconds);
-        let after = counters(ns);
-        let elapsed_back = started.elapsed().as_secs_f64();
         // Each direction is judged against its own round trip: the device's frames and the
         // master's acknowledgements load the machine differently from the other way.
-        let t_rt_back = (after.round_trip_sum - before.round_trip_sum)
-            / (after.round_trips - before.round_trips).max(1.0);
-        let (_, bound_back) = limit(size, t_rt_back);
-        let messages_back = (after.mailbox_messages - before.mailbox_messages) / elapsed_back;
+        let back = Direction::measure(ns, || iperf(ecatd, true, seconds));
+        let (_, bound_back) = limit(size, back.t_rt);
         phase("iperf3 →dev with SDO uploads", t0);
 
         // SDO uploads while iperf3 saturates the EoE of the same slave.
@@ -362,15 +375,15 @@ fn main() {
             "{:<10} {:>5} {:>9} {:>17} {:>14} {:>14} {:>15} {:>14}",
             format!("{size} B"),
             fragments,
-            format!("{:.0} / {:.0}", t_rt * 1e6, t_rt_back * 1e6),
+            format!("{:.0} / {:.0}", there.t_rt * 1e6, back.t_rt * 1e6),
             format!("{} / {}", mbit(bound), mbit(bound_back)),
-            mbit(forward),
-            mbit(reverse),
-            format!("{messages:.0} / {messages_back:.0}"),
+            mbit(there.bits),
+            mbit(back.bits),
+            format!("{:.0} / {:.0}", there.messages, back.messages),
             format!("{} ({} SDOs)", mbit(storm.0), storm.1),
         );
         latency_rows.push((size, quiet, loaded, quiet_failed, loaded_failed));
-        goals.push((size, forward / bound, reverse / bound_back));
+        goals.push((size, there.bits / bound, back.bits / bound_back));
     }
     println!();
     println!(
