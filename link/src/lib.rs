@@ -27,6 +27,7 @@ use std::os::fd::BorrowedFd;
 use std::time::Instant;
 
 mod capture;
+mod eventfd;
 mod fault;
 mod memory;
 pub mod netdev;
@@ -34,10 +35,11 @@ mod pcap;
 mod raw_socket;
 
 pub use capture::{Capture, CaptureHub, CaptureTap, CapturedFrame};
+pub use eventfd::EventFd;
 pub use fault::{FaultConfig, FaultCounts, FaultInjector};
 pub use memory::MemoryLink;
 pub use pcap::PcapTap;
-pub use raw_socket::{RawSocket, RawSocketOptions, wait_any_readable};
+pub use raw_socket::{RawSocket, RawSocketOptions, wait_any_readable, which_readable};
 
 use ecat_wire::ethernet;
 

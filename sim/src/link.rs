@@ -13,9 +13,10 @@
 
 use std::collections::VecDeque;
 use std::io;
+use std::os::fd::{AsFd, BorrowedFd};
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use ecat_link::{Link, MAX_FRAME_LEN, Wait};
+use ecat_link::{EventFd, Link, MAX_FRAME_LEN, Wait};
 
 use crate::segment::{Port, Segment};
 
@@ -32,6 +33,9 @@ pub struct InProcessLink {
     returned: VecDeque<Vec<u8>>,
     capacity: usize,
     dropped: u64,
+    /// Readable while `returned` holds a frame: the link's [`Link::wait_fd`], so that the
+    /// bus can wait on it beside a guest's descriptor (`None` if the system gave none).
+    waiting: Option<EventFd>,
 }
 
 impl InProcessLink {
@@ -48,6 +52,7 @@ impl InProcessLink {
             returned: VecDeque::new(),
             capacity,
             dropped: 0,
+            waiting: EventFd::new().ok(),
         }
     }
 
@@ -89,6 +94,11 @@ impl Link for InProcessLink {
                 self.dropped += 1;
             } else {
                 self.returned.push_back(buf);
+                if self.returned.len() == 1
+                    && let Some(waiting) = &self.waiting
+                {
+                    waiting.signal();
+                }
             }
         }
         Ok(())
@@ -96,11 +106,22 @@ impl Link for InProcessLink {
 
     fn recv(&mut self, buf: &mut [u8], _wait: Wait) -> io::Result<Option<usize>> {
         // Nothing can arrive later: every frame came back during its send.
-        Ok(self.returned.pop_front().map(|frame| {
+        let frame = self.returned.pop_front();
+        if frame.is_some()
+            && self.returned.is_empty()
+            && let Some(waiting) = &self.waiting
+        {
+            waiting.drain();
+        }
+        Ok(frame.map(|frame| {
             let len = frame.len().min(buf.len());
             buf[..len].copy_from_slice(&frame[..len]);
             len
         }))
+    }
+
+    fn wait_fd(&self) -> Option<BorrowedFd<'_>> {
+        self.waiting.as_ref().map(AsFd::as_fd)
     }
 }
 

@@ -264,6 +264,12 @@ impl Link for RawSocket {
 /// and backup ports) is readable or `timeout` has passed. A signal ends the wait early
 /// without an error; the caller looks at its links and its deadline again anyway.
 pub fn wait_any_readable(fds: &[BorrowedFd<'_>], timeout: Duration) -> io::Result<()> {
+    sys::wait_any_readable(fds, timeout).map(|_| ())
+}
+
+/// [`wait_any_readable`], saying which of `fds` were readable when it returned (none after
+/// a timeout or a signal).
+pub fn which_readable(fds: &[BorrowedFd<'_>], timeout: Duration) -> io::Result<[bool; 2]> {
     sys::wait_any_readable(fds, timeout)
 }
 

@@ -210,12 +210,15 @@ pub(super) fn recv_frame(fd: BorrowedFd<'_>, buf: &mut [u8]) -> io::Result<Recei
 /// Returns early, without error, if a signal interrupts the wait: the caller re-checks the
 /// socket and its deadline anyway.
 pub(super) fn wait_readable(fd: BorrowedFd<'_>, timeout: Duration) -> io::Result<()> {
-    wait_any_readable(&[fd], timeout)
+    wait_any_readable(&[fd], timeout).map(|_| ())
 }
 
 /// Waits until one of `fds` is readable or `timeout` has passed (early, without error, on
-/// a signal).
-pub(crate) fn wait_any_readable(fds: &[BorrowedFd<'_>], timeout: Duration) -> io::Result<()> {
+/// a signal); says which were readable (none after a timeout or a signal).
+pub(crate) fn wait_any_readable(
+    fds: &[BorrowedFd<'_>],
+    timeout: Duration,
+) -> io::Result<[bool; 2]> {
     // Two links at most wait together (a ring's ports); more is a caller's mistake.
     let mut poll_fds = [libc::pollfd {
         fd: -1,
@@ -254,6 +257,8 @@ pub(crate) fn wait_any_readable(fds: &[BorrowedFd<'_>], timeout: Duration) -> io
         if err.kind() != io::ErrorKind::Interrupted {
             return Err(err);
         }
+        return Ok([false; 2]);
     }
-    Ok(())
+    // An error or hang-up counts as readable: the read that follows reports it.
+    Ok(poll_fds.map(|p| p.fd >= 0 && p.revents != 0))
 }

@@ -22,6 +22,7 @@ use super::Shared;
 use super::config::{BusConfig, FRAME_HEADERS_LEN, WaitMode};
 use super::cyclic::{CyclicFrame, CyclicReply, CyclicTask, MIN_PERIOD};
 use super::error::BusError;
+use super::guest::Guest;
 use super::index::{INDICES, IndexTable};
 use super::matching::{Match, match_frame};
 use super::queue::{CyclicChange, Queued, Submissions};
@@ -80,6 +81,8 @@ pub(crate) struct Engine<L: Link> {
     acyclic_cost: Duration,
     /// Acyclic frames wait for the next cycle (see [`Engine::acyclic_fits`]).
     held: bool,
+    /// Runs after each wait, and is waited on beside the link ([`super::guest`]).
+    guest: Option<Box<dyn Guest>>,
 }
 
 impl<L: Link> Engine<L> {
@@ -103,6 +106,7 @@ impl<L: Link> Engine<L> {
             cyclic: None,
             acyclic_cost: Duration::ZERO,
             held: false,
+            guest: None,
             shared,
         }
     }
@@ -132,12 +136,22 @@ impl<L: Link> Engine<L> {
                 if let Some(change) = control.cyclic {
                     self.change_cyclic(change);
                 }
+                if let Some(guest) = control.guest {
+                    self.guest = guest;
+                }
             }
             self.drain_before_expiry(Instant::now());
             self.expire(Instant::now());
             self.run_cycle_if_due();
             self.send_acyclic();
-            self.wait_and_receive();
+            let readable = self.wait_and_receive();
+            let cycle = self
+                .cyclic
+                .as_ref()
+                .map(|c| c.next_due.checked_sub(c.spin).unwrap_or(c.next_due));
+            if let Some(guest) = self.guest.as_mut() {
+                guest.turn(readable, cycle);
+            }
         }
         self.fail_everything();
         let Engine { link, .. } = self;
@@ -467,14 +481,35 @@ impl<L: Link> Engine<L> {
         self.records.iter().any(|r| r.active)
     }
 
-    /// Waits as the wait mode says and handles what arrives.
-    fn wait_and_receive(&mut self) {
+    /// Waits as the wait mode says and handles what arrives; says whether the guest's
+    /// descriptor was seen readable (always, in [`WaitMode::BusyPoll`], which waits on
+    /// nothing).
+    fn wait_and_receive(&mut self) -> bool {
         let wake = self.next_wake();
+        let mut guest_readable = false;
+        // A guest's task woken on this thread (a frame's completion, an expiry) runs before
+        // the bus sleeps again.
+        let guest_busy = self.guest.as_ref().is_some_and(|guest| guest.has_work());
         match self.config.wait_mode {
             WaitMode::Poll if self.in_flight() => {
                 let slice_end = Instant::now() + RECV_SLICE;
                 let until = wake.map_or(slice_end, |wake| wake.min(slice_end));
-                if self.receive_one(Wait::Until(until)) == Received::LinkError {
+                let until = if guest_busy { Instant::now() } else { until };
+                let wait = match (&self.guest, self.link.wait_fd()) {
+                    (Some(guest), Some(link)) => {
+                        // The link's frame or the guest's work, whichever comes first.
+                        let timeout = until.saturating_duration_since(Instant::now());
+                        let fds = [link, guest.wait_fd()];
+                        let [frame, guest] =
+                            link::which_readable(&fds, timeout).unwrap_or([true, true]);
+                        guest_readable = guest;
+                        frame.then_some(Wait::NoWait)
+                    }
+                    _ => Some(Wait::Until(until)),
+                };
+                if let Some(wait) = wait
+                    && self.receive_one(wait) == Received::LinkError
+                {
                     self.back_off(wake);
                 }
             }
@@ -489,10 +524,18 @@ impl<L: Link> Engine<L> {
                 // Held-back frames wait for the cycle: sleep until it is due, not woken by
                 // more submissions, which could not go either.
                 let ready = !self.staging.is_empty() && self.free_acyclic_record().is_some();
-                if self.held {
-                    self.shared.queue.park(wake, false);
-                } else if !ready {
-                    self.shared.queue.park(wake, true);
+                let queue = &self.shared.queue;
+                match &self.guest {
+                    Some(_) if guest_busy => {}
+                    Some(guest) if self.held => {
+                        guest_readable = queue.park_beside(wake, false, guest.wait_fd());
+                    }
+                    Some(guest) if !ready => {
+                        guest_readable = queue.park_beside(wake, true, guest.wait_fd());
+                    }
+                    None if self.held => queue.park(wake, false),
+                    None if !ready => queue.park(wake, true),
+                    _ => {}
                 }
             }
             WaitMode::BusyPoll => match self.receive_one(Wait::NoWait) {
@@ -505,6 +548,7 @@ impl<L: Link> Engine<L> {
                 Received::LinkError => self.back_off(wake),
             },
         }
+        guest_readable || self.config.wait_mode == WaitMode::BusyPoll
     }
 
     /// After a link error: a link that keeps failing (a dead interface, a dropped peer)
@@ -829,6 +873,7 @@ mod tests {
             stats: BusStats::default(),
             config,
             ring: None,
+            waitable: false,
         });
         (Engine::new(link, shared), far)
     }

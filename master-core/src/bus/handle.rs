@@ -511,6 +511,27 @@ impl BusHandle {
         self.shared().queue.request_cyclic(task);
     }
 
+    /// Whether [`Self::set_guest`] can install a guest: the link has a file descriptor to
+    /// wait on, and the bus sleeps (not [`WaitMode::BusyPoll`](super::WaitMode::BusyPoll),
+    /// which would run the guest's turn on every spin).
+    pub fn can_host_guest(&self) -> bool {
+        self.shared().waitable && self.config().wait_mode == super::WaitMode::Poll
+    }
+
+    /// Installs `guest` on the bus thread (replacing and dropping any earlier one there),
+    /// or with `None` removes it. Takes effect on the bus thread's next turn. Refused (the
+    /// guest handed back) when the link cannot be waited on with a file descriptor.
+    pub fn set_guest(
+        &self,
+        guest: Option<Box<dyn super::Guest>>,
+    ) -> Result<(), Option<Box<dyn super::Guest>>> {
+        if guest.is_some() && !self.can_host_guest() {
+            return Err(guest);
+        }
+        self.shared().queue.request_guest(guest);
+        Ok(())
+    }
+
     /// The bus's counters now.
     pub fn stats(&self) -> BusStatsSnapshot {
         self.shared().stats.snapshot()

@@ -87,10 +87,20 @@
 //! wakes that long before each cycle and spins until the cycle is due, so that the
 //! kernel's wake-up latency is spent before the cycle instead of after.
 //!
+//! # Guests
+//!
+//! A [`Guest`] ([`BusHandle::set_guest`]) is work the bus thread does for another part of
+//! the master between its frames: it waits on the guest's descriptor in the same
+//! `ppoll(2)` as the link (while idle, beside the submission queue's eventfd instead of the
+//! condition variable) and gives it a bounded turn after each wait, told when the next
+//! cycle is due. The mailbox gateway serves its UDP socket this way, so that a client's
+//! request wakes only the thread that sends its frame. Only a bus whose link has a
+//! [`Link::wait_fd`] and that sleeps ([`WaitMode::Poll`]) takes one.
+//!
 //! # Memory
 //!
 //! All buffers of the bus thread are allocated when it starts; the loop itself does not
-//! allocate. A caller's request allocates its completion slot, and its data only when
+//! allocate (a guest's turn may: that is the guest's own work). A caller's request allocates its completion slot, and its data only when
 //! longer than [`INLINE_LEN`] bytes; the reply is copied into that same storage.
 
 use std::io;
@@ -109,6 +119,7 @@ mod error;
 /// The frame matcher driven by arbitrary bytes, for the fuzz target `frame_matcher`.
 #[doc(hidden)]
 pub mod fuzzing;
+mod guest;
 mod handle;
 mod histogram;
 mod index;
@@ -127,6 +138,7 @@ pub use config::{BusConfig, WaitMode};
 pub use cyclic::{CyclicFrame, CyclicReply, CyclicTask, DEFAULT_PERIOD, MIN_PERIOD};
 pub use data::{DatagramData, INLINE_LEN};
 pub use error::BusError;
+pub use guest::Guest;
 pub use handle::BusHandle;
 pub(crate) use histogram::Histogram;
 pub use histogram::HistogramSnapshot;
@@ -143,6 +155,8 @@ pub(crate) struct Shared {
     pub config: BusConfig,
     /// What the ring link knows, when the bus runs on a ring.
     pub ring: Option<redundancy::RingWatch>,
+    /// The link has a [`Link::wait_fd`], so a [`Guest`] can wait beside it.
+    pub waitable: bool,
 }
 
 /// Starts buses; see [`Bus::start`].
@@ -200,6 +214,7 @@ impl Bus {
             stats: stats::BusStats::default(),
             config,
             ring,
+            waitable: link.wait_fd().is_some(),
         });
         let engine = engine::Engine::new(link, Arc::clone(&shared));
         let thread = std::thread::Builder::new()

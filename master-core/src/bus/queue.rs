@@ -8,6 +8,7 @@
 //! submission path.
 
 use std::collections::VecDeque;
+use std::os::fd::{AsFd, BorrowedFd};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Condvar, Mutex, MutexGuard, PoisonError};
 use std::time::Instant;
@@ -15,7 +16,9 @@ use std::time::Instant;
 use super::completion::Completer;
 use super::cyclic::CyclicTask;
 use super::error::BusError;
+use super::guest::Guest;
 use super::request::DatagramRequest;
+use crate::link::EventFd;
 
 /// One queued datagram.
 #[derive(Debug)]
@@ -46,6 +49,8 @@ pub(crate) type CyclicChange = Option<Box<dyn CyclicTask>>;
 pub(crate) struct Control {
     pub shutdown: bool,
     pub cyclic: Option<CyclicChange>,
+    /// A guest to install (`Some(Some(_))`) or to remove (`Some(None)`).
+    pub guest: Option<Option<Box<dyn Guest>>>,
 }
 
 /// The queue and the bus thread's wake-up.
@@ -57,6 +62,9 @@ pub(crate) struct Submissions {
     queued: AtomicUsize,
     /// Set when a [`Control`] request waits, readable without the lock.
     control_pending: AtomicBool,
+    /// Written besides the condition variable while the bus thread is parked, for a bus
+    /// thread that waits in `ppoll(2)` beside a guest ([`Submissions::park_beside`]).
+    eventfd: Option<EventFd>,
 }
 
 struct State {
@@ -82,6 +90,15 @@ impl Submissions {
             capacity,
             queued: AtomicUsize::new(0),
             control_pending: AtomicBool::new(false),
+            eventfd: EventFd::new().ok(),
+        }
+    }
+
+    /// Wakes the parked bus thread, wherever it waits (the lock is held).
+    fn wake_parked(&self) {
+        self.wake.notify_one();
+        if let Some(eventfd) = &self.eventfd {
+            eventfd.signal();
         }
     }
 
@@ -114,7 +131,7 @@ impl Submissions {
         state.entries.extend(batch);
         self.queued.fetch_add(count, Ordering::Release);
         if state.parked {
-            self.wake.notify_one();
+            self.wake_parked();
         }
         Ok(state.parked)
     }
@@ -143,12 +160,17 @@ impl Submissions {
         self.with_control(|control| control.cyclic = Some(change));
     }
 
+    /// Asks the bus thread to install a guest, or with `None` to remove it.
+    pub fn request_guest(&self, guest: Option<Box<dyn Guest>>) {
+        self.with_control(|control| control.guest = Some(guest));
+    }
+
     fn with_control(&self, change: impl FnOnce(&mut Control)) {
         let mut state = self.lock();
         change(&mut state.control);
         self.control_pending.store(true, Ordering::Release);
         if state.parked {
-            self.wake.notify_one();
+            self.wake_parked();
         }
     }
 
@@ -201,6 +223,41 @@ impl Submissions {
         state.parked = false;
     }
 
+    /// [`Self::park`] for a bus thread with a guest: also returns when `beside` (the
+    /// guest's descriptor) is readable, and says whether it was. Without an event
+    /// descriptor, parks as [`Self::park`] for at most `slice` and says "readable".
+    pub fn park_beside(
+        &self,
+        until: Option<Instant>,
+        on_submission: bool,
+        beside: BorrowedFd<'_>,
+    ) -> bool {
+        let Some(eventfd) = &self.eventfd else {
+            let slice = Instant::now() + PARK_SLICE;
+            self.park(
+                Some(until.map_or(slice, |until| until.min(slice))),
+                on_submission,
+            );
+            return true;
+        };
+        {
+            let mut state = self.lock();
+            let submitted = on_submission && !state.entries.is_empty();
+            if submitted || self.control_pending.load(Ordering::Acquire) {
+                return false;
+            }
+            state.parked = true;
+        }
+        // A submission from here on sees `parked` and writes the event descriptor.
+        let timeout = until.map_or(PARK_FOREVER, |until| {
+            until.saturating_duration_since(Instant::now())
+        });
+        let readable = crate::link::which_readable(&[beside, eventfd.as_fd()], timeout);
+        self.lock().parked = false;
+        eventfd.drain();
+        readable.map_or(true, |[guest, _]| guest)
+    }
+
     /// Refuses all further submissions and hands back those still queued (bus thread, when
     /// it stops).
     pub fn close(&self) -> VecDeque<Queued> {
@@ -210,6 +267,12 @@ impl Submissions {
         std::mem::take(&mut state.entries)
     }
 }
+
+/// How often a bus thread that cannot wait on its guest's descriptor looks at it.
+const PARK_SLICE: std::time::Duration = std::time::Duration::from_millis(1);
+
+/// How long a park without a deadline waits in `ppoll(2)` before it looks again.
+const PARK_FOREVER: std::time::Duration = std::time::Duration::from_secs(3600);
 
 #[cfg(test)]
 mod tests {

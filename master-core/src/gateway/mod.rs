@@ -15,16 +15,21 @@
 //! # Ok(()) }
 //! ```
 //!
-//! The service runs on its own threads (`ecat-gateway-N`, [`GatewayConfig::workers`] of
-//! them, each a current-thread runtime with its own UDP socket on the shared port; the
-//! first also serves TCP), beside the bus and the master, and reaches the slaves only
-//! through the mailbox engine, whose per-slave queues it shares with every other user: the
-//! cyclic exchange is never touched. The kernel gives each client to one worker (`bind`),
-//! so a client's requests are taken in the order sent; sessions, caps and the stored
-//! replies of repeats are shared by every worker.
+//! The service runs beside the bus and the master and reaches the slaves only through the
+//! mailbox engine, whose per-slave queues it shares with every other user: the cyclic
+//! exchange is never touched. Where the bus can wait on its link with a descriptor,
+//! [`GatewayConfig::on_bus_thread`] (the default) has the bus thread itself serve the UDP
+//! socket between its frames (`on_bus`): a request then wakes no thread but the bus's.
+//! Otherwise, and for TCP, the dictionary's tracker and the requests' timers in either case,
+//! it runs on its own threads (`ecat-gateway-N`, [`GatewayConfig::workers`] of them, each a
+//! current-thread runtime with its own UDP socket on the shared port; the first also serves
+//! TCP). The kernel gives each client to one worker (`bind`), so a client's requests are
+//! taken in the order sent; sessions, caps and the stored replies of repeats are shared by
+//! every worker.
 //!
 //! Files: `config`, `allow` (client networks), `bind` (port and fallback), `service` (the
-//! transport-neutral request handling), `udp` (the datagram loop), `route` (addresses),
+//! transport-neutral request handling), `udp` (the datagram loop), `on_bus` (the same on
+//! the bus thread), `route` (addresses),
 //! `forward` (one slave), `transfer` (what a message makes the slave do and the
 //! multi-message transfer it leaves open), `session` (slaves held for a transfer), `normalize`
 //! (tolerated short SDO requests), `compat` (the layout of the replaced gateway's manual clients),
@@ -47,6 +52,7 @@ mod forward;
 pub mod fuzzing;
 mod kernel_drops;
 mod normalize;
+mod on_bus;
 mod reply;
 mod retry;
 mod route;
@@ -87,6 +93,31 @@ struct Running {
     inodes: Vec<u64>,
     stop: watch::Sender<bool>,
     threads: Vec<JoinHandle<()>>,
+    /// Disconnected once the bus thread has dropped the guest serving UDP (`on_bus`).
+    /// (In a mutex only to make the gateway `Sync`.)
+    guest_gone: Option<std::sync::Mutex<std::sync::mpsc::Receiver<()>>>,
+}
+
+/// How long a stop waits for the bus thread to give the socket up: it looks at its control
+/// requests at least every millisecond, so only a bus that is gone takes this long.
+const GUEST_GONE_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
+
+impl Running {
+    /// Stops serving: the bus thread's guest first (its tasks use the first worker's
+    /// runtime, which must outlive them), then the workers.
+    fn end(&mut self, master: &Master) {
+        if let Some(gone) = self.guest_gone.take() {
+            let _ = master.bus().set_guest(None);
+            let gone = gone
+                .into_inner()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            let _ = gone.recv_timeout(GUEST_GONE_WAIT);
+        }
+        let _ = self.stop.send(true);
+        for thread in self.threads.drain(..) {
+            let _ = thread.join();
+        }
+    }
 }
 
 /// The ETG.8200 mailbox gateway of one master. See the [module documentation](self).
@@ -148,6 +179,14 @@ impl MailboxGateway {
         self.running.as_ref().map(|r| r.local)
     }
 
+    /// Whether the bus thread serves the UDP socket ([`GatewayConfig::on_bus_thread`],
+    /// where the bus can), while running.
+    pub fn on_bus_thread(&self) -> bool {
+        self.running
+            .as_ref()
+            .is_some_and(|r| r.guest_gone.is_some())
+    }
+
     /// Whether the service is running.
     pub fn is_running(&self) -> bool {
         self.running
@@ -179,29 +218,40 @@ impl MailboxGateway {
             return Ok(local);
         }
         self.stop();
+        // Served by the bus thread: one socket, waited on beside the link; one worker is
+        // left for TCP, the dictionary's tracker, the timers and what the requests spawn.
+        let on_bus = self.config.on_bus_thread && self.master.bus().can_host_guest();
         let bound = bind::bind(
             self.config.bind,
             self.config.wanted_port(),
             self.config.fallback,
             self.config.tcp,
-            self.config.workers,
+            if on_bus { 1 } else { self.config.workers },
         )?;
         let fell_back = bound.fell_back;
         let mut runtimes = Vec::with_capacity(bound.udp.len());
         let mut inodes = Vec::with_capacity(bound.udp.len());
+        let mut bus_sockets = Vec::new();
         for udp in bound.udp {
             inodes.push(kernel_drops::socket_inode(&udp)?);
             udp.set_nonblocking(true)?;
             let runtime = tokio::runtime::Builder::new_current_thread()
                 .enable_all()
                 .build()?;
+            let local = udp.local_addr()?;
+            if on_bus {
+                // Not the runtime's: its readiness would wake the worker for nothing.
+                bus_sockets.push(udp);
+                runtimes.push((runtime, None, local));
+                continue;
+            }
             let socket = {
                 let _inside = runtime.enter();
                 tokio::net::UdpSocket::from_std(udp)?
             };
-            runtimes.push((runtime, socket));
+            runtimes.push((runtime, Some(socket), local));
         }
-        let local = runtimes[0].1.local_addr()?;
+        let local = runtimes[0].2;
         let listener = match bound.tcp {
             Some(listener) => {
                 listener.set_nonblocking(true)?;
@@ -235,10 +285,19 @@ impl MailboxGateway {
             )),
             retries: retry::Retries::new(self.config.retry_window, self.config.max_retry_clients),
         });
+        let guest = if bus_sockets.is_empty() {
+            None
+        } else {
+            Some(on_bus::OnBus::new(
+                Arc::clone(&shared),
+                bus_sockets,
+                runtimes[0].0.handle().clone(),
+            )?)
+        };
         let (stop, stopped) = watch::channel(false);
         let mut listener = listener;
         let mut threads = Vec::with_capacity(runtimes.len());
-        for (n, (runtime, socket)) in runtimes.into_iter().enumerate() {
+        for (n, (runtime, socket, _)) in runtimes.into_iter().enumerate() {
             let (shared, stopped) = (Arc::clone(&shared), stopped.clone());
             // The first worker also keeps the dictionary's counters and serves TCP.
             let first = n == 0;
@@ -262,12 +321,24 @@ impl MailboxGateway {
                 }
             }
         }
-        self.running = Some(Running {
+        let mut running = Running {
             local,
             inodes,
             stop,
             threads,
-        });
+            guest_gone: None,
+        };
+        if let Some((guest, gone)) = guest {
+            if self.master.bus().set_guest(Some(Box::new(guest))).is_err() {
+                running.end(&self.master);
+                self.stats.stop();
+                return Err(io::Error::other(
+                    "the bus cannot serve the gateway's socket",
+                ));
+            }
+            running.guest_gone = Some(std::sync::Mutex::new(gone));
+        }
+        self.running = Some(running);
         Ok(local)
     }
 
@@ -275,10 +346,7 @@ impl MailboxGateway {
     /// gateway can be started again.
     pub fn stop(&mut self) {
         if let Some(mut running) = self.running.take() {
-            let _ = running.stop.send(true);
-            for thread in running.threads.drain(..) {
-                let _ = thread.join();
-            }
+            running.end(&self.master);
             self.stats.stop();
         }
     }
@@ -289,13 +357,18 @@ impl MailboxGateway {
 /// `first` worker runs the dictionary's tracker.
 async fn run(
     shared: Arc<Shared>,
-    socket: tokio::net::UdpSocket,
+    socket: Option<tokio::net::UdpSocket>,
     listener: Option<tokio::net::TcpListener>,
     first: bool,
     mut stop: watch::Receiver<bool>,
 ) {
     let tracker = first.then(|| tokio::spawn(shared.dictionary.tracker()));
-    let udp = udp::run(Arc::clone(&shared), Arc::new(socket));
+    let udp = async {
+        match socket {
+            Some(socket) => udp::run(Arc::clone(&shared), Arc::new(socket)).await,
+            None => std::future::pending().await,
+        }
+    };
     let tcp = async {
         match listener {
             Some(listener) => tcp::run(Arc::clone(&shared), listener).await,

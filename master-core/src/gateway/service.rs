@@ -53,6 +53,9 @@ pub(crate) struct Shared {
 pub(crate) enum ReplyTo {
     /// A datagram from the bound socket to the client's address and port.
     Udp(Arc<UdpSocket>),
+    /// The same from a socket the bus thread serves (`on_bus`), which is non-blocking and
+    /// not the runtime's: a datagram it cannot take at once is dropped, as a lost one.
+    UdpStd(Arc<std::net::UdpSocket>),
     /// The writer of the client's TCP connection, in order.
     Tcp(mpsc::Sender<Vec<u8>>),
 }
@@ -84,6 +87,32 @@ pub(crate) enum Admitted {
     Done,
     /// Not a gateway message; counted.
     Malformed,
+}
+
+/// Counts a datagram just received into `buf` (`len` bytes, as the socket said) and
+/// screens it: its bytes and when it came, unless its client is not allowed or its length
+/// is off (counted as failed, never answered). Both UDP loops (`udp`, `on_bus`) call it.
+pub(crate) fn screened<'a>(
+    shared: &Shared,
+    buf: &'a [u8],
+    len: usize,
+    client: SocketAddr,
+) -> Option<(&'a [u8], StdInstant)> {
+    let received = StdInstant::now();
+    shared.stats.received();
+    if !shared.config.allows(client.ip()) {
+        shared
+            .stats
+            .failed(FailureReason::Denied, received.elapsed());
+        return None;
+    }
+    let Some(datagram) = buf.get(..len) else {
+        shared
+            .stats
+            .failed(FailureReason::Malformed, received.elapsed());
+        return None;
+    };
+    Some((datagram, received))
 }
 
 /// Parses a received message and admits it; counts what it is. The caller counted it as
@@ -123,8 +152,14 @@ impl Shared {
             return;
         }
         // Kept for repeats: sent from here, then moved into the store (no copy).
-        if let ReplyTo::Udp(socket) = &request.reply_to {
-            let _ = socket.send_to(&datagram, request.client).await;
+        match &request.reply_to {
+            ReplyTo::Udp(socket) => {
+                let _ = socket.send_to(&datagram, request.client).await;
+            }
+            ReplyTo::UdpStd(socket) => {
+                let _ = socket.send_to(&datagram, request.client);
+            }
+            ReplyTo::Tcp(_) => {}
         }
         request
             .sent
@@ -138,6 +173,9 @@ impl Shared {
             // A client that went away is its own problem; UDP has no one to tell.
             ReplyTo::Udp(socket) => {
                 let _ = socket.send_to(&datagram, request.client).await;
+            }
+            ReplyTo::UdpStd(socket) => {
+                let _ = socket.send_to(&datagram, request.client);
             }
             // A closed connection drops its writer: nothing left to send to.
             ReplyTo::Tcp(writer) => {
@@ -211,7 +249,7 @@ fn parse(
         _ => data,
     };
     // Only UDP loses replies; the layout without a counter never repeats.
-    let raw = (matches!(reply_to, ReplyTo::Udp(_)) && header.counter != 0)
+    let raw = (matches!(reply_to, ReplyTo::Udp(_) | ReplyTo::UdpStd(_)) && header.counter != 0)
         .then(|| datagram.get(..message.total_len()).map(Box::from))
         .flatten();
     let ask = Ask::read(header.mailbox_type, &data);

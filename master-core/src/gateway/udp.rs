@@ -3,13 +3,11 @@
 //! holds up the others. Replies go from the bound socket to the client's address and port.
 
 use std::sync::Arc;
-use std::time::Instant as StdInstant;
 
 use tokio::net::UdpSocket;
 use tokio::task::JoinSet;
 
-use super::service::{Admitted, ReplyTo, Shared, admit, serve};
-use super::stats::FailureReason;
+use super::service::{Admitted, ReplyTo, Shared, admit, screened, serve};
 
 /// The largest UDP payload; a datagram is read whole, whatever its size, so that an
 /// oversized one is seen as such and not cut to something that parses.
@@ -28,18 +26,7 @@ pub(crate) async fn run(shared: Arc<Shared>, socket: Arc<UdpSocket>) {
                 Err(_) => continue,
             },
         };
-        let received = StdInstant::now();
-        shared.stats.received();
-        if !shared.config.allows(client.ip()) {
-            shared
-                .stats
-                .failed(FailureReason::Denied, received.elapsed());
-            continue;
-        }
-        let Some(datagram) = buf.get(..len) else {
-            shared
-                .stats
-                .failed(FailureReason::Malformed, received.elapsed());
+        let Some((datagram, received)) = screened(&shared, &buf, len, client) else {
             continue;
         };
         let reply_to = ReplyTo::Udp(Arc::clone(&socket));

@@ -8,6 +8,7 @@ mod bus_support;
 mod chains;
 mod cyclic;
 mod faults;
+mod guest;
 mod late_replies;
 mod polling;
 mod raw_socket;

@@ -4,6 +4,10 @@
 //! and a client's segmented transfer holds its slave against clients served by other
 //! workers. Many clients (their own sockets, so the kernel spreads them over the workers)
 //! run at once in each test.
+//!
+//! The same guarantees hold with the bus thread serving UDP (`GatewayConfig::on_bus_thread`,
+//! the default, where requests from every client run as tasks on one thread): the ordering,
+//! repeat and session tests run both ways.
 
 use crate::gateway_support;
 
@@ -24,10 +28,18 @@ const CLIENTS: usize = 16;
 /// simulated slave counts.
 const PARAMETER: u16 = 0x2001;
 
-fn config() -> GatewayConfig {
+/// Who serves UDP in a test.
+#[derive(Clone, Copy)]
+enum Served {
+    ByWorkers,
+    ByTheBusThread,
+}
+
+fn config(served: Served) -> GatewayConfig {
     GatewayConfig {
         workers: WORKERS,
         retry_window: Duration::from_secs(30),
+        on_bus_thread: matches!(served, Served::ByTheBusThread),
         ..test_config()
     }
 }
@@ -91,7 +103,7 @@ fn expect_workers(want: usize) {
 
 #[test]
 fn every_worker_has_its_thread_and_all_of_them_stop() {
-    let mut rig = GwRig::start(config());
+    let mut rig = GwRig::start(config(Served::ByWorkers));
     expect_workers(WORKERS);
     // Every client is answered, whichever worker the kernel gave it to.
     for _ in 0..CLIENTS {
@@ -110,9 +122,48 @@ fn every_worker_has_its_thread_and_all_of_them_stop() {
     assert!(client.upload(station(DRIVE), 0x1018, 1).is_ok());
 }
 
+/// On the bus thread: one worker is left (TCP, timers), the requests are answered, and a
+/// stop gives the port up before it returns, so that it can be bound again at once.
+#[test]
+fn the_bus_thread_serves_udp_and_a_stop_gives_the_port_up_at_once() {
+    let mut rig = GwRig::start(config(Served::ByTheBusThread));
+    assert!(
+        rig.gateway().on_bus_thread(),
+        "the in-process link can be waited on"
+    );
+    expect_workers(1);
+    for _ in 0..CLIENTS {
+        let mut client = rig.client();
+        assert_eq!(
+            client.upload(station(DRIVE), 0x1018, 1).expect("upload"),
+            sim::topology::SIM_VENDOR_ID.to_le_bytes()
+        );
+    }
+    let addr = rig.gateway().local_addr().expect("running");
+    for _ in 0..3 {
+        rig.gateway_mut().stop();
+        assert!(!rig.gateway().on_bus_thread());
+        // A plain socket binds the port at once: the bus thread no longer holds it.
+        drop(std::net::UdpSocket::bind(addr).expect("the port is free after the stop"));
+        rig.gateway_mut().set_port(addr.port());
+        assert_eq!(rig.gateway_mut().start().expect("restart"), addr);
+        let mut client = Client::new(addr);
+        assert!(client.upload(station(DRIVE), 0x1018, 1).is_ok());
+    }
+}
+
 #[test]
 fn one_clients_pipelined_writes_run_in_the_order_sent() {
-    let rig = GwRig::start(config());
+    pipelined_writes_run_in_the_order_sent(Served::ByWorkers);
+}
+
+#[test]
+fn one_clients_pipelined_writes_run_in_the_order_sent_on_the_bus_thread() {
+    pipelined_writes_run_in_the_order_sent(Served::ByTheBusThread);
+}
+
+fn pipelined_writes_run_in_the_order_sent(served: Served) {
+    let rig = GwRig::start(config(served));
     let before = writes(&rig);
     let each: u32 = 12;
     for c in 0..CLIENTS as u32 {
@@ -140,7 +191,16 @@ fn one_clients_pipelined_writes_run_in_the_order_sent() {
 
 #[test]
 fn repeats_run_once_with_many_clients_on_many_workers() {
-    let rig = GwRig::start(config());
+    repeats_run_once_with_many_clients(Served::ByWorkers);
+}
+
+#[test]
+fn repeats_run_once_with_many_clients_on_the_bus_thread() {
+    repeats_run_once_with_many_clients(Served::ByTheBusThread);
+}
+
+fn repeats_run_once_with_many_clients(served: Served) {
+    let rig = GwRig::start(config(served));
     let before = writes(&rig);
     let start = Barrier::new(CLIENTS);
     std::thread::scope(|s| {
@@ -171,7 +231,16 @@ fn repeats_run_once_with_many_clients_on_many_workers() {
 
 #[test]
 fn a_segmented_transfer_holds_its_slave_against_clients_of_other_workers() {
-    let rig = GwRig::start(config());
+    a_transfer_holds_its_slave_against_other_clients(Served::ByWorkers);
+}
+
+#[test]
+fn a_segmented_transfer_holds_its_slave_against_other_clients_on_the_bus_thread() {
+    a_transfer_holds_its_slave_against_other_clients(Served::ByTheBusThread);
+}
+
+fn a_transfer_holds_its_slave_against_other_clients(served: Served) {
+    let rig = GwRig::start(config(served));
     let new: Vec<u8> = (0..4096u32).map(|i| (i % 11) as u8 ^ 0xA5).collect();
     one_download_against_uploads(&rig, &new, CLIENTS - 1, 2);
     let stats = rig.gateway().stats();

@@ -301,8 +301,11 @@ pub struct GatewaySettings {
     /// UDP receive workers, each a thread with its own socket on the gateway's port (1 to
     /// [`MAX_GATEWAY_WORKERS`]); default: one fewer than the cores available, 1 to 4
     /// ([`master_core::gateway::default_workers`]). Every client stays with one worker, so
-    /// its requests keep their order.
+    /// its requests keep their order. Not used while `on_bus_thread` holds.
     pub workers: Option<usize>,
+    /// Serve UDP from the bus thread where the link allows it (default true); false: from
+    /// the `workers` ([`GatewayConfig::on_bus_thread`]).
+    pub on_bus_thread: bool,
 }
 
 /// Most receive workers `[gateway] workers` may ask for.
@@ -321,6 +324,7 @@ impl Default for GatewaySettings {
             strict: false,
             retry_window_ms: 1000,
             workers: None,
+            on_bus_thread: true,
         }
     }
 }
@@ -357,6 +361,7 @@ impl GatewaySettings {
             strict: self.strict,
             retry_window: std::time::Duration::from_millis(self.retry_window_ms),
             workers,
+            on_bus_thread: self.on_bus_thread,
             ..defaults
         })
     }

@@ -281,7 +281,7 @@ impl Core {
                 if wanted != 0 && bound.port() != wanted {
                     tracing::warn!(wanted, bound = bound.port(), "mailbox gateway port taken; fell back to a free port");
                 }
-                tracing::info!(gateway = %bound, master_number = gateway.config().master_number, workers = gateway.config().workers, "mailbox gateway serving");
+                tracing::info!(gateway = %bound, master_number = gateway.config().master_number, on_bus_thread = gateway.on_bus_thread(), workers = gateway.config().workers, "mailbox gateway serving");
                 core.publish_event(EventView::note(
                     "gateway_started",
                     format!("mailbox gateway serving on udp {bound}"),

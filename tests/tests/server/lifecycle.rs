@@ -169,8 +169,27 @@ fn expect_threads(pid: u32, prefix: &str, want: usize) {
 
 #[test]
 fn the_gateway_has_the_configured_receive_workers() {
-    let file = std::env::temp_dir().join(format!("ecatd-gw-workers-{}.toml", std::process::id()));
-    std::fs::write(&file, "[gateway]\nworkers = 3\n").unwrap();
+    let serving = gateway_serving("[gateway]\non_bus_thread = false\nworkers = 3\n", 3);
+    assert_eq!(serving["fields"]["workers"], 3, "{serving}");
+    assert_eq!(serving["fields"]["on_bus_thread"], false, "{serving}");
+}
+
+/// By default the bus thread serves the gateway's UDP socket (the simulator's link and the
+/// raw socket can both be waited on): one worker is left, for TCP and the timers.
+#[test]
+fn by_default_the_bus_thread_serves_the_gateway() {
+    let serving = gateway_serving("[gateway]\nworkers = 3\n", 1);
+    assert_eq!(serving["fields"]["on_bus_thread"], true, "{serving}");
+}
+
+/// Starts ecatd with `config`, expects `threads` gateway threads, and returns its
+/// "mailbox gateway serving" log line.
+fn gateway_serving(config: &str, threads: usize) -> serde_json::Value {
+    let file = std::env::temp_dir().join(format!(
+        "ecatd-gw-workers-{}-{threads}.toml",
+        std::process::id()
+    ));
+    std::fs::write(&file, config).unwrap();
     let ecatd = Ecatd::start(&["--config", file.to_str().unwrap()]);
     std::fs::remove_file(&file).unwrap();
     let log = ecatd.log();
@@ -179,8 +198,8 @@ fn the_gateway_has_the_configured_receive_workers() {
         .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
         .find(|v| v["fields"]["message"] == "mailbox gateway serving")
         .unwrap_or_else(|| panic!("no gateway line in\n{log}"));
-    assert_eq!(serving["fields"]["workers"], 3, "{serving}");
-    expect_threads(ecatd.pid(), "ecat-gateway-", 3);
+    expect_threads(ecatd.pid(), "ecat-gateway-", threads);
+    serving
 }
 
 /// The whole shutdown's budget (ecatd's default `shutdown_timeout_ms`) and a margin for the
