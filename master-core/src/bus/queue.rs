@@ -62,8 +62,8 @@ pub(crate) struct Submissions {
     queued: AtomicUsize,
     /// Set when a [`Control`] request waits, readable without the lock.
     control_pending: AtomicBool,
-    /// Written besides the condition variable while the bus thread is parked, for a bus
-    /// thread that waits in `ppoll(2)` beside a guest ([`Submissions::park_beside`]).
+    /// Written instead of the condition variable while the bus thread is parked in
+    /// `ppoll(2)` beside a guest ([`Submissions::park_beside`]).
     eventfd: Option<EventFd>,
 }
 
@@ -73,6 +73,8 @@ struct State {
     closed: bool,
     /// The bus thread sleeps on `wake` and must be notified.
     parked: bool,
+    /// It sleeps in `ppoll(2)` beside a guest, on `eventfd`, not on `wake`.
+    beside: bool,
     control: Control,
 }
 
@@ -84,6 +86,7 @@ impl Submissions {
                 entries: VecDeque::with_capacity(capacity),
                 closed: false,
                 parked: false,
+                beside: false,
                 control: Control::default(),
             }),
             wake: Condvar::new(),
@@ -94,11 +97,11 @@ impl Submissions {
         }
     }
 
-    /// Wakes the parked bus thread, wherever it waits (the lock is held).
-    fn wake_parked(&self) {
-        self.wake.notify_one();
-        if let Some(eventfd) = &self.eventfd {
-            eventfd.signal();
+    /// Wakes the parked bus thread where it waits (`state` is the locked state).
+    fn wake_parked(&self, state: &State) {
+        match &self.eventfd {
+            Some(eventfd) if state.beside => eventfd.signal(),
+            _ => self.wake.notify_one(),
         }
     }
 
@@ -131,7 +134,7 @@ impl Submissions {
         state.entries.extend(batch);
         self.queued.fetch_add(count, Ordering::Release);
         if state.parked {
-            self.wake_parked();
+            self.wake_parked(&state);
         }
         Ok(state.parked)
     }
@@ -170,7 +173,7 @@ impl Submissions {
         change(&mut state.control);
         self.control_pending.store(true, Ordering::Release);
         if state.parked {
-            self.wake_parked();
+            self.wake_parked(&state);
         }
     }
 
@@ -225,7 +228,7 @@ impl Submissions {
 
     /// [`Self::park`] for a bus thread with a guest: also returns when `beside` (the
     /// guest's descriptor) is readable, and says whether it was. Without an event
-    /// descriptor, parks as [`Self::park`] for at most `slice` and says "readable".
+    /// descriptor, parks as [`Self::park`] for at most [`PARK_SLICE`] and says "readable".
     pub fn park_beside(
         &self,
         until: Option<Instant>,
@@ -247,15 +250,24 @@ impl Submissions {
                 return false;
             }
             state.parked = true;
+            state.beside = true;
         }
         // A submission from here on sees `parked` and writes the event descriptor.
         let timeout = until.map_or(PARK_FOREVER, |until| {
             until.saturating_duration_since(Instant::now())
         });
         let readable = crate::link::which_readable(&[beside, eventfd.as_fd()], timeout);
-        self.lock().parked = false;
-        eventfd.drain();
-        readable.map_or(true, |[guest, _]| guest)
+        {
+            let mut state = self.lock();
+            state.parked = false;
+            state.beside = false;
+        }
+        // A failed wait counts as both readable: the caller looks, and finds what is there.
+        let [guest, woken] = readable.unwrap_or([true, true]);
+        if woken {
+            eventfd.drain();
+        }
+        guest
     }
 
     /// Refuses all further submissions and hands back those still queued (bus thread, when

@@ -86,8 +86,8 @@ pub struct GatewayConfig {
     /// Serve UDP from the bus thread (one socket, waited on beside the link), where the bus
     /// can (a link with a file descriptor to wait on, and a bus that sleeps: not
     /// [`WaitMode::BusyPoll`](crate::bus::WaitMode::BusyPoll)); else from [`Self::workers`].
-    /// A request then wakes no thread but the bus's: on 2 cores, 64 clients read 1.3-2.1
-    /// times as fast, at about 40 % less of ecatd's CPU per read (docs/performance.md). Its
+    /// A request then wakes no thread but the bus's: on 2 cores, 64 clients read 1.1-2.1
+    /// times as fast, at 35-45 % less of ecatd's CPU per read (docs/performance.md). Its
     /// cost is the requests' work on the bus thread, between frames and never when the
     /// next cycle is due. TCP, the dictionary's tracker and the timers stay on one worker.
     /// Default: on.
