@@ -128,6 +128,11 @@ pub(crate) fn refused(client: SocketAddr, address: u16, ask: &Ask) {
     );
 }
 
+/// Whether [`failure`] logs `outcome` at `info` (a failed FoE request), not at `debug`.
+pub(crate) fn failure_is_loud(ask: &Ask, outcome: &Outcome) -> bool {
+    ask.ty == MailboxType::Foe && outcome.error().is_some()
+}
+
 /// Logs a request that failed, read or write: at `info` for FoE (a file transfer that broke,
 /// a firmware download say, is a fault an operator looks for, with the client that ran
 /// it), at `debug` for every other protocol (a client's failed read is the client's
@@ -136,7 +141,7 @@ pub(crate) fn failure(client: SocketAddr, address: u16, ask: &Ask, outcome: &Out
     let Some(error) = outcome.error() else {
         return;
     };
-    if ask.ty == MailboxType::Foe {
+    if failure_is_loud(ask, outcome) {
         tracing::info!(
             client = %client,
             slave = %slave(address),

@@ -44,6 +44,12 @@ thread_local! {
     static SERVING: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
+/// Whether the calling thread is a bus thread serving a gateway (its request tasks run
+/// there).
+pub(crate) fn serving() -> bool {
+    SERVING.with(std::cell::Cell::get) != 0
+}
+
 /// The tasks woken and not yet polled, and the descriptor that says so to the bus.
 struct Ready {
     ids: Mutex<VecDeque<usize>>,

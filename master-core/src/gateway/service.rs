@@ -294,22 +294,18 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Box<Request>, _ticket: T
     };
     let address = request.header.address;
     let write = request.ask.is_write();
-    let outcome = if write && request.role < GatewayRole::Write {
-        audit::refused(request.client, address, &request.ask);
+    let refused = write && request.role < GatewayRole::Write;
+    let outcome = if refused {
         shared.fail(&request, Fault::Denied).await
     } else {
-        let outcome = match route::target(&shared.master, address) {
+        match route::target(&shared.master, address) {
             Ok(Target::Master) => to_master(&shared, &request).await,
             Ok(Target::Slave(station)) => to_slave(&shared, &request, station).await,
             Ok(Target::Broadcast) => broadcast(&shared, &request).await,
             Err(fault) => shared.fail(&request, fault).await,
-        };
-        if write {
-            audit::write(request.client, address, &request.ask, &outcome);
         }
-        outcome
     };
-    audit::failure(request.client, address, &request.ask, &outcome);
+    log_lines(&request, refused, &outcome);
     if let Some(ticket) = ticket {
         // "Busy" and "no answer in time" are no final answer: a repeat may run.
         let final_answer = !matches!(outcome, Outcome::Failed(Fault::Busy | Fault::Timeout));
@@ -321,6 +317,31 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Box<Request>, _ticket: T
             final_answer.then_some(sent),
             StdInstant::now(),
         );
+    }
+}
+
+/// Writes a request's audit line (a write, or a write refused) and its failure line. On the
+/// bus thread (`on_bus`) a line that will be written at all is handed to the gateway's
+/// worker, so that a log that blocks (a stalled journal) never holds up the thread that
+/// owns the link; the rest (reads, whose failures log at `debug`) are filtered in place,
+/// at no cost.
+fn log_lines(request: &Request, refused: bool, outcome: &Outcome) {
+    let address = request.header.address;
+    let write = request.ask.is_write();
+    let lines = move |client: SocketAddr, ask: &Ask, outcome: &Outcome| {
+        if refused {
+            audit::refused(client, address, ask);
+        } else if write {
+            audit::write(client, address, ask, outcome);
+        }
+        audit::failure(client, address, ask, outcome);
+    };
+    let loud = write || audit::failure_is_loud(&request.ask, outcome);
+    if loud && super::on_bus::serving() {
+        let (client, ask, outcome) = (request.client, request.ask.clone(), outcome.clone());
+        drop(tokio::spawn(async move { lines(client, &ask, &outcome) }));
+    } else {
+        lines(request.client, &request.ask, outcome);
     }
 }
 
