@@ -79,6 +79,13 @@ impl Ready {
     fn is_empty(&self) -> bool {
         !self.any.load(Ordering::Acquire)
     }
+
+    fn len(&self) -> usize {
+        self.ids
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .len()
+    }
 }
 
 struct TaskWaker {
@@ -189,8 +196,7 @@ impl OnBus {
     /// Reads what `socket` has, up to the turn's share; whether it may have more.
     fn receive(&mut self, n: usize) -> bool {
         for _ in 0..RECEIVE_PER_TURN {
-            let socket = Arc::clone(&self.sockets[n]);
-            let (len, client) = match socket.recv_from(&mut self.buf) {
+            let (len, client) = match self.sockets[n].recv_from(&mut self.buf) {
                 Ok(received) => received,
                 Err(err) if err.kind() == io::ErrorKind::WouldBlock => return false,
                 // ICMP port unreachable from an earlier reply, and the like: not fatal.
@@ -201,6 +207,7 @@ impl OnBus {
             };
             let datagram = datagram.to_vec();
             let shared = Arc::clone(&self.shared);
+            let socket = Arc::clone(&self.sockets[n]);
             self.spawn(Box::pin(async move {
                 let reply_to = ReplyTo::UdpStd(socket);
                 if let Admitted::Serve(request, ticket) =
@@ -231,8 +238,15 @@ impl Guest for OnBus {
         let mut more = false;
         if readable {
             self.ready.eventfd.drain();
-            for n in 0..self.sockets.len() {
-                more |= self.receive(n);
+            // New tasks only while the woken ones can be polled this turn: under a flood the
+            // datagrams wait in the socket, whose buffer the kernel bounds (and counts what
+            // it drops), not in this queue.
+            if self.ready.len() < POLLS_PER_TURN {
+                for n in 0..self.sockets.len() {
+                    more |= self.receive(n);
+                }
+            } else {
+                more = true;
             }
         }
         for polled in 0..POLLS_PER_TURN {
