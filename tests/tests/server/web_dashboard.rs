@@ -320,6 +320,16 @@ fn one_browser() -> std::sync::MutexGuard<'static, ()> {
 
 /// How long a page may take to show what the test waits for.
 const PATIENCE: Duration = Duration::from_secs(60);
+/// How long a page just opened is given before the test looks for requests Chromium dropped
+/// on a network change (`Browser::open_and_wait`).
+const FIRST_TRY: Duration = Duration::from_secs(20);
+
+/// Whether a console entry is Chromium's own drop of a request on a host network change.
+fn network_changed(entry: &serde_json::Value) -> bool {
+    entry["message"]
+        .as_str()
+        .is_some_and(|m| m.contains("net::ERR_NETWORK_CHANGED"))
+}
 /// How long a value may take from the wire to the page: the page reads the stream every
 /// 100 ms, so this is generous (a loaded machine), not the expected latency.
 const LIVE: Duration = Duration::from_secs(10);
@@ -536,6 +546,56 @@ impl Browser {
         .to_owned()
     }
 
+    /// Opens `url` and waits for `check`, as [`Browser::wait`]. Chromium drops the requests in
+    /// flight when it sees a network interface come or go (`net::ERR_NETWORK_CHANGED`), and the
+    /// tests beside this one make and remove namespaces, veth pairs and TAPs: a page whose
+    /// script or reads were dropped so never gets there, and is loaded once more.
+    fn open_and_wait<T>(
+        &mut self,
+        url: &str,
+        what: &str,
+        mut check: impl FnMut(&mut Browser) -> Option<T>,
+    ) -> T {
+        let dropped_before = self.network_changes();
+        self.go(url);
+        if let Some(value) = self.poll(FIRST_TRY, &mut check) {
+            return value;
+        }
+        self.read_logs();
+        if self.network_changes() > dropped_before {
+            eprintln!("{what}: Chromium dropped requests on a network change; loading {url} again");
+            self.call("POST", "/refresh", serde_json::json!({}));
+        }
+        self.wait(what, PATIENCE, check)
+    }
+
+    /// How many requests Chromium has dropped on a network change so far.
+    fn network_changes(&self) -> usize {
+        self.console
+            .iter()
+            .filter(|(_, e)| network_changed(e))
+            .count()
+    }
+
+    /// Polls `check` until it gives a value or `patience` ends.
+    fn poll<T>(
+        &mut self,
+        patience: Duration,
+        check: &mut impl FnMut(&mut Browser) -> Option<T>,
+    ) -> Option<T> {
+        let deadline = Instant::now() + patience;
+        loop {
+            if let Some(value) = check(self) {
+                return Some(value);
+            }
+            if Instant::now() > deadline {
+                return None;
+            }
+            // Poll interval of the check; the loop ends on the condition or the deadline.
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
     /// Polls `check` until it gives a value; panics at `patience` with what the page showed.
     fn wait<T>(
         &mut self,
@@ -543,22 +603,15 @@ impl Browser {
         patience: Duration,
         mut check: impl FnMut(&mut Browser) -> Option<T>,
     ) -> T {
-        let deadline = Instant::now() + patience;
-        loop {
-            if let Some(value) = check(self) {
-                return value;
-            }
-            if Instant::now() > deadline {
-                self.read_logs();
-                panic!(
-                    "timed out waiting for {what}; the page showed:\n{}\nconsole: {:#?}",
-                    self.text("#view"),
-                    self.console
-                );
-            }
-            // Poll interval of the check; the loop ends on the condition or the deadline.
-            std::thread::sleep(Duration::from_millis(50));
+        if let Some(value) = self.poll(patience, &mut check) {
+            return value;
         }
+        self.read_logs();
+        panic!(
+            "timed out waiting for {what}; the page showed:\n{}\nconsole: {:#?}",
+            self.text("#view"),
+            self.console
+        );
     }
 
     /// Moves the console and the page's requests seen so far into `console` and `requests`.
@@ -596,6 +649,7 @@ impl Browser {
             .console
             .iter()
             .filter(|(phase, e)| phase != "start" && e["level"] == "SEVERE")
+            .filter(|(_, e)| !network_changed(e))
             .filter(|(phase, e)| {
                 !(phase == allowed.0
                     && e["message"].as_str().is_some_and(|m| m.contains(allowed.1)))
@@ -796,10 +850,11 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
         serde_json::json!([WRITE_TOKEN]),
     );
     b.phase("page");
-    b.go(&format!("{}/#/process-data", ecatd.http));
-    b.wait("the write role", PATIENCE, |b| {
-        b.text("#role").contains("read and write").then_some(())
-    });
+    b.open_and_wait(
+        &format!("{}/#/process-data", ecatd.http),
+        "the write role",
+        |b| b.text("#role").contains("read and write").then_some(()),
+    );
     assert_eq!(
         b.js(
             "return document.querySelector('nav a[data-view=\"process-data\"]').getAttribute('aria-current')",
@@ -1056,8 +1111,9 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
     b.phase("segment");
 
     // Leaving the page ends its value stream (the request is cancelled).
-    b.go(&format!("{}/#/bus", ecatd.http));
-    b.wait("the bus view", PATIENCE, |b| b.find("#chart-cycle"));
+    b.open_and_wait(&format!("{}/#/bus", ecatd.http), "the bus view", |b| {
+        b.find("#chart-cycle")
+    });
     let streams_open = |b: &mut Browser| {
         b.read_logs();
         let started: Vec<String> = b
@@ -1089,12 +1145,15 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
     });
 
     // The segment: the drive's CiA 402 state and the DI8's bits as lamps, live.
-    b.go(&format!("{}/#/segment", ecatd.http));
     let state = |b: &Browser| b.text("li.slave[data-position=\"0\"] .cia402-state");
-    b.wait("the drive's state", PATIENCE, |b| {
-        (state(b) == cia402_state(value_of(&ecatd, drive, 0x6041, 0).as_u64().unwrap()))
-            .then_some(())
-    });
+    b.open_and_wait(
+        &format!("{}/#/segment", ecatd.http),
+        "the drive's state",
+        |b| {
+            (state(b) == cia402_state(value_of(&ecatd, drive, 0x6041, 0).as_u64().unwrap()))
+                .then_some(())
+        },
+    );
     assert_eq!(state(&b), "Switch on disabled");
     // Shutdown (controlword 6): the drive goes to "Ready to switch on" on the wire.
     force_rest(&ecatd, drive, 0x6040, 0, Some(6.into()));
@@ -1124,10 +1183,11 @@ fn the_process_data_page_shows_live_values_and_forces_outputs() {
     });
 
     // From a slave's page to its process data.
-    b.go(&format!("{}/#/slave/{do8}", ecatd.http));
-    b.wait("the slave page's link", PATIENCE, |b| {
-        b.find("#process-data-link")
-    });
+    b.open_and_wait(
+        &format!("{}/#/slave/{do8}", ecatd.http),
+        "the slave page's link",
+        |b| b.find("#process-data-link"),
+    );
     b.click("#process-data-link");
     b.wait("the DO8's process data alone", PATIENCE, |b| {
         let slaves = b.js(
@@ -1305,10 +1365,11 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
         serde_json::json!([WRITE_TOKEN]),
     );
     b.phase("segment");
-    b.go(&format!("{}/#/segment", ecatd.http));
-    b.wait("the write role", PATIENCE, |b| {
-        b.text("#role").contains("read and write").then_some(())
-    });
+    b.open_and_wait(
+        &format!("{}/#/segment", ecatd.http),
+        "the write role",
+        |b| b.text("#role").contains("read and write").then_some(()),
+    );
     b.wait("every slave's state control", PATIENCE, |b| {
         (b.js(
             "return document.querySelectorAll('li.slave select.state-choice').length",
@@ -1448,10 +1509,11 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
 
     // An SDO write: named, cancelled (the value read back is unchanged), then confirmed.
     b.phase("slave");
-    b.go(&format!("{}/#/slave/3", ecatd.http));
-    b.wait("the slave's state control", PATIENCE, |b| {
-        b.find("#request-state-slave")
-    });
+    b.open_and_wait(
+        &format!("{}/#/slave/3", ecatd.http),
+        "the slave's state control",
+        |b| b.find("#request-state-slave"),
+    );
     assert_eq!(
         b.js(
             "return [document.querySelector('.view-head select.state-choice').value, document.getElementById('request-state-slave').disabled]",
@@ -1532,10 +1594,11 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
     };
     assert_eq!(read_only(&b, "segment"), 2 * (count + 1));
     b.screenshot(&shots.join("segment-read-only.png"));
-    b.go(&format!("{}/#/slave/3", ecatd.http));
-    b.wait("the slave's state control", PATIENCE, |b| {
-        b.find("#request-state-slave")
-    });
+    b.open_and_wait(
+        &format!("{}/#/slave/3", ecatd.http),
+        "the slave's state control",
+        |b| b.find("#request-state-slave"),
+    );
     b.wait("0x2001's description", PATIENCE, |b| {
         let t = b.text("#object-2001 summary");
         (!t.is_empty() && !t.contains('…')).then_some(())
@@ -1553,8 +1616,7 @@ fn the_dashboard_asks_before_it_writes_and_filters_events() {
 
     // Events: the history with filters, each event's time in UTC.
     b.phase("events");
-    b.go(&format!("{}/#/events", ecatd.http));
-    b.wait("the log", PATIENCE, |b| {
+    b.open_and_wait(&format!("{}/#/events", ecatd.http), "the log", |b| {
         (event_rows(b).len() > 5).then_some(())
     });
     let unfiltered = event_rows(&b).len();
