@@ -320,6 +320,9 @@ fn one_browser() -> std::sync::MutexGuard<'static, ()> {
 
 /// How long a page may take to show what the test waits for.
 const PATIENCE: Duration = Duration::from_secs(60);
+/// How long a value may take from the wire to the page: the page reads the stream every
+/// 100 ms, so this is generous (a loaded machine), not the expected latency.
+const LIVE: Duration = Duration::from_secs(10);
 /// How long a page just opened is given before the test looks for requests Chromium dropped
 /// on a network change (`Browser::open_and_wait`).
 const FIRST_TRY: Duration = Duration::from_secs(20);
@@ -330,9 +333,6 @@ fn network_changed(entry: &serde_json::Value) -> bool {
         .as_str()
         .is_some_and(|m| m.contains("net::ERR_NETWORK_CHANGED"))
 }
-/// How long a value may take from the wire to the page: the page reads the stream every
-/// 100 ms, so this is generous (a loaded machine), not the expected latency.
-const LIVE: Duration = Duration::from_secs(10);
 
 /// A headless Chromium driven over WebDriver (W3C, JSON over HTTP) by chromedriver, started
 /// on a free port; the session ends and both stop on drop.
