@@ -4,6 +4,8 @@
 //! the client used, `master` for address 0), the object, IDN or file, and the outcome.
 
 use std::net::SocketAddr;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::wire::coe::{CoeFrame, CoeService, SdoFrame};
 use crate::wire::foe::{FoePacket, FoeRepr};
@@ -161,6 +163,37 @@ pub(crate) fn failure(client: SocketAddr, address: u16, ask: &Ask, outcome: &Out
     }
 }
 
+/// Lines the bus thread handed to the gateway's worker to be written, and not yet written:
+/// bounded, so that a log sink that stalls while a client floods the gateway with writes (or
+/// refused ones) cannot grow the worker's queue without end. A line that finds the backlog
+/// full is written in place, holding the bus as a stalled log held the worker before.
+#[derive(Debug, Default)]
+pub(crate) struct Backlog(Arc<AtomicUsize>);
+
+/// One line's place in the [`Backlog`], given back when dropped.
+pub(crate) struct Place(Arc<AtomicUsize>);
+
+impl Backlog {
+    /// The most lines waiting to be written.
+    pub const LIMIT: usize = 1024;
+
+    /// A place for one more line, if the backlog has room.
+    pub fn enter(&self) -> Option<Place> {
+        self.0
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| {
+                (n < Self::LIMIT).then_some(n + 1)
+            })
+            .ok()
+            .map(|_| Place(Arc::clone(&self.0)))
+    }
+}
+
+impl Drop for Place {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::AcqRel);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -191,5 +224,20 @@ mod tests {
         // A message the gateway cannot read is no error of the slave's.
         assert_eq!(Outcome::answered(MailboxType::Coe, &[0x00]).error(), None);
         assert_eq!(Outcome::Sent.describe(), "sent");
+    }
+
+    #[test]
+    fn the_backlog_of_handed_lines_is_bounded_and_frees_a_place_per_line_written() {
+        let backlog = Backlog::default();
+        let mut places: Vec<Place> = (0..Backlog::LIMIT)
+            .map(|_| backlog.enter().expect("room below the limit"))
+            .collect();
+        assert!(backlog.enter().is_none(), "full at the limit");
+        drop(places.pop());
+        let again = backlog.enter().expect("a written line frees its place");
+        assert!(backlog.enter().is_none());
+        drop(again);
+        assert!(backlog.enter().is_some());
+        drop(places);
     }
 }

@@ -284,6 +284,7 @@ impl MailboxGateway {
                 Arc::clone(&self.stats),
             )),
             retries: retry::Retries::new(self.config.retry_window, self.config.max_retry_clients),
+            log_backlog: audit::Backlog::default(),
         });
         let guest = if bus_sockets.is_empty() {
             None

@@ -46,6 +46,8 @@ pub(crate) struct Shared {
     pub admission: Arc<Admission>,
     pub dictionary: MasterDictionary,
     pub retries: Retries,
+    /// Log lines the bus thread handed to the worker (`log_lines`).
+    pub log_backlog: audit::Backlog,
 }
 
 /// Where the replies to a request go.
@@ -305,7 +307,7 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Box<Request>, _ticket: T
             Err(fault) => shared.fail(&request, fault).await,
         }
     };
-    log_lines(&request, refused, &outcome);
+    log_lines(&shared, &request, refused, &outcome);
     if let Some(ticket) = ticket {
         // "Busy" and "no answer in time" are no final answer: a repeat may run.
         let final_answer = !matches!(outcome, Outcome::Failed(Fault::Busy | Fault::Timeout));
@@ -322,10 +324,10 @@ pub(crate) async fn serve(shared: Arc<Shared>, request: Box<Request>, _ticket: T
 
 /// Writes a request's audit line (a write, or a write refused) and its failure line. On the
 /// bus thread (`on_bus`) a line that will be written at all is handed to the gateway's
-/// worker, so that a log that blocks (a stalled journal) never holds up the thread that
-/// owns the link; the rest (reads, whose failures log at `debug`) are filtered in place,
-/// at no cost.
-fn log_lines(request: &Request, refused: bool, outcome: &Outcome) {
+/// worker while the backlog of such lines has room ([`audit::Backlog`]), so that a log
+/// that blocks (a stalled journal) does not hold up the thread that owns the link; the rest
+/// (reads, whose failures log at `debug`) are filtered in place, at no cost.
+fn log_lines(shared: &Shared, request: &Request, refused: bool, outcome: &Outcome) {
     let address = request.header.address;
     let write = request.ask.is_write();
     let lines = move |client: SocketAddr, ask: &Ask, outcome: &Outcome| {
@@ -337,11 +339,18 @@ fn log_lines(request: &Request, refused: bool, outcome: &Outcome) {
         audit::failure(client, address, ask, outcome);
     };
     let loud = write || audit::failure_is_loud(&request.ask, outcome);
-    if loud && super::on_bus::serving() {
-        let (client, ask, outcome) = (request.client, request.ask.clone(), outcome.clone());
-        drop(tokio::spawn(async move { lines(client, &ask, &outcome) }));
-    } else {
-        lines(request.client, &request.ask, outcome);
+    let handed = (loud && super::on_bus::serving())
+        .then(|| shared.log_backlog.enter())
+        .flatten();
+    match handed {
+        Some(place) => {
+            let (client, ask, outcome) = (request.client, request.ask.clone(), outcome.clone());
+            drop(tokio::spawn(async move {
+                lines(client, &ask, &outcome);
+                drop(place);
+            }));
+        }
+        None => lines(request.client, &request.ask, outcome),
     }
 }
 
