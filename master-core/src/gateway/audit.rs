@@ -5,7 +5,8 @@
 
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
+
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use crate::wire::coe::{CoeFrame, CoeService, SdoFrame};
 use crate::wire::foe::{FoePacket, FoeRepr};
@@ -167,30 +168,22 @@ pub(crate) fn failure(client: SocketAddr, address: u16, ask: &Ask, outcome: &Out
 /// bounded, so that a log sink that stalls while a client floods the gateway with writes (or
 /// refused ones) cannot grow the worker's queue without end. A line that finds the backlog
 /// full is written in place, holding the bus as a stalled log held the worker before.
-#[derive(Debug, Default)]
-pub(crate) struct Backlog(Arc<AtomicUsize>);
+#[derive(Debug)]
+pub(crate) struct Backlog(Arc<Semaphore>);
 
-/// One line's place in the [`Backlog`], given back when dropped.
-pub(crate) struct Place(Arc<AtomicUsize>);
+impl Default for Backlog {
+    fn default() -> Self {
+        Backlog(Arc::new(Semaphore::new(Self::LIMIT)))
+    }
+}
 
 impl Backlog {
     /// The most lines waiting to be written.
     pub const LIMIT: usize = 1024;
 
-    /// A place for one more line, if the backlog has room.
-    pub fn enter(&self) -> Option<Place> {
-        self.0
-            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| {
-                (n < Self::LIMIT).then_some(n + 1)
-            })
-            .ok()
-            .map(|_| Place(Arc::clone(&self.0)))
-    }
-}
-
-impl Drop for Place {
-    fn drop(&mut self) {
-        self.0.fetch_sub(1, Ordering::AcqRel);
+    /// A place for one more line, if the backlog has room; dropping it gives it back.
+    pub fn enter(&self) -> Option<OwnedSemaphorePermit> {
+        Arc::clone(&self.0).try_acquire_owned().ok()
     }
 }
 
@@ -229,7 +222,7 @@ mod tests {
     #[test]
     fn the_backlog_of_handed_lines_is_bounded_and_frees_a_place_per_line_written() {
         let backlog = Backlog::default();
-        let mut places: Vec<Place> = (0..Backlog::LIMIT)
+        let mut places: Vec<_> = (0..Backlog::LIMIT)
             .map(|_| backlog.enter().expect("room below the limit"))
             .collect();
         assert!(backlog.enter().is_none(), "full at the limit");
